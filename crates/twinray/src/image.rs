@@ -1,0 +1,31 @@
+//! A linear floating-point RGB image, the renderer's output for one view.
+
+use crate::math::Color;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first.
+    pub pixels: Vec<Color>,
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32) -> Image {
+        Image {
+            width,
+            height,
+            pixels: vec![Color::ZERO; width as usize * height as usize],
+        }
+    }
+
+    #[inline]
+    pub fn get(&self, x: u32, y: u32) -> Color {
+        self.pixels[y as usize * self.width as usize + x as usize]
+    }
+
+    #[inline]
+    pub fn set(&mut self, x: u32, y: u32, c: Color) {
+        self.pixels[y as usize * self.width as usize + x as usize] = c;
+    }
+}

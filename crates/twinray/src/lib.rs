@@ -1,0 +1,23 @@
+//! twinray: a stereoscopic and multi-view Whitted ray tracer.
+//!
+//! Data flows one way: load a scene (`loaders`) → build the hierarchy (`bvh`) →
+//! trace the views of a rig (`render`, with `camera`, `rig` and `shading`) →
+//! compose and write images (`output`).
+
+pub mod bvh;
+pub mod camera;
+pub mod error;
+pub mod image;
+pub mod loaders;
+pub mod math;
+pub mod output;
+pub mod render;
+pub mod rig;
+pub mod scene;
+pub mod shading;
+pub mod shapes;
+pub mod stats;
+
+pub use error::{Error, Result};
+pub use image::Image;
+pub use scene::Scene;

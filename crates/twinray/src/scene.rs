@@ -1,0 +1,351 @@
+//! The loaded scene: primitives, materials, lights and the NFF viewpoint.
+//!
+//! Loaders call the `add_*` methods; they turn polygons into triangles and skip
+//! degenerate geometry with a warning instead of failing.
+
+use crate::math::{Color, Vec3};
+use crate::shapes::{Cone, Shape, Sphere, Triangle, TriangleNormals};
+
+/// NFF `f`: colour, diffuse `kd`, specular `ks` (Phong highlight and mirror
+/// weight), Phong exponent `shine`, transmission `t` and index of refraction.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub color: Color,
+    pub kd: f32,
+    pub ks: f32,
+    pub shine: f32,
+    pub t: f32,
+    pub ior: f32,
+}
+
+impl Material {
+    /// Ambient coefficient: what `kd`, `ks` and `t` leave of one, the convention of
+    /// the SPD's own POV-Ray exporter (balls' floor: 1 - 0.8 = 0.2; glass: 0).
+    pub fn ambient(&self) -> f32 {
+        (1.0 - self.kd - self.ks - self.t).max(0.0)
+    }
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            color: Color::ONE,
+            kd: 1.0,
+            ks: 0.0,
+            shine: 0.0,
+            t: 0.0,
+            ior: 1.0,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    pub position: Vec3,
+    /// `None` when the file gave no colour: intensity then follows the SPD
+    /// convention, 1/sqrt(number of lights), fixed by `Scene::finish`.
+    pub color: Option<Color>,
+}
+
+/// NFF `v`: the viewpoint. `angle` (degrees) spans the centres of the edge pixels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Viewpoint {
+    pub from: Vec3,
+    pub at: Vec3,
+    pub up: Vec3,
+    pub angle_deg: f32,
+    pub hither: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Default for Viewpoint {
+    fn default() -> Self {
+        Viewpoint {
+            from: Vec3::new(0.0, 0.0, 1.0),
+            at: Vec3::ZERO,
+            up: Vec3::Y,
+            angle_deg: 45.0,
+            hither: 0.0,
+            width: 512,
+            height: 512,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    pub viewpoint: Viewpoint,
+    pub background: Color,
+    pub lights: Vec<Light>,
+    pub materials: Vec<Material>,
+    pub shapes: Vec<Shape>,
+    /// Material index of each shape.
+    pub shape_material: Vec<u32>,
+    /// Per-vertex normals of smooth triangles (`TriangleNormals::Patch`).
+    pub patch_normals: Vec<[Vec3; 3]>,
+    /// Degenerate geometry skipped, with where it was.
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    pub fn new() -> Scene {
+        Scene::default()
+    }
+
+    /// Makes `m` the material of the shapes that follow; returns its index.
+    pub fn add_material(&mut self, m: Material) -> u32 {
+        self.materials.push(m);
+        (self.materials.len() - 1) as u32
+    }
+
+    fn current_material(&mut self) -> u32 {
+        if self.materials.is_empty() {
+            self.materials.push(Material::default());
+        }
+        (self.materials.len() - 1) as u32
+    }
+
+    fn push(&mut self, s: Shape) {
+        let m = self.current_material();
+        self.shapes.push(s);
+        self.shape_material.push(m);
+    }
+
+    /// `where_` locates the entity for the warning (e.g. "scene.nff:12").
+    pub fn add_sphere(&mut self, center: Vec3, radius: f32, where_: &str) {
+        if radius == 0.0 || !radius.is_finite() {
+            self.warnings
+                .push(format!("{where_}: sphere of radius 0 skipped"));
+            return;
+        }
+        self.push(Shape::Sphere(Sphere {
+            center,
+            radius: radius.abs(),
+            inside: radius < 0.0,
+        }));
+    }
+
+    pub fn add_cone(
+        &mut self,
+        base: Vec3,
+        base_radius: f32,
+        apex: Vec3,
+        apex_radius: f32,
+        where_: &str,
+    ) {
+        let inside = base_radius < 0.0 || apex_radius < 0.0;
+        match Cone::new(base, base_radius, apex, apex_radius, inside) {
+            Some(c) => self.push(Shape::Cone(c)),
+            None => self.warnings.push(format!(
+                "{where_}: degenerate cone (zero height or zero radii) skipped"
+            )),
+        }
+    }
+
+    /// A planar polygon, convex or not, any number of vertices.
+    pub fn add_polygon(&mut self, vertices: &[Vec3], where_: &str) {
+        self.add_polygon_with_normals(vertices, None, where_);
+    }
+
+    /// A polygonal patch: per-vertex normals interpolated over each triangle.
+    pub fn add_patch(&mut self, vertices: &[Vec3], normals: &[Vec3], where_: &str) {
+        self.add_polygon_with_normals(vertices, Some(normals), where_);
+    }
+
+    fn add_polygon_with_normals(
+        &mut self,
+        vertices: &[Vec3],
+        normals: Option<&[Vec3]>,
+        where_: &str,
+    ) {
+        let face_normal = newell_normal(vertices);
+        let Some(face_normal) = face_normal else {
+            self.warnings
+                .push(format!("{where_}: polygon of zero area skipped"));
+            return;
+        };
+        let triangles = triangulate(vertices, face_normal);
+        if triangles.is_empty() {
+            self.warnings.push(format!(
+                "{where_}: polygon could not be triangulated, skipped"
+            ));
+            return;
+        }
+        for [a, b, c] in triangles {
+            let (pa, pb, pc) = (vertices[a], vertices[b], vertices[c]);
+            if (pb - pa).cross(pc - pa).length_squared() == 0.0 {
+                continue; // a sliver from collinear vertices; the rest covers the area
+            }
+            let tri_normals = match normals {
+                None => TriangleNormals::Flat,
+                Some(ns) => {
+                    let pick = |i: usize| {
+                        let n = ns[i].normalize_or_zero();
+                        if n == Vec3::ZERO {
+                            face_normal
+                        } else {
+                            n
+                        }
+                    };
+                    self.patch_normals.push([pick(a), pick(b), pick(c)]);
+                    TriangleNormals::Patch((self.patch_normals.len() - 1) as u32)
+                }
+            };
+            self.push(Shape::Triangle(Triangle::new(
+                pa,
+                pb,
+                pc,
+                face_normal,
+                tri_normals,
+            )));
+        }
+    }
+
+    /// Gives colourless lights the SPD intensity 1/sqrt(number of lights).
+    pub fn finish(&mut self) {
+        let n = self.lights.len().max(1) as f32;
+        let default = Color::splat(1.0 / n.sqrt());
+        for l in &mut self.lights {
+            if l.color.is_none() {
+                l.color = Some(default);
+            }
+        }
+    }
+
+    pub fn light_color(&self, i: usize) -> Color {
+        let n = self.lights.len().max(1) as f32;
+        self.lights[i]
+            .color
+            .unwrap_or_else(|| Color::splat(1.0 / n.sqrt()))
+    }
+}
+
+/// Unit normal of a polygon by Newell's method (robust for non-convex and
+/// nearly collinear vertices); `None` for zero area.
+fn newell_normal(v: &[Vec3]) -> Option<Vec3> {
+    if v.len() < 3 {
+        return None;
+    }
+    let mut n = Vec3::ZERO;
+    for i in 0..v.len() {
+        let (a, b) = (v[i], v[(i + 1) % v.len()]);
+        n += Vec3::new(
+            (a.y - b.y) * (a.z + b.z),
+            (a.z - b.z) * (a.x + b.x),
+            (a.x - b.x) * (a.y + b.y),
+        );
+    }
+    let len = n.length();
+    (len > 0.0 && len.is_finite()).then(|| n / len)
+}
+
+/// Triangles (vertex index triples) covering the polygon: a fan when it is a
+/// triangle, otherwise ear clipping in the plane of the dominant normal axis.
+fn triangulate(v: &[Vec3], normal: Vec3) -> Vec<[usize; 3]> {
+    if v.len() == 3 {
+        return vec![[0, 1, 2]];
+    }
+    // Drop the dominant axis: project to 2-D keeping orientation irrelevant.
+    let a = normal.abs();
+    let (i, j) = if a.x >= a.y && a.x >= a.z {
+        (1, 2)
+    } else if a.y >= a.z {
+        (2, 0)
+    } else {
+        (0, 1)
+    };
+    let flat: Vec<[f64; 2]> = v.iter().map(|p| [p[i] as f64, p[j] as f64]).collect();
+    let mut earcut = earcut::Earcut::new();
+    let mut out: Vec<u32> = Vec::new();
+    earcut.earcut(flat.iter().copied(), &[], &mut out);
+    out.chunks_exact(3)
+        .map(|t| [t[0] as usize, t[1] as usize, t[2] as usize])
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn square_becomes_two_triangles_with_face_normal() {
+        let mut s = Scene::new();
+        let sq = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        s.add_polygon(&sq, "t:1");
+        assert_eq!(s.shapes.len(), 2);
+        for sh in &s.shapes {
+            let Shape::Triangle(t) = sh else { panic!() };
+            assert_eq!(t.face_normal, Vec3::Z);
+        }
+    }
+
+    #[test]
+    fn non_convex_polygon_area_is_preserved() {
+        // An L shape of area 3.
+        let l = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(2.0, 1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(1.0, 2.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+        ];
+        let mut s = Scene::new();
+        s.add_polygon(&l, "t:1");
+        let area: f32 = s
+            .shapes
+            .iter()
+            .map(|sh| match sh {
+                Shape::Triangle(t) => t.e1.cross(t.e2).length() / 2.0,
+                _ => 0.0,
+            })
+            .sum();
+        assert!((area - 3.0).abs() < 1e-5, "area {area}");
+    }
+
+    #[test]
+    fn degenerate_geometry_warns() {
+        let mut s = Scene::new();
+        s.add_polygon(&[Vec3::ZERO, Vec3::X, Vec3::X * 2.0], "f.nff:3");
+        s.add_sphere(Vec3::ZERO, 0.0, "f.nff:4");
+        s.add_cone(Vec3::ZERO, 1.0, Vec3::ZERO, 1.0, "f.nff:5");
+        assert!(s.shapes.is_empty());
+        assert_eq!(s.warnings.len(), 3);
+        assert!(s.warnings[0].starts_with("f.nff:3"));
+    }
+
+    #[test]
+    fn spd_light_intensity() {
+        let mut s = Scene::new();
+        for _ in 0..4 {
+            s.lights.push(Light {
+                position: Vec3::ZERO,
+                color: None,
+            });
+        }
+        s.finish();
+        assert_eq!(s.lights[0].color, Some(Color::splat(0.5)));
+    }
+
+    #[test]
+    fn ambient_convention() {
+        let m = Material {
+            kd: 0.8,
+            ..Material::default()
+        };
+        assert!((m.ambient() - 0.2).abs() < 1e-6);
+        let glass = Material {
+            kd: 0.1,
+            ks: 0.1,
+            t: 0.9,
+            ..Material::default()
+        };
+        assert_eq!(glass.ambient(), 0.0);
+    }
+}

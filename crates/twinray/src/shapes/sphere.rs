@@ -1,0 +1,108 @@
+use super::SurfaceHit;
+use crate::math::{Aabb, Ray, Vec3};
+
+/// A sphere; `inside` is NFF's negative radius: the normal points inward.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+    pub inside: bool,
+}
+
+impl Sphere {
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
+        // Geometric form: project the centre on the ray, then step back by the half
+        // chord. Better conditioned than the quadratic formula for distant spheres.
+        let oc = self.center - ray.origin;
+        let a = ray.dir.length_squared();
+        let tc = oc.dot(ray.dir) / a;
+        let closest = oc - ray.dir * tc;
+        let d2 = closest.length_squared();
+        let r2 = self.radius * self.radius;
+        if d2 > r2 {
+            return None;
+        }
+        let half_chord = ((r2 - d2) / a).sqrt();
+        let t0 = tc - half_chord;
+        if t0 > t_min && t0 < t_max {
+            return Some(SurfaceHit {
+                t: t0,
+                u: 0.0,
+                v: 0.0,
+            });
+        }
+        let t1 = tc + half_chord;
+        if t1 > t_min && t1 < t_max {
+            return Some(SurfaceHit {
+                t: t1,
+                u: 0.0,
+                v: 0.0,
+            });
+        }
+        None
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        let r = Vec3::splat(self.radius);
+        Aabb {
+            min: self.center - r,
+            max: self.center + r,
+        }
+    }
+
+    #[inline]
+    pub fn normal(&self, point: Vec3) -> Vec3 {
+        let n = (point - self.center).normalize();
+        if self.inside {
+            -n
+        } else {
+            n
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit() -> Sphere {
+        Sphere {
+            center: Vec3::new(0.0, 0.0, 5.0),
+            radius: 1.0,
+            inside: false,
+        }
+    }
+
+    #[test]
+    fn hits_front_then_back() {
+        let s = unit();
+        let ray = Ray::new(Vec3::ZERO, Vec3::Z);
+        let h = s.intersect(&ray, 0.0, f32::INFINITY).unwrap();
+        assert!((h.t - 4.0).abs() < 1e-6);
+        let h2 = s.intersect(&ray, 4.5, f32::INFINITY).unwrap();
+        assert!((h2.t - 6.0).abs() < 1e-6);
+        assert!(s.intersect(&ray, 0.0, 3.9).is_none());
+    }
+
+    #[test]
+    fn misses_beside() {
+        let ray = Ray::new(Vec3::new(1.01, 0.0, 0.0), Vec3::Z);
+        assert!(unit().intersect(&ray, 0.0, f32::INFINITY).is_none());
+    }
+
+    #[test]
+    fn normal_outward_or_inward() {
+        let mut s = unit();
+        assert!((s.normal(Vec3::new(0.0, 0.0, 4.0)) - (-Vec3::Z)).length() < 1e-6);
+        s.inside = true;
+        assert!((s.normal(Vec3::new(0.0, 0.0, 4.0)) - Vec3::Z).length() < 1e-6);
+    }
+
+    #[test]
+    fn bounds_enclose() {
+        let b = unit().bounds();
+        assert_eq!(b.min, Vec3::new(-1.0, -1.0, 4.0));
+        assert_eq!(b.max, Vec3::new(1.0, 1.0, 6.0));
+    }
+}

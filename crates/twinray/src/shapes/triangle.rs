@@ -1,0 +1,145 @@
+use super::SurfaceHit;
+use crate::math::{Aabb, Ray, Vec3};
+
+/// Where a triangle's shading normal comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TriangleNormals {
+    /// Flat: the face normal of the polygon the triangle was cut from.
+    Flat,
+    /// Smooth (NFF `pp`): index into the scene's per-vertex normal triples.
+    Patch(u32),
+}
+
+/// A triangle stored for Möller–Trumbore: one vertex and two edges.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Triangle {
+    pub v0: Vec3,
+    pub e1: Vec3,
+    pub e2: Vec3,
+    /// Unit normal of the source polygon, orientation from its vertex order.
+    pub face_normal: Vec3,
+    pub normals: TriangleNormals,
+}
+
+impl Triangle {
+    pub fn new(a: Vec3, b: Vec3, c: Vec3, face_normal: Vec3, normals: TriangleNormals) -> Self {
+        Triangle {
+            v0: a,
+            e1: b - a,
+            e2: c - a,
+            face_normal,
+            normals,
+        }
+    }
+
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
+        let p = ray.dir.cross(self.e2);
+        let det = self.e1.dot(p);
+        if det == 0.0 {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let s = ray.origin - self.v0;
+        let u = s.dot(p) * inv;
+        if !(0.0..=1.0).contains(&u) {
+            return None;
+        }
+        let q = s.cross(self.e1);
+        let v = ray.dir.dot(q) * inv;
+        if v < 0.0 || u + v > 1.0 {
+            return None;
+        }
+        let t = self.e2.dot(q) * inv;
+        if t > t_min && t < t_max {
+            Some(SurfaceHit { t, u, v })
+        } else {
+            None
+        }
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points(&[self.v0, self.v0 + self.e1, self.v0 + self.e2])
+    }
+
+    #[inline]
+    pub fn normal(&self, hit: &SurfaceHit, patch_normals: &[[Vec3; 3]]) -> Vec3 {
+        match self.normals {
+            TriangleNormals::Flat => self.face_normal,
+            TriangleNormals::Patch(i) => {
+                let [n0, n1, n2] = patch_normals[i as usize];
+                let n = n0 * (1.0 - hit.u - hit.v) + n1 * hit.u + n2 * hit.v;
+                let n = n.normalize_or_zero();
+                if n == Vec3::ZERO {
+                    self.face_normal
+                } else {
+                    n
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri() -> Triangle {
+        Triangle::new(
+            Vec3::new(0.0, 0.0, 2.0),
+            Vec3::new(1.0, 0.0, 2.0),
+            Vec3::new(0.0, 1.0, 2.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            TriangleNormals::Flat,
+        )
+    }
+
+    #[test]
+    fn hits_inside_with_barycentrics() {
+        let ray = Ray::new(Vec3::new(0.25, 0.5, 0.0), Vec3::Z);
+        let h = tri().intersect(&ray, 0.0, f32::INFINITY).unwrap();
+        assert!((h.t - 2.0).abs() < 1e-6);
+        assert!((h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn hits_from_behind_too() {
+        let ray = Ray::new(Vec3::new(0.25, 0.25, 4.0), -Vec3::Z);
+        assert!(tri().intersect(&ray, 0.0, f32::INFINITY).is_some());
+    }
+
+    #[test]
+    fn misses_outside_and_parallel() {
+        let ray = Ray::new(Vec3::new(0.75, 0.75, 0.0), Vec3::Z);
+        assert!(tri().intersect(&ray, 0.0, f32::INFINITY).is_none());
+        let par = Ray::new(Vec3::new(-1.0, 0.2, 2.0), Vec3::X);
+        assert!(tri().intersect(&par, 0.0, f32::INFINITY).is_none());
+    }
+
+    #[test]
+    fn respects_interval() {
+        let ray = Ray::new(Vec3::new(0.25, 0.25, 0.0), Vec3::Z);
+        assert!(tri().intersect(&ray, 0.0, 1.9).is_none());
+        assert!(tri().intersect(&ray, 2.1, 9.0).is_none());
+    }
+
+    #[test]
+    fn patch_normals_interpolate() {
+        let mut t = tri();
+        t.normals = TriangleNormals::Patch(0);
+        let normals = [[Vec3::X, Vec3::Y, Vec3::Z]];
+        let h = SurfaceHit {
+            t: 1.0,
+            u: 0.0,
+            v: 0.0,
+        };
+        assert!((t.normal(&h, &normals) - Vec3::X).length() < 1e-6);
+        let h = SurfaceHit {
+            t: 1.0,
+            u: 0.5,
+            v: 0.5,
+        };
+        let expect = Vec3::new(0.0, 1.0, 1.0).normalize();
+        assert!((t.normal(&h, &normals) - expect).length() < 1e-6);
+    }
+}
