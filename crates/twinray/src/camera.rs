@@ -1,1 +1,167 @@
-//! (in progress)
+//! The pinhole camera with NFF's viewpoint semantics.
+//!
+//! NFF's `angle` spans the centres of the edge pixels (not the outer edges).
+//! For non-square images the angle applies to the shorter side and pixels stay
+//! square. Every ray direction is a function of a *camera column* and row, so
+//! that two views whose image shifts differ by whole pixels generate bit-equal
+//! directions for the same camera column: the twin method depends on it.
+
+use crate::math::{Ray, Vec3};
+use crate::scene::Viewpoint;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: Vec3,
+    /// Unit view direction.
+    pub forward: Vec3,
+    /// Unit right axis, `normalize(cross(forward, up))`: the interocular line.
+    pub right: Vec3,
+    /// Unit up axis of the image plane.
+    pub up: Vec3,
+    pub width: u32,
+    pub height: u32,
+    /// Pixel pitch on the image plane at distance 1.
+    pub pixel_size: f32,
+    /// Near clipping distance (NFF `hither`), along the ray.
+    pub hither: f32,
+}
+
+impl Camera {
+    /// A camera for `vp` rendering `width` x `height` pixels.
+    pub fn new(vp: &Viewpoint, width: u32, height: u32) -> Camera {
+        let forward = (vp.at - vp.from).normalize();
+        let right = forward.cross(vp.up).normalize();
+        let up = right.cross(forward);
+        let spanned = width.min(height).max(2) - 1;
+        let half_angle = (vp.angle_deg.to_radians() * 0.5) as f64;
+        let pixel_size = (2.0 * half_angle.tan() / spanned as f64) as f32;
+        Camera {
+            eye: vp.from,
+            forward,
+            right,
+            up,
+            width,
+            height,
+            pixel_size,
+            hither: vp.hither.max(0.0),
+        }
+    }
+
+    /// Focal length in pixels: the distance to the image plane where one pixel is
+    /// one unit. The parallax of a point at depth `z` is `f * b / z`.
+    pub fn focal_pixels(&self) -> f64 {
+        1.0 / self.pixel_size as f64
+    }
+
+    /// The unit direction through image position (`column`, `row`) in pixel units,
+    /// pixel centres at integers. Columns may lie outside `0..width` (other views'
+    /// image shifts); the arithmetic only depends on the values passed in.
+    #[inline]
+    pub fn direction(&self, column: f32, row: f32) -> Vec3 {
+        let cx = (self.width as f32 - 1.0) * 0.5;
+        let cy = (self.height as f32 - 1.0) * 0.5;
+        let x = (column - cx) * self.pixel_size;
+        let y = (cy - row) * self.pixel_size;
+        (self.forward + self.right * x + self.up * y).normalize()
+    }
+
+    /// The eye position of a view displaced by `offset` along the right axis.
+    #[inline]
+    pub fn eye_at(&self, offset: f32) -> Vec3 {
+        if offset == 0.0 {
+            self.eye
+        } else {
+            self.eye + self.right * offset
+        }
+    }
+
+    /// The ray of a view at `offset` through (`column`, `row`).
+    #[inline]
+    pub fn ray(&self, offset: f32, column: f32, row: f32) -> Ray {
+        Ray::new(self.eye_at(offset), self.direction(column, row))
+    }
+
+    /// Camera-space depth (along `forward`) of a world point seen from the eye at `offset`.
+    pub fn depth_of(&self, p: Vec3, offset: f32) -> f32 {
+        (p - self.eye_at(offset)).dot(self.forward)
+    }
+
+    /// Where a world point projects, in pixel units (column, row), for the view at `offset`.
+    pub fn project(&self, p: Vec3, offset: f32) -> Option<(f64, f64)> {
+        let rel = p - self.eye_at(offset);
+        let z = rel.dot(self.forward) as f64;
+        if z <= 0.0 {
+            return None;
+        }
+        let f = self.focal_pixels();
+        let cx = (self.width as f64 - 1.0) * 0.5;
+        let cy = (self.height as f64 - 1.0) * 0.5;
+        Some((
+            cx + f * rel.dot(self.right) as f64 / z,
+            cy - f * rel.dot(self.up) as f64 / z,
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn vp() -> Viewpoint {
+        Viewpoint {
+            from: Vec3::new(0.0, 0.0, 0.0),
+            at: Vec3::new(0.0, 1.0, 0.0),
+            up: Vec3::Z,
+            angle_deg: 90.0,
+            hither: 0.0,
+            width: 5,
+            height: 5,
+        }
+    }
+
+    #[test]
+    fn centre_pixel_looks_at_the_target() {
+        let c = Camera::new(&vp(), 5, 5);
+        assert!((c.direction(2.0, 2.0) - Vec3::Y).length() < 1e-6);
+    }
+
+    #[test]
+    fn angle_spans_the_centres_of_the_edge_pixels() {
+        let c = Camera::new(&vp(), 5, 5);
+        let left = c.direction(0.0, 2.0);
+        let right = c.direction(4.0, 2.0);
+        let angle = left.dot(right).acos().to_degrees();
+        assert!((angle - 90.0).abs() < 1e-4, "{angle}");
+        let top = c.direction(2.0, 0.0);
+        let bottom = c.direction(2.0, 4.0);
+        assert!((top.dot(bottom).acos().to_degrees() - 90.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn right_axis_and_image_orientation() {
+        let c = Camera::new(&vp(), 5, 5);
+        // Looking along +y with z up, the right axis is +x.
+        assert!((c.right - Vec3::X).length() < 1e-6);
+        assert!(c.direction(4.0, 2.0).x > 0.0);
+        assert!(c.direction(2.0, 0.0).z > 0.0, "row 0 is the top");
+    }
+
+    #[test]
+    fn wide_images_keep_square_pixels() {
+        let c = Camera::new(&vp(), 9, 5);
+        let top = c.direction(4.0, 0.0);
+        let bottom = c.direction(4.0, 4.0);
+        assert!((top.dot(bottom).acos().to_degrees() - 90.0).abs() < 1e-4);
+        let l = c.direction(0.0, 2.0);
+        let r = c.direction(8.0, 2.0);
+        assert!(l.dot(r).acos().to_degrees() > 90.0);
+    }
+
+    #[test]
+    fn projection_inverts_direction() {
+        let c = Camera::new(&vp(), 64, 48);
+        let p = c.eye + c.direction(10.0, 7.0) * 3.7;
+        let (x, y) = c.project(p, 0.0).unwrap();
+        assert!((x - 10.0).abs() < 1e-3 && (y - 7.0).abs() < 1e-3, "{x} {y}");
+    }
+}

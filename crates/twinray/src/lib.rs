@@ -17,7 +17,9 @@ pub mod scene;
 pub mod shading;
 pub mod shapes;
 pub mod stats;
+pub mod world;
 
 pub use error::{Error, Result};
 pub use image::Image;
 pub use scene::Scene;
+pub use world::World;

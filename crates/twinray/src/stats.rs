@@ -1,1 +1,133 @@
-//! (in progress)
+//! Counters kept per thread without contention and merged at the end, and the
+//! JSON report of `--stats`.
+
+use serde::Serialize;
+
+use crate::bvh::TraversalStats;
+
+/// Ray counts. A stereo method counts one eye ray per view and pixel sample, as
+/// two independent renders would, so the counts of the two methods compare.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RayCounts {
+    pub eye: u64,
+    pub eye_hit: u64,
+    pub reflected: u64,
+    pub refracted: u64,
+    pub shadow: u64,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct TraceCounts {
+    pub rays: RayCounts,
+    /// Descents of the hierarchy for nearest hits (a packet of views is one).
+    pub closest_traversals: u64,
+    /// Of those, the eye-ray descents.
+    pub eye_traversals: u64,
+    /// Secondary (reflected or refracted) descents that served more than one view.
+    pub shared_secondary: u64,
+    /// Views' secondary rays served by those shared descents.
+    pub shared_secondary_rays: u64,
+    /// Hits per view (index = view), for stereo and multi-view renders.
+    #[serde(skip)]
+    pub per_view_hits: [u64; 32],
+    pub nodes: u64,
+    pub box_tests: u64,
+    pub prim_tests: u64,
+}
+
+impl TraceCounts {
+    pub fn add(&mut self, o: &TraceCounts) {
+        self.rays.eye += o.rays.eye;
+        self.rays.eye_hit += o.rays.eye_hit;
+        self.rays.reflected += o.rays.reflected;
+        self.rays.refracted += o.rays.refracted;
+        self.rays.shadow += o.rays.shadow;
+        self.closest_traversals += o.closest_traversals;
+        self.eye_traversals += o.eye_traversals;
+        self.shared_secondary += o.shared_secondary;
+        self.shared_secondary_rays += o.shared_secondary_rays;
+        for (a, b) in self.per_view_hits.iter_mut().zip(o.per_view_hits.iter()) {
+            *a += b;
+        }
+        self.nodes += o.nodes;
+        self.box_tests += o.box_tests;
+        self.prim_tests += o.prim_tests;
+    }
+
+    pub fn add_traversal(&mut self, t: &TraversalStats) {
+        self.nodes += t.nodes;
+        self.box_tests += t.box_tests;
+        self.prim_tests += t.prim_tests;
+    }
+}
+
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Timings {
+    pub load_s: f64,
+    pub build_s: f64,
+    pub render_s: f64,
+    pub write_s: f64,
+}
+
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SceneFacts {
+    pub primitives: usize,
+    pub lights: usize,
+    pub materials: usize,
+    pub bvh_nodes: usize,
+    pub bvh_depth: usize,
+    /// Bytes of shapes, materials, normals and hierarchy.
+    pub memory_bytes: usize,
+    pub warnings: usize,
+}
+
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Report {
+    pub rays: RayCounts,
+    pub time: Timings,
+    pub scene: SceneFacts,
+    pub width: u32,
+    pub height: u32,
+    pub views: usize,
+    pub method: String,
+    pub samples_per_view: u64,
+    pub closest_traversals: u64,
+    pub eye_traversals: u64,
+    /// Eye-ray descents per eye ray: 1 for independent renders, about 1/views for twin.
+    pub traversals_per_eye_ray: f64,
+    pub shared_secondary: u64,
+    pub shared_secondary_rays: u64,
+    pub hits_per_view: Vec<u64>,
+    pub nodes_visited: u64,
+    pub box_tests: u64,
+    pub primitive_tests: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interaxial: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub convergence: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effective_convergence: Option<f64>,
+}
+
+impl Report {
+    pub fn fill_counts(&mut self, c: &TraceCounts, views: usize) {
+        self.rays = c.rays;
+        self.closest_traversals = c.closest_traversals;
+        self.eye_traversals = c.eye_traversals;
+        self.traversals_per_eye_ray = if c.rays.eye > 0 {
+            c.eye_traversals as f64 / c.rays.eye as f64
+        } else {
+            0.0
+        };
+        self.shared_secondary = c.shared_secondary;
+        self.shared_secondary_rays = c.shared_secondary_rays;
+        self.hits_per_view = c.per_view_hits[..views.min(32)].to_vec();
+        self.nodes_visited = c.nodes;
+        self.box_tests = c.box_tests;
+        self.primitive_tests = c.prim_tests;
+    }
+
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
+    }
+}

@@ -1,1 +1,88 @@
-//! (in progress)
+//! The bounding-volume hierarchy: a binned-SAH build (`build.rs`) and the
+//! traversals the renderer needs (`traverse.rs`): nearest hit for a packet of
+//! rays that share a direction (one lane per view: the paper's twin objects,
+//! realised as N parallel rays traced as one), and any-hit for shadow rays.
+//!
+//! The hierarchy knows nothing of shapes: it holds boxes and a permutation of
+//! primitive indices, and calls closures to test primitives.
+
+mod build;
+mod traverse;
+
+pub use build::{build, BuildOptions};
+pub use traverse::{AnyHit, Packet, PacketHits, TraversalStats};
+
+use crate::math::Aabb;
+
+/// 32 bytes, two to a cache line. Inner nodes keep their children next to each
+/// other at `first` and `first + 1`; leaves own `count` primitive slots
+/// starting at `first`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(32))]
+pub struct Node {
+    pub min: [f32; 3],
+    pub first: u32,
+    pub max: [f32; 3],
+    /// Leaf: primitive count (> 0). Inner: 0 in the low 30 bits and the split
+    /// axis in the top two bits (the near child is chosen by the ray's sign on it).
+    pub meta: u32,
+}
+
+impl Node {
+    #[inline]
+    pub fn is_leaf(&self) -> bool {
+        self.meta & 0x3fff_ffff != 0
+    }
+
+    #[inline]
+    pub fn count(&self) -> u32 {
+        self.meta & 0x3fff_ffff
+    }
+
+    #[inline]
+    pub fn axis(&self) -> usize {
+        (self.meta >> 30) as usize
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        Aabb {
+            min: self.min.into(),
+            max: self.max.into(),
+        }
+    }
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Bvh {
+    pub nodes: Vec<Node>,
+    /// Primitive indices in leaf order: leaf slots `first..first+count` index this.
+    pub order: Vec<u32>,
+}
+
+impl Bvh {
+    pub fn bounds(&self) -> Aabb {
+        self.nodes.first().map(|n| n.bounds()).unwrap_or(Aabb::EMPTY)
+    }
+
+    /// Depth of the deepest leaf (root = 1), for statistics.
+    pub fn depth(&self) -> usize {
+        fn walk(b: &Bvh, i: usize) -> usize {
+            let n = &b.nodes[i];
+            if n.is_leaf() {
+                1
+            } else {
+                1 + walk(b, n.first as usize).max(walk(b, n.first as usize + 1))
+            }
+        }
+        if self.nodes.is_empty() {
+            0
+        } else {
+            walk(self, 0)
+        }
+    }
+
+    /// Memory held by the hierarchy, in bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>() + self.order.len() * 4
+    }
+}

@@ -1,0 +1,361 @@
+//! Traversals: nearest hit per lane for a packet of rays with one direction,
+//! and any-hit along one ray.
+//!
+//! A packet is the paper's "one eye ray, the nearest hit of every view": lane
+//! `v` is view `v`'s ray (origin offset along the interocular line, direction
+//! shared), which is the same as tracing one ray through view `v`'s twin
+//! objects. One descent serves every lane; each lane keeps its own nearest
+//! distance and is carried into a node only if its own box test passes.
+//!
+//! Exactness: the order in which nodes are visited depends only on the shared
+//! direction, and every lane's box and primitive tests use that lane's own
+//! numbers, so a lane sees the same sequence of tests as the same ray traced
+//! alone (a packet of one). Ties in distance go to the lower primitive index.
+
+use super::Bvh;
+use crate::math::Vec3;
+use crate::shapes::SurfaceHit;
+
+/// Rays sharing `dir`, one per active lane. Lanes not in `mask` are ignored.
+#[derive(Clone, Copy, Debug)]
+pub struct Packet<const K: usize> {
+    pub origins: [Vec3; K],
+    pub dir: Vec3,
+    pub t_min: f32,
+    pub t_max: [f32; K],
+    pub mask: u32,
+}
+
+/// The nearest hit of each lane (`prim == NO_HIT` where there is none).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PacketHits<const K: usize> {
+    pub prim: [u32; K],
+    pub hit: [SurfaceHit; K],
+}
+
+impl<const K: usize> PacketHits<K> {
+    pub const NO_HIT: u32 = u32::MAX;
+
+    #[inline]
+    pub fn has_hit(&self, lane: usize) -> bool {
+        self.prim[lane] != Self::NO_HIT
+    }
+}
+
+/// What an any-hit test tells the traversal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnyHit {
+    Continue,
+    Stop,
+}
+
+/// Work done, for statistics. Counting is one add per event: cheap next to the tests.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraversalStats {
+    /// Nodes popped and processed (one per node per packet, whatever its lanes).
+    pub nodes: u64,
+    /// Box tests, one per lane and node.
+    pub box_tests: u64,
+    /// Primitive tests, one per lane and primitive.
+    pub prim_tests: u64,
+}
+
+impl TraversalStats {
+    pub fn add(&mut self, o: &TraversalStats) {
+        self.nodes += o.nodes;
+        self.box_tests += o.box_tests;
+        self.prim_tests += o.prim_tests;
+    }
+}
+
+const STACK: usize = 128;
+/// Ize's robust slab test: widen the exit distance by 1 + 2*gamma(3).
+const ROBUST: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// 1/d with zero components replaced by a huge finite value of the right sign,
+/// so that the slab test never computes 0 * inf.
+#[inline]
+fn safe_inverse(d: Vec3) -> Vec3 {
+    let fix = |c: f32| {
+        if c.abs() < 1e-30 {
+            1e30f32.copysign(c)
+        } else {
+            1.0 / c
+        }
+    };
+    Vec3::new(fix(d.x), fix(d.y), fix(d.z))
+}
+
+impl Bvh {
+    /// Nearest hit per lane. `test(prim, lane, t_max)` intersects one primitive with
+    /// one lane's ray and returns a hit with `t < t_max` or `None`.
+    #[inline]
+    pub fn closest<const K: usize>(
+        &self,
+        packet: &Packet<K>,
+        stats: &mut TraversalStats,
+        mut test: impl FnMut(u32, usize, f32) -> Option<SurfaceHit>,
+    ) -> PacketHits<K> {
+        let none = SurfaceHit { t: f32::INFINITY, u: 0.0, v: 0.0 };
+        let mut out = PacketHits {
+            prim: [PacketHits::<K>::NO_HIT; K],
+            hit: [none; K],
+        };
+        if self.nodes.is_empty() || packet.mask == 0 {
+            return out;
+        }
+        let mut best = packet.t_max;
+        let inv = safe_inverse(packet.dir);
+        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
+        let origin_scaled: [Vec3; K] = std::array::from_fn(|l| packet.origins[l] * inv);
+
+        // Per lane: entry distance if the lane enters the box, else clears the bit.
+        let enter = |min: &[f32; 3], max: &[f32; 3], mask: u32, best: &[f32; K], tnear: &mut [f32; K]| -> u32 {
+            let bmin = Vec3::from(*min) * inv;
+            let bmax = Vec3::from(*max) * inv;
+            let mut hit_mask = 0;
+            for (l, near) in tnear.iter_mut().enumerate() {
+                if mask & (1 << l) == 0 {
+                    continue;
+                }
+                let t0 = bmin - origin_scaled[l];
+                let t1 = bmax - origin_scaled[l];
+                let tn = t0.min(t1).max_element().max(packet.t_min);
+                let tf = t0.max(t1).min_element() * ROBUST;
+                if tn <= tf && tn <= best[l] {
+                    *near = tn;
+                    hit_mask |= 1 << l;
+                }
+            }
+            hit_mask
+        };
+
+        let mut stack: [(u32, u32, [f32; K]); STACK] = [(0, 0, [0.0; K]); STACK];
+        let mut top = 0usize;
+        let root = &self.nodes[0];
+        let mut tn_root = [0.0; K];
+        stats.box_tests += packet.mask.count_ones() as u64;
+        let root_mask = enter(&root.min, &root.max, packet.mask, &best, &mut tn_root);
+        if root_mask == 0 {
+            return out;
+        }
+        stack[0] = (0, root_mask, tn_root);
+        top += 1;
+
+        while top > 0 {
+            top -= 1;
+            let (index, mut mask, tnear) = stack[top];
+            // A lane whose nearest hit is now closer than this box skips it.
+            for (l, tn) in tnear.iter().enumerate() {
+                if mask & (1 << l) != 0 && *tn > best[l] {
+                    mask &= !(1 << l);
+                }
+            }
+            if mask == 0 {
+                continue;
+            }
+            stats.nodes += 1;
+            let node = &self.nodes[index as usize];
+            if node.is_leaf() {
+                let first = node.first as usize;
+                for &prim in &self.order[first..first + node.count() as usize] {
+                    let mut lanes = mask;
+                    while lanes != 0 {
+                        let l = lanes.trailing_zeros() as usize;
+                        lanes &= lanes - 1;
+                        stats.prim_tests += 1;
+                        // next_up lets an equal distance through, for the index tie-break.
+                        if let Some(h) = test(prim, l, best[l].next_up()) {
+                            if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
+                                best[l] = h.t;
+                                out.prim[l] = prim;
+                                out.hit[l] = h;
+                            }
+                        }
+                    }
+                }
+                continue;
+            }
+            let (a, b) = (node.first as usize, node.first as usize + 1);
+            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
+            let lanes = mask.count_ones() as u64;
+            stats.box_tests += 2 * lanes;
+            let (nn, nf) = (&self.nodes[near], &self.nodes[far]);
+            let mut tn_near = [0.0; K];
+            let mut tn_far = [0.0; K];
+            let m_near = enter(&nn.min, &nn.max, mask, &best, &mut tn_near);
+            let m_far = enter(&nf.min, &nf.max, mask, &best, &mut tn_far);
+            if m_far != 0 && top < STACK {
+                stack[top] = (far as u32, m_far, tn_far);
+                top += 1;
+            }
+            if m_near != 0 && top < STACK {
+                stack[top] = (near as u32, m_near, tn_near);
+                top += 1;
+            }
+        }
+        out
+    }
+
+    /// Visits the primitives whose boxes the segment `origin + t*dir`,
+    /// `t_min < t < t_max`, enters, until `test` says stop. Returns whether it stopped.
+    pub fn any_hit(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_min: f32,
+        t_max: f32,
+        stats: &mut TraversalStats,
+        mut test: impl FnMut(u32) -> AnyHit,
+    ) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let inv = safe_inverse(dir);
+        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
+        let os = origin * inv;
+        let enters = |min: &[f32; 3], max: &[f32; 3]| -> bool {
+            let t0 = Vec3::from(*min) * inv - os;
+            let t1 = Vec3::from(*max) * inv - os;
+            let tn = t0.min(t1).max_element().max(t_min);
+            let tf = (t0.max(t1).min_element() * ROBUST).min(t_max);
+            tn <= tf
+        };
+        stats.box_tests += 1;
+        if !enters(&self.nodes[0].min, &self.nodes[0].max) {
+            return false;
+        }
+        let mut stack = [0u32; STACK];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            stats.nodes += 1;
+            let node = &self.nodes[stack[top] as usize];
+            if node.is_leaf() {
+                let first = node.first as usize;
+                for &prim in &self.order[first..first + node.count() as usize] {
+                    stats.prim_tests += 1;
+                    if test(prim) == AnyHit::Stop {
+                        return true;
+                    }
+                }
+                continue;
+            }
+            let (a, b) = (node.first as usize, node.first as usize + 1);
+            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
+            stats.box_tests += 2;
+            if enters(&self.nodes[far].min, &self.nodes[far].max) && top < STACK {
+                stack[top] = far as u32;
+                top += 1;
+            }
+            if enters(&self.nodes[near].min, &self.nodes[near].max) && top < STACK {
+                stack[top] = near as u32;
+                top += 1;
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{build, BuildOptions};
+    use super::*;
+    use crate::math::{Aabb, Ray};
+    use crate::shapes::Sphere;
+
+    fn spheres(n: usize) -> Vec<Sphere> {
+        let mut s = 7u64;
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((s >> 40) as f32) / (1u64 << 24) as f32
+        };
+        (0..n)
+            .map(|_| Sphere {
+                center: Vec3::new(next() * 20.0 - 10.0, next() * 20.0 - 10.0, next() * 20.0 + 5.0),
+                radius: 0.2 + next(),
+                inside: false,
+            })
+            .collect()
+    }
+
+    fn brute(sph: &[Sphere], ray: &Ray) -> Option<(u32, f32)> {
+        let mut best: Option<(u32, f32)> = None;
+        for (i, s) in sph.iter().enumerate() {
+            if let Some(h) = s.intersect(ray, 0.0, f32::INFINITY) {
+                if best.is_none_or(|(_, t)| h.t < t) {
+                    best = Some((i as u32, h.t));
+                }
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn nearest_hit_matches_brute_force_for_every_lane() {
+        let sph = spheres(500);
+        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
+        let bvh = build(&boxes, &BuildOptions::default());
+        let mut stats = TraversalStats::default();
+        let mut seed = 3u64;
+        for _ in 0..2000 {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+            let a = (seed >> 33) as f32 / (1u64 << 31) as f32;
+            let b = (seed >> 13 & 0xfffff) as f32 / (1u64 << 20) as f32;
+            let dir = Vec3::new(a - 0.5, b - 0.5, 1.0).normalize();
+            let origins = [Vec3::new(-0.3, 0.0, 0.0), Vec3::new(0.3, 0.0, 0.0), Vec3::new(1.7, 0.1, 0.0)];
+            let packet = Packet { origins, dir, t_min: 0.0, t_max: [f32::INFINITY; 3], mask: 0b111 };
+            let hits = bvh.closest(&packet, &mut stats, |p, l, tmax| {
+                sph[p as usize].intersect(&Ray::new(origins[l], dir), 0.0, tmax)
+            });
+            for (l, &o) in origins.iter().enumerate() {
+                let expect = brute(&sph, &Ray::new(o, dir));
+                let got = hits.has_hit(l).then(|| (hits.prim[l], hits.hit[l].t));
+                assert_eq!(got, expect, "lane {l}");
+                // Alone, as a packet of one, the lane gets the same answer.
+                let single = Packet { origins: [o], dir, t_min: 0.0, t_max: [f32::INFINITY], mask: 1 };
+                let h1 = bvh.closest(&single, &mut stats, |p, _, tmax| sph[p as usize].intersect(&Ray::new(o, dir), 0.0, tmax));
+                assert_eq!(h1.prim[0], hits.prim[l]);
+                assert_eq!(h1.hit[0], hits.hit[l]);
+            }
+        }
+        assert!(stats.nodes > 0);
+    }
+
+    #[test]
+    fn masked_lanes_are_not_traced() {
+        let sph = spheres(50);
+        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
+        let bvh = build(&boxes, &BuildOptions::default());
+        let packet = Packet { origins: [Vec3::ZERO; 2], dir: Vec3::Z, t_min: 0.0, t_max: [f32::INFINITY; 2], mask: 0b01 };
+        let mut stats = TraversalStats::default();
+        let hits = bvh.closest(&packet, &mut stats, |p, l, tmax| {
+            assert_eq!(l, 0);
+            sph[p as usize].intersect(&Ray::new(Vec3::ZERO, Vec3::Z), 0.0, tmax)
+        });
+        assert!(!hits.has_hit(1));
+    }
+
+    #[test]
+    fn any_hit_finds_an_occluder_and_respects_the_segment() {
+        let sph = spheres(300);
+        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
+        let bvh = build(&boxes, &BuildOptions::default());
+        let mut stats = TraversalStats::default();
+        for i in 0..200 {
+            let dir = Vec3::new((i as f32 * 0.37).sin() * 0.4, (i as f32 * 0.11).cos() * 0.4, 1.0).normalize();
+            let ray = Ray::new(Vec3::ZERO, dir);
+            for t_max in [5.0, 12.0, 40.0] {
+                let expect = sph.iter().any(|s| s.intersect(&ray, 0.0, t_max).is_some());
+                let got = bvh.any_hit(ray.origin, dir, 0.0, t_max, &mut stats, |p| {
+                    if sph[p as usize].intersect(&ray, 0.0, t_max).is_some() {
+                        AnyHit::Stop
+                    } else {
+                        AnyHit::Continue
+                    }
+                });
+                assert_eq!(got, expect);
+            }
+        }
+    }
+}

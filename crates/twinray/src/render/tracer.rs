@@ -1,0 +1,235 @@
+//! The Whitted tracer over packets of rays that share a direction.
+//!
+//! A packet of one lane is an ordinary ray: the reference renders use that.
+//! The twin method puts one lane per view in the eye-ray packet; after a hit,
+//! lanes whose reflected (or refracted) directions are bit-for-bit equal — the
+//! views' hits on twins of one flat surface — are traced again as one packet,
+//! recursively; lanes that differ are traced apart. Each lane's numbers are its
+//! own throughout, so every lane gets exactly what its view's reference render gets.
+
+use crate::bvh::{Packet, PacketHits, TraversalStats};
+use crate::math::{reflect, refract, Color, Ray, Vec3};
+use crate::shading::{direct_light, offset_point, SurfacePoint};
+use crate::stats::TraceCounts;
+use crate::world::World;
+
+/// How deep and how far the tracer follows rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceSettings {
+    /// Deepest ray level traced; the eye ray is level 1.
+    pub max_depth: u32,
+    /// Adaptive cut-off: a secondary ray is not traced when its weight in the
+    /// pixel (product of the coefficients on its path) is below this. 0 = off.
+    pub min_weight: f32,
+    /// SPD testing procedure: every reflecting or transmitting hit spawns its
+    /// reflected ray and every transmitting hit its refracted ray, whatever the weight.
+    pub spd: bool,
+}
+
+impl Default for TraceSettings {
+    fn default() -> Self {
+        TraceSettings {
+            max_depth: 5,
+            min_weight: 1.0 / 256.0,
+            spd: false,
+        }
+    }
+}
+
+pub struct Tracer<'a> {
+    pub world: &'a World,
+    pub settings: TraceSettings,
+    pub counts: TraceCounts,
+    traversal: TraversalStats,
+}
+
+/// A secondary ray one lane wants traced, and its weight in the lane's colour.
+#[derive(Clone, Copy)]
+struct Spawn {
+    origin: Vec3,
+    dir: Vec3,
+    coefficient: f32,
+}
+
+impl<'a> Tracer<'a> {
+    pub fn new(world: &'a World, settings: TraceSettings) -> Tracer<'a> {
+        Tracer {
+            world,
+            settings,
+            counts: TraceCounts::default(),
+            traversal: TraversalStats::default(),
+        }
+    }
+
+    /// The counters, with the hierarchy's work folded in.
+    pub fn finish(mut self) -> TraceCounts {
+        self.counts.add_traversal(&self.traversal);
+        self.counts
+    }
+
+    /// Eye rays: lane `l` belongs to view `views[l]`.
+    pub fn trace_eye<const K: usize>(&mut self, packet: &Packet<K>, views: &[usize; K]) -> [Color; K] {
+        let hits = self.closest(packet);
+        self.counts.eye_traversals += 1;
+        let mut lanes = packet.mask;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            self.counts.rays.eye += 1;
+            if hits.has_hit(l) {
+                self.counts.rays.eye_hit += 1;
+                if let Some(h) = self.counts.per_view_hits.get_mut(views[l]) {
+                    *h += 1;
+                }
+            }
+        }
+        self.shade(packet, &hits, 1, [1.0; K])
+    }
+
+    fn closest<const K: usize>(&mut self, packet: &Packet<K>) -> PacketHits<K> {
+        self.counts.closest_traversals += 1;
+        let shapes = &self.world.scene.shapes;
+        let (origins, dir) = (&packet.origins, packet.dir);
+        let t_min = packet.t_min;
+        self.world.bvh.closest(packet, &mut self.traversal, |prim, lane, t_max| {
+            shapes[prim as usize].intersect(&Ray::new(origins[lane], dir), t_min, t_max)
+        })
+    }
+
+    /// Traces a secondary packet at `level`.
+    fn trace<const K: usize>(&mut self, packet: &Packet<K>, level: u32, weights: [f32; K]) -> [Color; K] {
+        let hits = self.closest(packet);
+        self.shade(packet, &hits, level, weights)
+    }
+
+    fn shade<const K: usize>(&mut self, packet: &Packet<K>, hits: &PacketHits<K>, level: u32, weights: [f32; K]) -> [Color; K] {
+        let scene = &self.world.scene;
+        let mut out = [scene.background; K];
+        let mut reflected: [Option<Spawn>; K] = [None; K];
+        let mut refracted: [Option<Spawn>; K] = [None; K];
+        let d = packet.dir;
+        let spawn_more = level < self.settings.max_depth;
+        let mut lanes = packet.mask;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            if !hits.has_hit(l) {
+                continue;
+            }
+            let prim = hits.prim[l] as usize;
+            let hit = &hits.hit[l];
+            let shape = &scene.shapes[prim];
+            let material = &scene.materials[scene.shape_material[prim] as usize];
+            let point = packet.origins[l] + d * hit.t;
+            let normal = shape.normal(point, hit, &scene.patch_normals);
+            let facing = if normal.dot(d) < 0.0 { normal } else { -normal };
+            let sp = SurfacePoint {
+                point,
+                normal: facing,
+                t: hit.t,
+                material,
+            };
+            let (color, shadow_rays) = direct_light(self.world, &sp, d, &mut self.traversal);
+            self.counts.rays.shadow += shadow_rays;
+            out[l] = color;
+            if !spawn_more {
+                continue;
+            }
+            // Transmission first: total internal reflection hands its weight to the mirror.
+            let mut mirror = material.ks;
+            if material.t > 0.0 {
+                let entering = shape.geometric_normal(point).dot(d) < 0.0;
+                let ior = if material.ior > 0.0 { material.ior } else { 1.0 };
+                let eta = if entering { 1.0 / ior } else { ior };
+                match refract(d, facing, eta) {
+                    Some(dir) => {
+                        if self.wanted(weights[l] * material.t) {
+                            refracted[l] = Some(Spawn {
+                                origin: offset_point(point, -facing, hit.t),
+                                dir,
+                                coefficient: material.t,
+                            });
+                        }
+                    }
+                    None => mirror += material.t,
+                }
+            }
+            let spd_forces = self.settings.spd && (material.ks > 0.0 || material.t > 0.0);
+            if (mirror > 0.0 && self.wanted(weights[l] * mirror)) || spd_forces {
+                reflected[l] = Some(Spawn {
+                    origin: offset_point(point, facing, hit.t),
+                    dir: reflect(d, facing),
+                    coefficient: mirror,
+                });
+            }
+        }
+        let r = self.trace_spawned(&reflected, level + 1, &weights);
+        for l in 0..K {
+            if let Some(s) = reflected[l] {
+                self.counts.rays.reflected += 1;
+                out[l] += r[l] * s.coefficient;
+            }
+        }
+        let t = self.trace_spawned(&refracted, level + 1, &weights);
+        for l in 0..K {
+            if let Some(s) = refracted[l] {
+                self.counts.rays.refracted += 1;
+                out[l] += t[l] * s.coefficient;
+            }
+        }
+        out
+    }
+
+    fn wanted(&self, weight: f32) -> bool {
+        self.settings.spd || weight >= self.settings.min_weight
+    }
+
+    /// Traces every lane's spawned ray, lanes with bit-equal directions as one packet.
+    fn trace_spawned<const K: usize>(&mut self, spawns: &[Option<Spawn>; K], level: u32, weights: &[f32; K]) -> [Color; K] {
+        let mut out = [Color::ZERO; K];
+        let mut pending: u32 = 0;
+        for (l, s) in spawns.iter().enumerate() {
+            if s.is_some() {
+                pending |= 1 << l;
+            }
+        }
+        while pending != 0 {
+            let first = pending.trailing_zeros() as usize;
+            let Some(lead) = spawns[first] else { break };
+            let key = lead.dir.to_array().map(f32::to_bits);
+            let mut packet = Packet {
+                origins: [Vec3::ZERO; K],
+                dir: lead.dir,
+                t_min: 0.0,
+                t_max: [f32::INFINITY; K],
+                mask: 0,
+            };
+            let mut child_weights = [0.0; K];
+            let mut lanes = pending;
+            while lanes != 0 {
+                let l = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                if let Some(s) = spawns[l] {
+                    if s.dir.to_array().map(f32::to_bits) == key {
+                        packet.mask |= 1 << l;
+                        packet.origins[l] = s.origin;
+                        child_weights[l] = weights[l] * s.coefficient;
+                    }
+                }
+            }
+            pending &= !packet.mask;
+            let shared = packet.mask.count_ones() as u64;
+            if shared > 1 {
+                self.counts.shared_secondary += 1;
+                self.counts.shared_secondary_rays += shared;
+            }
+            let c = self.trace(&packet, level, child_weights);
+            for l in 0..K {
+                if packet.mask & (1 << l) != 0 {
+                    out[l] = c[l];
+                }
+            }
+        }
+        out
+    }
+}

@@ -1,0 +1,50 @@
+//! The scene made ready to trace: the hierarchy built, and the shapes stored in
+//! the hierarchy's leaf order so that a leaf's primitives sit together in memory.
+
+use std::time::Instant;
+
+use crate::bvh::{self, Bvh, BuildOptions};
+use crate::math::Aabb;
+use crate::scene::Scene;
+
+pub struct World {
+    pub scene: Scene,
+    pub bvh: Bvh,
+    /// Seconds spent building the hierarchy.
+    pub build_seconds: f64,
+}
+
+impl World {
+    pub fn new(mut scene: Scene) -> World {
+        let start = Instant::now();
+        scene.finish();
+        let boxes: Vec<Aabb> = scene.shapes.iter().map(|s| s.bounds()).collect();
+        let mut bvh = bvh::build(&boxes, &BuildOptions::default());
+        // Reorder shapes into leaf order; the hierarchy then indexes them directly.
+        let order = std::mem::take(&mut bvh.order);
+        let mut shapes = Vec::with_capacity(order.len());
+        let mut materials = Vec::with_capacity(order.len());
+        for &i in &order {
+            shapes.push(scene.shapes[i as usize].clone());
+            materials.push(scene.shape_material[i as usize]);
+        }
+        scene.shapes = shapes;
+        scene.shape_material = materials;
+        bvh.order = (0..order.len() as u32).collect();
+        World {
+            scene,
+            bvh,
+            build_seconds: start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Bytes held by shapes, materials, normals and the hierarchy.
+    pub fn memory_bytes(&self) -> usize {
+        let s = &self.scene;
+        s.shapes.len() * std::mem::size_of::<crate::shapes::Shape>()
+            + s.shape_material.len() * 4
+            + s.patch_normals.len() * std::mem::size_of::<[crate::math::Vec3; 3]>()
+            + s.materials.len() * std::mem::size_of::<crate::scene::Material>()
+            + self.bvh.memory_bytes()
+    }
+}
