@@ -9,7 +9,7 @@
 //! opaque object, the product of `T` over the transmitting objects in between.
 //! No shadow ray is cast where the normal faces away from the light.
 
-use crate::bvh::{AnyHit, TraversalStats};
+use crate::bvh::{AnyHit, SegmentPacket, TraversalStats};
 use crate::math::{Color, Ray, Vec3};
 use crate::scene::Material;
 use crate::world::World;
@@ -36,63 +36,108 @@ pub struct SurfacePoint<'a> {
     pub material: &'a Material,
 }
 
-/// Fraction of a light's energy that reaches `origin` along `dir` over `dist`.
-pub fn transmittance(world: &World, origin: Vec3, dir: Vec3, dist: f32, stats: &mut TraversalStats) -> f32 {
-    let ray = Ray::new(origin, dir);
-    let mut through = 1.0f32;
+/// What reaches a point from a light through transmitting objects: the product
+/// of their `T`. The factors are multiplied in sorted order, so the result does
+/// not depend on the order in which a traversal met the objects (a packet of
+/// shadow rays may meet them in another order than a single ray).
+#[derive(Clone, Copy, Debug)]
+pub struct Transmittance {
+    factors: [f32; 16],
+    count: usize,
+    opaque: bool,
+}
+
+impl Default for Transmittance {
+    fn default() -> Self {
+        Transmittance {
+            factors: [1.0; 16],
+            count: 0,
+            opaque: false,
+        }
+    }
+}
+
+impl Transmittance {
+    /// Records an object met on the way; `Stop` once nothing gets through.
+    #[inline]
+    pub fn meet(&mut self, t: f32) -> AnyHit {
+        if t <= 0.0 {
+            self.opaque = true;
+            return AnyHit::Stop;
+        }
+        if self.count == self.factors.len() {
+            // Past 16 transmitting surfaces the light is below any visible level.
+            self.opaque = true;
+            return AnyHit::Stop;
+        }
+        self.factors[self.count] = t;
+        self.count += 1;
+        AnyHit::Continue
+    }
+
+    pub fn value(&self) -> f32 {
+        if self.opaque {
+            return 0.0;
+        }
+        let mut f = self.factors;
+        let f = &mut f[..self.count];
+        f.sort_unstable_by(f32::total_cmp);
+        f.iter().product()
+    }
+}
+
+/// The shadow rays of a packet of surface points toward light `light`, traced
+/// together; returns the transmittance of each lane in `mask`.
+pub fn shadow_packet<const K: usize>(
+    world: &World,
+    segments: &SegmentPacket<K>,
+    stats: &mut TraversalStats,
+) -> [f32; K] {
+    let mut through = [Transmittance::default(); K];
     let shapes = &world.scene.shapes;
     let mats = &world.scene.shape_material;
     let materials = &world.scene.materials;
-    world.bvh.any_hit(origin, dir, 0.0, dist, stats, |prim| {
-        if shapes[prim as usize].intersect(&ray, 0.0, dist).is_none() {
+    world.bvh.occlusion(segments, stats, |prim, l| {
+        let ray = Ray::new(segments.origins[l], segments.dirs[l]);
+        if shapes[prim as usize].intersect(&ray, 0.0, segments.t_max[l]).is_none() {
             return AnyHit::Continue;
         }
-        let t = materials[mats[prim as usize] as usize].t;
-        through *= t;
-        if through <= 0.0 {
-            AnyHit::Stop
-        } else {
-            AnyHit::Continue
-        }
+        through[l].meet(materials[mats[prim as usize] as usize].t)
     });
-    through.max(0.0)
+    std::array::from_fn(|l| through[l].value())
 }
 
-/// Ambient plus every light's diffuse and highlight at `sp`, seen along `view_dir`.
-/// Returns the colour and the number of shadow rays cast.
-pub fn direct_light(world: &World, sp: &SurfacePoint, view_dir: Vec3, stats: &mut TraversalStats) -> (Color, u64) {
+/// The direction and distance from a surface point to a light, if the light is
+/// on the side the normal faces (else no shadow ray is cast).
+#[inline]
+pub fn toward_light(sp: &SurfacePoint, light: Vec3) -> Option<(Vec3, f32)> {
+    let to_light = light - sp.point;
+    let dist = to_light.length();
+    if dist <= 0.0 {
+        return None;
+    }
+    let l = to_light / dist;
+    (sp.normal.dot(l) > 0.0).then_some((l, dist))
+}
+
+/// Ambient term of the material at `sp`.
+#[inline]
+pub fn ambient(sp: &SurfacePoint) -> Color {
+    sp.material.color * sp.material.ambient()
+}
+
+/// Diffuse and Phong highlight from a light in direction `l` with colour
+/// `light`, of which `through` reaches the point; `view_dir` is the incoming ray.
+#[inline]
+pub fn light_contribution(sp: &SurfacePoint, view_dir: Vec3, l: Vec3, light: Color, through: f32) -> Color {
     let m = sp.material;
-    let mut color = m.color * m.ambient();
-    let mut shadow_rays = 0;
-    if m.kd <= 0.0 && m.ks <= 0.0 {
-        return (color, 0);
+    let mut c = m.color * (m.kd * sp.normal.dot(l));
+    if m.ks > 0.0 {
+        let r = crate::math::reflect(-l, sp.normal);
+        let r_dot_v = r.dot(-view_dir);
+        if r_dot_v > 0.0 {
+            c += Color::splat(m.ks * r_dot_v.powf(m.shine));
+        }
     }
-    let origin = offset_point(sp.point, sp.normal, sp.t);
-    for (i, light) in world.scene.lights.iter().enumerate() {
-        let to_light = light.position - sp.point;
-        let dist = to_light.length();
-        if dist <= 0.0 {
-            continue;
-        }
-        let l = to_light / dist;
-        let n_dot_l = sp.normal.dot(l);
-        if n_dot_l <= 0.0 {
-            continue;
-        }
-        shadow_rays += 1;
-        let s = transmittance(world, origin, l, dist, stats);
-        if s <= 0.0 {
-            continue;
-        }
-        let mut c = m.color * (m.kd * n_dot_l);
-        if m.ks > 0.0 {
-            let r = crate::math::reflect(-l, sp.normal);
-            let r_dot_v = r.dot(-view_dir);
-            if r_dot_v > 0.0 {
-                c += Color::splat(m.ks * r_dot_v.powf(m.shine));
-            }
-        }
-        color += c * world.scene.light_color(i) * s;
-    }
-    (color, shadow_rays)
+    c * light * through
 }

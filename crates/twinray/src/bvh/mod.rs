@@ -10,7 +10,7 @@ mod build;
 mod traverse;
 
 pub use build::{build, BuildOptions};
-pub use traverse::{AnyHit, Packet, PacketHits, TraversalStats};
+pub use traverse::{AnyHit, Packet, PacketHits, SegmentPacket, TraversalStats};
 
 use crate::math::Aabb;
 

@@ -26,6 +26,15 @@ pub struct Packet<const K: usize> {
     pub mask: u32,
 }
 
+/// Segments `origins[l] + t * dirs[l]`, `0 < t < t_max[l]`, one per active lane.
+#[derive(Clone, Copy, Debug)]
+pub struct SegmentPacket<const K: usize> {
+    pub origins: [Vec3; K],
+    pub dirs: [Vec3; K],
+    pub t_max: [f32; K],
+    pub mask: u32,
+}
+
 /// The nearest hit of each lane (`prim == NO_HIT` where there is none).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PacketHits<const K: usize> {
@@ -107,27 +116,31 @@ impl Bvh {
         let mut best = packet.t_max;
         let inv = safe_inverse(packet.dir);
         let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
-        let origin_scaled: [Vec3; K] = std::array::from_fn(|l| packet.origins[l] * inv);
+        // Lanes share the direction, so the entry and exit planes of every box are
+        // the same for all of them: pick them once (no min/max per lane), and keep
+        // the lanes' origins scaled by 1/d in structure-of-arrays form.
+        let ox: [f32; K] = std::array::from_fn(|l| packet.origins[l].x * inv.x);
+        let oy: [f32; K] = std::array::from_fn(|l| packet.origins[l].y * inv.y);
+        let oz: [f32; K] = std::array::from_fn(|l| packet.origins[l].z * inv.z);
+        let t_min = packet.t_min;
 
         // Per lane: entry distance if the lane enters the box, else clears the bit.
         let enter = |min: &[f32; 3], max: &[f32; 3], mask: u32, best: &[f32; K], tnear: &mut [f32; K]| -> u32 {
-            let bmin = Vec3::from(*min) * inv;
-            let bmax = Vec3::from(*max) * inv;
+            let pick = |a: usize| if neg[a] { (max[a], min[a]) } else { (min[a], max[a]) };
+            let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
+            let (nx, fx) = (nx * inv.x, fx * inv.x);
+            let (ny, fy) = (ny * inv.y, fy * inv.y);
+            let (nz, fz) = (nz * inv.z, fz * inv.z);
             let mut hit_mask = 0;
-            for (l, near) in tnear.iter_mut().enumerate() {
-                if mask & (1 << l) == 0 {
-                    continue;
-                }
-                let t0 = bmin - origin_scaled[l];
-                let t1 = bmax - origin_scaled[l];
-                let tn = t0.min(t1).max_element().max(packet.t_min);
-                let tf = t0.max(t1).min_element() * ROBUST;
+            for l in 0..K {
+                let tn = (nx - ox[l]).max(ny - oy[l]).max((nz - oz[l]).max(t_min));
+                let tf = (fx - ox[l]).min(fy - oy[l]).min(fz - oz[l]) * ROBUST;
+                tnear[l] = tn;
                 if tn <= tf && tn <= best[l] {
-                    *near = tn;
                     hit_mask |= 1 << l;
                 }
             }
-            hit_mask
+            hit_mask & mask
         };
 
         let mut stack: [(u32, u32, [f32; K]); STACK] = [(0, 0, [0.0; K]); STACK];
@@ -195,6 +208,97 @@ impl Bvh {
             }
         }
         out
+    }
+
+    /// Any-hit for a packet of segments with their own origins and directions
+    /// (shadow rays of several views toward one light). `test(prim, lane)` is
+    /// called for every primitive whose boxes lane `lane`'s segment enters, until
+    /// it answers `Stop` for that lane. Which primitives a lane visits does not
+    /// depend on the other lanes, but the order may: callers must make their
+    /// result independent of the order (see `shading::Transmittance`).
+    pub fn occlusion<const K: usize>(
+        &self,
+        packet: &SegmentPacket<K>,
+        stats: &mut TraversalStats,
+        mut test: impl FnMut(u32, usize) -> AnyHit,
+    ) {
+        if self.nodes.is_empty() || packet.mask == 0 {
+            return;
+        }
+        let inv: [Vec3; K] = std::array::from_fn(|l| safe_inverse(packet.dirs[l]));
+        let lead = packet.mask.trailing_zeros() as usize;
+        let neg = [inv[lead].x < 0.0, inv[lead].y < 0.0, inv[lead].z < 0.0];
+        // Structure of arrays over lanes, so the lane loop vectorises.
+        let ix: [f32; K] = std::array::from_fn(|l| inv[l].x);
+        let iy: [f32; K] = std::array::from_fn(|l| inv[l].y);
+        let iz: [f32; K] = std::array::from_fn(|l| inv[l].z);
+        let ox: [f32; K] = std::array::from_fn(|l| packet.origins[l].x * inv[l].x);
+        let oy: [f32; K] = std::array::from_fn(|l| packet.origins[l].y * inv[l].y);
+        let oz: [f32; K] = std::array::from_fn(|l| packet.origins[l].z * inv[l].z);
+        let mut live = packet.mask;
+        let enters = |min: &[f32; 3], max: &[f32; 3], mask: u32| -> u32 {
+            let mut m = 0;
+            for l in 0..K {
+                let (x0, x1) = (min[0] * ix[l] - ox[l], max[0] * ix[l] - ox[l]);
+                let (y0, y1) = (min[1] * iy[l] - oy[l], max[1] * iy[l] - oy[l]);
+                let (z0, z1) = (min[2] * iz[l] - oz[l], max[2] * iz[l] - oz[l]);
+                let tn = x0.min(x1).max(y0.min(y1)).max(z0.min(z1).max(0.0));
+                let tf = (x0.max(x1).min(y0.max(y1)).min(z0.max(z1)) * ROBUST).min(packet.t_max[l]);
+                if tn <= tf {
+                    m |= 1 << l;
+                }
+            }
+            m & mask
+        };
+        stats.box_tests += live.count_ones() as u64;
+        let root_mask = enters(&self.nodes[0].min, &self.nodes[0].max, live);
+        if root_mask == 0 {
+            return;
+        }
+        let mut stack = [(0u32, 0u32); STACK];
+        stack[0] = (0, root_mask);
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let (index, m) = stack[top];
+            let mask = m & live;
+            if mask == 0 {
+                continue;
+            }
+            stats.nodes += 1;
+            let node = &self.nodes[index as usize];
+            if node.is_leaf() {
+                let first = node.first as usize;
+                for &prim in &self.order[first..first + node.count() as usize] {
+                    let mut lanes = mask & live;
+                    while lanes != 0 {
+                        let l = lanes.trailing_zeros() as usize;
+                        lanes &= lanes - 1;
+                        stats.prim_tests += 1;
+                        if test(prim, l) == AnyHit::Stop {
+                            live &= !(1 << l);
+                        }
+                    }
+                }
+                if live == 0 {
+                    return;
+                }
+                continue;
+            }
+            let (a, b) = (node.first as usize, node.first as usize + 1);
+            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
+            stats.box_tests += 2 * mask.count_ones() as u64;
+            let m_far = enters(&self.nodes[far].min, &self.nodes[far].max, mask);
+            let m_near = enters(&self.nodes[near].min, &self.nodes[near].max, mask);
+            if m_far != 0 && top < STACK {
+                stack[top] = (far as u32, m_far);
+                top += 1;
+            }
+            if m_near != 0 && top < STACK {
+                stack[top] = (near as u32, m_near);
+                top += 1;
+            }
+        }
     }
 
     /// Visits the primitives whose boxes the segment `origin + t*dir`,

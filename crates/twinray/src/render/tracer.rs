@@ -7,9 +7,10 @@
 //! recursively; lanes that differ are traced apart. Each lane's numbers are its
 //! own throughout, so every lane gets exactly what its view's reference render gets.
 
-use crate::bvh::{Packet, PacketHits, TraversalStats};
+use crate::bvh::{Packet, PacketHits, SegmentPacket, TraversalStats};
 use crate::math::{reflect, refract, Color, Ray, Vec3};
-use crate::shading::{direct_light, offset_point, SurfacePoint};
+use crate::scene::Material;
+use crate::shading::{ambient, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint};
 use crate::stats::TraceCounts;
 use crate::world::World;
 
@@ -103,12 +104,21 @@ impl<'a> Tracer<'a> {
     }
 
     fn shade<const K: usize>(&mut self, packet: &Packet<K>, hits: &PacketHits<K>, level: u32, weights: [f32; K]) -> [Color; K] {
-        let scene = &self.world.scene;
+        let world = self.world;
+        let scene = &world.scene;
         let mut out = [scene.background; K];
         let mut reflected: [Option<Spawn>; K] = [None; K];
         let mut refracted: [Option<Spawn>; K] = [None; K];
         let d = packet.dir;
         let spawn_more = level < self.settings.max_depth;
+        let default_material = Material::default();
+        let mut points: [SurfacePoint; K] = std::array::from_fn(|_| SurfacePoint {
+            point: Vec3::ZERO,
+            normal: Vec3::Z,
+            t: 0.0,
+            material: &default_material,
+        });
+        let mut lit = 0u32; // lanes with a hit whose material takes light
         let mut lanes = packet.mask;
         while lanes != 0 {
             let l = lanes.trailing_zeros() as usize;
@@ -123,15 +133,16 @@ impl<'a> Tracer<'a> {
             let point = packet.origins[l] + d * hit.t;
             let normal = shape.normal(point, hit, &scene.patch_normals);
             let facing = if normal.dot(d) < 0.0 { normal } else { -normal };
-            let sp = SurfacePoint {
+            points[l] = SurfacePoint {
                 point,
                 normal: facing,
                 t: hit.t,
                 material,
             };
-            let (color, shadow_rays) = direct_light(self.world, &sp, d, &mut self.traversal);
-            self.counts.rays.shadow += shadow_rays;
-            out[l] = color;
+            out[l] = ambient(&points[l]);
+            if material.kd > 0.0 || material.ks > 0.0 {
+                lit |= 1 << l;
+            }
             if !spawn_more {
                 continue;
             }
@@ -161,6 +172,55 @@ impl<'a> Tracer<'a> {
                     dir: reflect(d, facing),
                     coefficient: mirror,
                 });
+            }
+        }
+        // Direct light: the lanes' shadow rays toward each light go as one packet.
+        if lit != 0 {
+            for (i, light) in scene.lights.iter().enumerate() {
+                let mut seg = SegmentPacket {
+                    origins: [Vec3::ZERO; K],
+                    dirs: [Vec3::Z; K],
+                    t_max: [0.0; K],
+                    mask: 0,
+                };
+                let mut lanes = lit;
+                while lanes != 0 {
+                    let l = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    if let Some((dir, dist)) = toward_light(&points[l], light.position) {
+                        seg.origins[l] = offset_point(points[l].point, points[l].normal, points[l].t);
+                        seg.dirs[l] = dir;
+                        seg.t_max[l] = dist;
+                        seg.mask |= 1 << l;
+                    }
+                }
+                if seg.mask == 0 {
+                    continue;
+                }
+                self.counts.rays.shadow += seg.mask.count_ones() as u64;
+                let through = if K > 1 && seg.mask.count_ones() == 1 {
+                    let l = seg.mask.trailing_zeros() as usize;
+                    let single = SegmentPacket {
+                        origins: [seg.origins[l]],
+                        dirs: [seg.dirs[l]],
+                        t_max: [seg.t_max[l]],
+                        mask: 1,
+                    };
+                    let mut t = [0.0; K];
+                    t[l] = shadow_packet(world, &single, &mut self.traversal)[0];
+                    t
+                } else {
+                    shadow_packet(world, &seg, &mut self.traversal)
+                };
+                let color = scene.light_color(i);
+                let mut lanes = seg.mask;
+                while lanes != 0 {
+                    let l = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    if through[l] > 0.0 {
+                        out[l] += light_contribution(&points[l], d, seg.dirs[l], color, through[l]);
+                    }
+                }
             }
         }
         let r = self.trace_spawned(&reflected, level + 1, &weights);
@@ -222,6 +282,19 @@ impl<'a> Tracer<'a> {
             if shared > 1 {
                 self.counts.shared_secondary += 1;
                 self.counts.shared_secondary_rays += shared;
+            }
+            if shared == 1 || K == 1 {
+                // One lane: trace it as a plain ray, with no idle lanes to carry.
+                let l = packet.mask.trailing_zeros() as usize;
+                let single = Packet {
+                    origins: [packet.origins[l]],
+                    dir: packet.dir,
+                    t_min: 0.0,
+                    t_max: [f32::INFINITY],
+                    mask: 1,
+                };
+                out[l] = self.trace::<1>(&single, level, [child_weights[l]])[0];
+                continue;
             }
             let c = self.trace(&packet, level, child_weights);
             for l in 0..K {
