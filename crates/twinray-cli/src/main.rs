@@ -11,14 +11,18 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use twinray::camera::Camera;
 use twinray::loaders::{load_scene, LoadOptions};
-use twinray::output::{self, AnaglyphMethod, InterlaceMode, WriteOptions};
+use twinray::output::{self, AnaglyphMethod, InterlaceMode, Layout, WriteOptions};
 use twinray::render::{self, Method, RenderOptions, Sampling, TraceSettings};
 use twinray::rig::Rig;
 use twinray::stats::{Report, SceneFacts, Timings};
 use twinray::World;
 
 #[derive(Parser)]
-#[command(name = "twinray", version, about = "Stereoscopic and multi-view ray tracer (twin objects)")]
+#[command(
+    name = "twinray",
+    version,
+    about = "Stereoscopic and multi-view ray tracer (twin objects)"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -161,7 +165,18 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("twinray: {e:#}");
+            // One line: the error and its causes, each cause only once.
+            let mut line = String::new();
+            for cause in e.chain() {
+                let text = cause.to_string();
+                if !line.contains(&text) {
+                    if !line.is_empty() {
+                        line.push_str(": ");
+                    }
+                    line.push_str(&text);
+                }
+            }
+            eprintln!("twinray: {line}");
             ExitCode::FAILURE
         }
     }
@@ -176,7 +191,11 @@ fn run_compare(a: &Path, b: &Path, diff: Option<&Path>, gain: f32) -> Result<()>
         d.psnr_db, d.max_abs, d.mean_abs, d.differing_pixels
     );
     if let Some(path) = diff {
-        output::write_image(path, &output::difference_image(&ia, &ib, gain), &WriteOptions::default())?;
+        output::write_image(
+            path,
+            &output::difference_image(&ia, &ib, gain)?,
+            &WriteOptions::default(),
+        )?;
     }
     Ok(())
 }
@@ -190,9 +209,13 @@ struct ViewPlan {
 
 fn plan_views(args: &RenderArgs, default_convergence: f64) -> Result<ViewPlan> {
     let count = match (args.stereo, args.views) {
-        (true, Some(n)) if n != 2 => bail!("--stereo renders 2 views; use --views {n} alone for a multi-view set"),
+        (true, Some(n)) if n != 2 => {
+            bail!("--stereo renders 2 views; use --views {n} alone for a multi-view set")
+        }
         (_, Some(0)) => bail!("--views must be at least 1"),
-        (_, Some(n)) if n > render::MAX_VIEWS => bail!("--views {n}: at most {} views", render::MAX_VIEWS),
+        (_, Some(n)) if n > render::MAX_VIEWS => {
+            bail!("--views {n}: at most {} views", render::MAX_VIEWS)
+        }
         (_, Some(n)) => n,
         (true, None) => 2,
         (false, None) => 1,
@@ -223,7 +246,11 @@ fn plan_views(args: &RenderArgs, default_convergence: f64) -> Result<ViewPlan> {
         bail!("layout {:?} takes exactly two views", args.layout);
     }
     check_layout_format(args.layout, &args.output)?;
-    Ok(ViewPlan { count, interaxial, convergence })
+    Ok(ViewPlan {
+        count,
+        interaxial,
+        convergence,
+    })
 }
 
 fn check_layout_format(layout: LayoutArg, out: &Path) -> Result<()> {
@@ -233,7 +260,9 @@ fn check_layout_format(layout: LayoutArg, out: &Path) -> Result<()> {
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default();
     match layout {
-        LayoutArg::Mpo if ext != "mpo" => bail!("--layout mpo writes a .mpo file; got '{}'", out.display()),
+        LayoutArg::Mpo if ext != "mpo" => {
+            bail!("--layout mpo writes a .mpo file; got '{}'", out.display())
+        }
         LayoutArg::Multiview if ext != "exr" => {
             bail!("--layout multiview writes one multi-view OpenEXR file: the output must end in .exr")
         }
@@ -281,7 +310,11 @@ fn run_render(args: RenderArgs) -> Result<()> {
     };
     let trace = TraceSettings {
         max_depth: args.max_depth.max(1),
-        min_weight: if args.spd { 0.0 } else { args.min_weight.max(0.0) },
+        min_weight: if args.spd {
+            0.0
+        } else {
+            args.min_weight.max(0.0)
+        },
         spd: args.spd,
     };
     let opts = RenderOptions {
@@ -290,7 +323,11 @@ fn run_render(args: RenderArgs) -> Result<()> {
             MethodArg::Independent => Method::Independent,
             MethodArg::Twin => Method::Twin,
         },
-        sampling: if args.spd { Sampling::Corners } else { Sampling::Centers },
+        sampling: if args.spd {
+            Sampling::Corners
+        } else {
+            Sampling::Centers
+        },
     };
 
     let pool = {
@@ -320,9 +357,11 @@ fn run_render(args: RenderArgs) -> Result<()> {
     } else {
         let b = ProgressBar::new(1);
         b.set_style(
-            ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar())
-                .progress_chars("=> "),
+            ProgressStyle::with_template(
+                "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
         );
         b
     };
@@ -369,7 +408,11 @@ fn run_render(args: RenderArgs) -> Result<()> {
             width,
             height,
             views: rig.views.len(),
-            method: opts.method.name().to_string(),
+            method: if rig.views.len() == 1 {
+                "mono".into()
+            } else {
+                opts.method.name().to_string()
+            },
             samples_per_view: result.samples_per_view,
             ..Report::default()
         };
@@ -405,11 +448,19 @@ fn describe_rig(rig: &Rig, camera: &Camera, plan: &ViewPlan) {
         eff
     );
     for (i, v) in rig.views.iter().enumerate() {
-        eprintln!("  view {i}: offset {:+.6} along the right axis, image shift {:+} px", v.offset, v.shift);
+        eprintln!(
+            "  view {i}: offset {:+.6} along the right axis, image shift {:+} px",
+            v.offset, v.shift
+        );
     }
 }
 
-fn write_outputs(args: &RenderArgs, images: &[twinray::Image], plan: &ViewPlan, rig: &Rig) -> Result<()> {
+fn write_outputs(
+    args: &RenderArgs,
+    images: &[twinray::Image],
+    plan: &ViewPlan,
+    rig: &Rig,
+) -> Result<()> {
     let wo = WriteOptions { srgb: args.srgb };
     let out = &args.output;
     if images.len() == 1 {
@@ -422,8 +473,17 @@ fn write_outputs(args: &RenderArgs, images: &[twinray::Image], plan: &ViewPlan, 
         } else {
             (0..images.len()).map(|i| format!("view{i}")).collect()
         };
-        let views: Vec<(&str, &twinray::Image)> = names.iter().map(|n| n.as_str()).zip(images.iter()).collect();
-        output::write_multiview_exr(out, &views, plan.interaxial, rig.effective_convergence.map(|c| c as f32))?;
+        let views: Vec<(&str, &twinray::Image)> = names
+            .iter()
+            .map(|n| n.as_str())
+            .zip(images.iter())
+            .collect();
+        output::write_multiview_exr(
+            out,
+            &views,
+            plan.interaxial,
+            rig.effective_convergence.map(|c| c as f32),
+        )?;
         return Ok(());
     }
     if images.len() > 2 {
@@ -433,45 +493,38 @@ fn write_outputs(args: &RenderArgs, images: &[twinray::Image], plan: &ViewPlan, 
         }
         return Ok(());
     }
-    let (l, r) = (&images[0], &images[1]);
-    let composed = match args.layout {
-        LayoutArg::Separate => {
-            let (pl, pr) = output::separate_paths(out);
-            output::write_image(&pl, l, &wo)?;
-            output::write_image(&pr, r, &wo)?;
-            return Ok(());
-        }
-        LayoutArg::Mpo => {
-            output::write_mpo(out, l, r, plan.interaxial as f64, &wo)?;
-            return Ok(());
-        }
-        LayoutArg::Sbs => output::side_by_side(l, r, args.squeeze)?,
-        LayoutArg::Cross => output::cross(l, r, args.squeeze)?,
-        LayoutArg::Tb => output::top_bottom(l, r, args.squeeze)?,
-        LayoutArg::Anaglyph => output::anaglyph(
-            l,
-            r,
-            match args.anaglyph {
-                AnaglyphArg::Dubois => AnaglyphMethod::Dubois,
-                AnaglyphArg::Color => AnaglyphMethod::Color,
-                AnaglyphArg::Gray => AnaglyphMethod::Gray,
-                AnaglyphArg::GreenMagenta => AnaglyphMethod::GreenMagenta,
-                AnaglyphArg::YellowBlue => AnaglyphMethod::YellowBlue,
-            },
-        )?,
-        LayoutArg::Interlace => output::interlace(
-            l,
-            r,
-            match args.interlace {
-                InterlaceArg::Rows => InterlaceMode::Rows,
-                InterlaceArg::Columns => InterlaceMode::Columns,
-                InterlaceArg::Checker => InterlaceMode::Checker,
-            },
-        )?,
-        LayoutArg::Multiview => unreachable!("handled above"),
+    let layout = stereo_layout(args);
+    let opts = output::StereoOptions {
+        image: wo,
+        squeeze: args.squeeze,
+        baseline_m: plan.interaxial as f64,
+        convergence_m: rig.effective_convergence,
     };
-    output::write_image(out, &composed, &wo)?;
+    output::write_stereo(out, layout, &images[0], &images[1], &opts)?;
     Ok(())
+}
+
+fn stereo_layout(args: &RenderArgs) -> Layout {
+    match args.layout {
+        LayoutArg::Separate => Layout::Separate,
+        LayoutArg::Sbs => Layout::SideBySide,
+        LayoutArg::Cross => Layout::Cross,
+        LayoutArg::Tb => Layout::TopBottom,
+        LayoutArg::Mpo => Layout::Mpo,
+        LayoutArg::Multiview => Layout::MultiviewExr,
+        LayoutArg::Anaglyph => Layout::Anaglyph(match args.anaglyph {
+            AnaglyphArg::Dubois => AnaglyphMethod::Dubois,
+            AnaglyphArg::Color => AnaglyphMethod::Color,
+            AnaglyphArg::Gray => AnaglyphMethod::Gray,
+            AnaglyphArg::GreenMagenta => AnaglyphMethod::GreenMagenta,
+            AnaglyphArg::YellowBlue => AnaglyphMethod::YellowBlue,
+        }),
+        LayoutArg::Interlace => Layout::Interlace(match args.interlace {
+            InterlaceArg::Rows => InterlaceMode::Rows,
+            InterlaceArg::Columns => InterlaceMode::Columns,
+            InterlaceArg::Checker => InterlaceMode::Checker,
+        }),
+    }
 }
 
 fn numbered(out: &Path, i: usize) -> PathBuf {

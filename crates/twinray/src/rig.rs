@@ -28,7 +28,10 @@ pub struct Rig {
 impl Rig {
     pub fn mono() -> Rig {
         Rig {
-            views: vec![View { offset: 0.0, shift: 0 }],
+            views: vec![View {
+                offset: 0.0,
+                shift: 0,
+            }],
             convergence: None,
             effective_convergence: None,
         }
@@ -44,7 +47,12 @@ impl Rig {
     /// view), then the set is centred: points at the convergence distance land on
     /// the same pixel in every view, up to the rounding, which is reported as the
     /// effective convergence distance.
-    pub fn multi_view(camera: &Camera, count: usize, spacing: f32, convergence: Option<f64>) -> Rig {
+    pub fn multi_view(
+        camera: &Camera,
+        count: usize,
+        spacing: f32,
+        convergence: Option<f64>,
+    ) -> Rig {
         let count = count.max(1);
         let offsets: Vec<f32> = (0..count)
             .map(|i| (i as f32 - (count as f32 - 1.0) * 0.5) * spacing)

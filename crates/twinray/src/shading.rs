@@ -99,7 +99,10 @@ pub fn shadow_packet<const K: usize>(
     let materials = &world.scene.materials;
     world.bvh.occlusion(segments, stats, |prim, l| {
         let ray = Ray::new(segments.origins[l], segments.dirs[l]);
-        if shapes[prim as usize].intersect(&ray, 0.0, segments.t_max[l]).is_none() {
+        if shapes[prim as usize]
+            .intersect(&ray, 0.0, segments.t_max[l])
+            .is_none()
+        {
             return AnyHit::Continue;
         }
         through[l].meet(materials[mats[prim as usize] as usize].t)
@@ -129,7 +132,13 @@ pub fn ambient(sp: &SurfacePoint) -> Color {
 /// Diffuse and Phong highlight from a light in direction `l` with colour
 /// `light`, of which `through` reaches the point; `view_dir` is the incoming ray.
 #[inline]
-pub fn light_contribution(sp: &SurfacePoint, view_dir: Vec3, l: Vec3, light: Color, through: f32) -> Color {
+pub fn light_contribution(
+    sp: &SurfacePoint,
+    view_dir: Vec3,
+    l: Vec3,
+    light: Color,
+    through: f32,
+) -> Color {
     let m = sp.material;
     let mut c = m.color * (m.kd * sp.normal.dot(l));
     if m.ks > 0.0 {

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use crate::bvh::{self, Bvh, BuildOptions};
+use crate::bvh::{self, BuildOptions, Bvh};
 use crate::math::Aabb;
 use crate::scene::Scene;
 

@@ -36,7 +36,14 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
         .iter()
         .enumerate()
         .map(|(i, b)| {
-            let b = if b.is_empty() { Aabb { min: Vec3::ZERO, max: Vec3::ZERO } } else { b.padded() };
+            let b = if b.is_empty() {
+                Aabb {
+                    min: Vec3::ZERO,
+                    max: Vec3::ZERO,
+                }
+            } else {
+                b.padded()
+            };
             PrimRef {
                 bounds: b,
                 centroid: b.center(),
@@ -63,8 +70,16 @@ struct PrimRef {
 
 /// The tree as built, before it is laid out flat.
 enum BuildNode {
-    Leaf { bounds: Aabb, first: usize, count: usize },
-    Inner { bounds: Aabb, axis: usize, children: Box<[BuildNode; 2]> },
+    Leaf {
+        bounds: Aabb,
+        first: usize,
+        count: usize,
+    },
+    Inner {
+        bounds: Aabb,
+        axis: usize,
+        children: Box<[BuildNode; 2]>,
+    },
 }
 
 impl BuildNode {
@@ -83,9 +98,18 @@ fn build_subtree(refs: &mut [PrimRef], opts: &BuildOptions) -> BuildNode {
     build_range(refs, 0, 0, opts)
 }
 
-fn build_range(refs: &mut [PrimRef], offset: usize, depth: usize, opts: &BuildOptions) -> BuildNode {
+fn build_range(
+    refs: &mut [PrimRef],
+    offset: usize,
+    depth: usize,
+    opts: &BuildOptions,
+) -> BuildNode {
     let bounds = refs.iter().fold(Aabb::EMPTY, |b, r| b.union(r.bounds));
-    let leaf = || BuildNode::Leaf { bounds, first: offset, count: refs.len() };
+    let leaf = || BuildNode::Leaf {
+        bounds,
+        first: offset,
+        count: refs.len(),
+    };
     if refs.len() <= 2 {
         return leaf();
     }
@@ -94,31 +118,67 @@ fn build_range(refs: &mut [PrimRef], offset: usize, depth: usize, opts: &BuildOp
         return median_split(refs, offset, depth, bounds, &centroid_bounds, opts);
     }
     let Some(split) = best_split(refs, &bounds, &centroid_bounds, opts) else {
-        return if refs.len() <= opts.max_leaf { leaf() } else { median_split(refs, offset, depth, bounds, &centroid_bounds, opts) };
+        return if refs.len() <= opts.max_leaf {
+            leaf()
+        } else {
+            median_split(refs, offset, depth, bounds, &centroid_bounds, opts)
+        };
     };
     let leaf_cost = refs.len() as f32;
     if split.cost >= leaf_cost && refs.len() <= opts.max_leaf {
         return leaf();
     }
-    let mid = partition(refs, |r| bin_of(r.centroid[split.axis], &centroid_bounds, split.axis, opts.bins) < split.bin);
+    let mid = partition(refs, |r| {
+        bin_of(
+            r.centroid[split.axis],
+            &centroid_bounds,
+            split.axis,
+            opts.bins,
+        ) < split.bin
+    });
     if mid == 0 || mid == refs.len() {
         return median_split(refs, offset, depth, bounds, &centroid_bounds, opts);
     }
     split_and_recurse(refs, offset, depth, mid, bounds, split.axis, opts)
 }
 
-fn split_and_recurse(refs: &mut [PrimRef], offset: usize, depth: usize, mid: usize, bounds: Aabb, axis: usize, opts: &BuildOptions) -> BuildNode {
+fn split_and_recurse(
+    refs: &mut [PrimRef],
+    offset: usize,
+    depth: usize,
+    mid: usize,
+    bounds: Aabb,
+    axis: usize,
+    opts: &BuildOptions,
+) -> BuildNode {
     let (left, right) = refs.split_at_mut(mid);
     let (l, r) = if left.len() + right.len() > PARALLEL_THRESHOLD {
-        rayon::join(|| build_range(left, offset, depth + 1, opts), || build_range(right, offset + mid, depth + 1, opts))
+        rayon::join(
+            || build_range(left, offset, depth + 1, opts),
+            || build_range(right, offset + mid, depth + 1, opts),
+        )
     } else {
-        (build_range(left, offset, depth + 1, opts), build_range(right, offset + mid, depth + 1, opts))
+        (
+            build_range(left, offset, depth + 1, opts),
+            build_range(right, offset + mid, depth + 1, opts),
+        )
     };
-    BuildNode::Inner { bounds, axis, children: Box::new([l, r]) }
+    BuildNode::Inner {
+        bounds,
+        axis,
+        children: Box::new([l, r]),
+    }
 }
 
 /// Fallback when binning cannot separate the centroids (all equal, or all in one bin).
-fn median_split(refs: &mut [PrimRef], offset: usize, depth: usize, bounds: Aabb, centroid_bounds: &Aabb, opts: &BuildOptions) -> BuildNode {
+fn median_split(
+    refs: &mut [PrimRef],
+    offset: usize,
+    depth: usize,
+    bounds: Aabb,
+    centroid_bounds: &Aabb,
+    opts: &BuildOptions,
+) -> BuildNode {
     let axis = centroid_bounds.extent().max_position();
     let mid = refs.len() / 2;
     refs.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
@@ -172,7 +232,8 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
                 continue;
             }
             let cost = opts.traversal_cost
-                + (acc.half_area() * cnt as f32 + right_area[i] * right_count[i] as f32) / parent_area;
+                + (acc.half_area() * cnt as f32 + right_area[i] * right_count[i] as f32)
+                    / parent_area;
             if best.as_ref().is_none_or(|b| cost < b.cost) {
                 best = Some(Split { axis, bin: i, cost });
             }
@@ -212,7 +273,9 @@ fn flatten(node: &BuildNode, nodes: &mut Vec<Node>, _depth: usize) {
 fn to_node(n: &BuildNode, first: u32) -> Node {
     let b = n.bounds();
     match n {
-        BuildNode::Leaf { first: f, count, .. } => Node {
+        BuildNode::Leaf {
+            first: f, count, ..
+        } => Node {
             min: b.min.into(),
             first: *f as u32,
             max: b.max.into(),
@@ -234,14 +297,19 @@ mod tests {
     fn random_boxes(n: usize, seed: u64) -> Vec<Aabb> {
         let mut s = seed;
         let mut next = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((s >> 40) as f32) / (1u64 << 24) as f32
         };
         (0..n)
             .map(|_| {
                 let c = Vec3::new(next(), next(), next()) * 100.0;
                 let e = Vec3::new(next(), next(), next());
-                Aabb { min: c - e, max: c + e }
+                Aabb {
+                    min: c - e,
+                    max: c + e,
+                }
             })
             .collect()
     }
@@ -268,7 +336,10 @@ mod tests {
                 }
             }
         }
-        assert!(seen.iter().all(|&s| s), "every primitive in exactly one leaf");
+        assert!(
+            seen.iter().all(|&s| s),
+            "every primitive in exactly one leaf"
+        );
     }
 
     #[test]
@@ -282,7 +353,13 @@ mod tests {
 
     #[test]
     fn identical_boxes_do_not_recurse_forever() {
-        let boxes = vec![Aabb { min: Vec3::ZERO, max: Vec3::ONE }; 1000];
+        let boxes = vec![
+            Aabb {
+                min: Vec3::ZERO,
+                max: Vec3::ONE
+            };
+            1000
+        ];
         let bvh = build(&boxes, &BuildOptions::default());
         check(&bvh, &boxes);
         assert!(bvh.depth() < 40);

@@ -61,7 +61,10 @@ pub struct Bvh {
 
 impl Bvh {
     pub fn bounds(&self) -> Aabb {
-        self.nodes.first().map(|n| n.bounds()).unwrap_or(Aabb::EMPTY)
+        self.nodes
+            .first()
+            .map(|n| n.bounds())
+            .unwrap_or(Aabb::EMPTY)
     }
 
     /// Depth of the deepest leaf (root = 1), for statistics.

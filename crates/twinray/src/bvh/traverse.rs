@@ -105,7 +105,11 @@ impl Bvh {
         stats: &mut TraversalStats,
         mut test: impl FnMut(u32, usize, f32) -> Option<SurfaceHit>,
     ) -> PacketHits<K> {
-        let none = SurfaceHit { t: f32::INFINITY, u: 0.0, v: 0.0 };
+        let none = SurfaceHit {
+            t: f32::INFINITY,
+            u: 0.0,
+            v: 0.0,
+        };
         let mut out = PacketHits {
             prim: [PacketHits::<K>::NO_HIT; K],
             hit: [none; K],
@@ -125,8 +129,19 @@ impl Bvh {
         let t_min = packet.t_min;
 
         // Per lane: entry distance if the lane enters the box, else clears the bit.
-        let enter = |min: &[f32; 3], max: &[f32; 3], mask: u32, best: &[f32; K], tnear: &mut [f32; K]| -> u32 {
-            let pick = |a: usize| if neg[a] { (max[a], min[a]) } else { (min[a], max[a]) };
+        let enter = |min: &[f32; 3],
+                     max: &[f32; 3],
+                     mask: u32,
+                     best: &[f32; K],
+                     tnear: &mut [f32; K]|
+         -> u32 {
+            let pick = |a: usize| {
+                if neg[a] {
+                    (max[a], min[a])
+                } else {
+                    (min[a], max[a])
+                }
+            };
             let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
             let (nx, fx) = (nx * inv.x, fx * inv.x);
             let (ny, fy) = (ny * inv.y, fy * inv.y);
@@ -371,12 +386,18 @@ mod tests {
     fn spheres(n: usize) -> Vec<Sphere> {
         let mut s = 7u64;
         let mut next = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((s >> 40) as f32) / (1u64 << 24) as f32
         };
         (0..n)
             .map(|_| Sphere {
-                center: Vec3::new(next() * 20.0 - 10.0, next() * 20.0 - 10.0, next() * 20.0 + 5.0),
+                center: Vec3::new(
+                    next() * 20.0 - 10.0,
+                    next() * 20.0 - 10.0,
+                    next() * 20.0 + 5.0,
+                ),
                 radius: 0.2 + next(),
                 inside: false,
             })
@@ -407,8 +428,18 @@ mod tests {
             let a = (seed >> 33) as f32 / (1u64 << 31) as f32;
             let b = (seed >> 13 & 0xfffff) as f32 / (1u64 << 20) as f32;
             let dir = Vec3::new(a - 0.5, b - 0.5, 1.0).normalize();
-            let origins = [Vec3::new(-0.3, 0.0, 0.0), Vec3::new(0.3, 0.0, 0.0), Vec3::new(1.7, 0.1, 0.0)];
-            let packet = Packet { origins, dir, t_min: 0.0, t_max: [f32::INFINITY; 3], mask: 0b111 };
+            let origins = [
+                Vec3::new(-0.3, 0.0, 0.0),
+                Vec3::new(0.3, 0.0, 0.0),
+                Vec3::new(1.7, 0.1, 0.0),
+            ];
+            let packet = Packet {
+                origins,
+                dir,
+                t_min: 0.0,
+                t_max: [f32::INFINITY; 3],
+                mask: 0b111,
+            };
             let hits = bvh.closest(&packet, &mut stats, |p, l, tmax| {
                 sph[p as usize].intersect(&Ray::new(origins[l], dir), 0.0, tmax)
             });
@@ -417,8 +448,16 @@ mod tests {
                 let got = hits.has_hit(l).then(|| (hits.prim[l], hits.hit[l].t));
                 assert_eq!(got, expect, "lane {l}");
                 // Alone, as a packet of one, the lane gets the same answer.
-                let single = Packet { origins: [o], dir, t_min: 0.0, t_max: [f32::INFINITY], mask: 1 };
-                let h1 = bvh.closest(&single, &mut stats, |p, _, tmax| sph[p as usize].intersect(&Ray::new(o, dir), 0.0, tmax));
+                let single = Packet {
+                    origins: [o],
+                    dir,
+                    t_min: 0.0,
+                    t_max: [f32::INFINITY],
+                    mask: 1,
+                };
+                let h1 = bvh.closest(&single, &mut stats, |p, _, tmax| {
+                    sph[p as usize].intersect(&Ray::new(o, dir), 0.0, tmax)
+                });
                 assert_eq!(h1.prim[0], hits.prim[l]);
                 assert_eq!(h1.hit[0], hits.hit[l]);
             }
@@ -431,7 +470,13 @@ mod tests {
         let sph = spheres(50);
         let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
         let bvh = build(&boxes, &BuildOptions::default());
-        let packet = Packet { origins: [Vec3::ZERO; 2], dir: Vec3::Z, t_min: 0.0, t_max: [f32::INFINITY; 2], mask: 0b01 };
+        let packet = Packet {
+            origins: [Vec3::ZERO; 2],
+            dir: Vec3::Z,
+            t_min: 0.0,
+            t_max: [f32::INFINITY; 2],
+            mask: 0b01,
+        };
         let mut stats = TraversalStats::default();
         let hits = bvh.closest(&packet, &mut stats, |p, l, tmax| {
             assert_eq!(l, 0);
@@ -447,7 +492,12 @@ mod tests {
         let bvh = build(&boxes, &BuildOptions::default());
         let mut stats = TraversalStats::default();
         for i in 0..200 {
-            let dir = Vec3::new((i as f32 * 0.37).sin() * 0.4, (i as f32 * 0.11).cos() * 0.4, 1.0).normalize();
+            let dir = Vec3::new(
+                (i as f32 * 0.37).sin() * 0.4,
+                (i as f32 * 0.11).cos() * 0.4,
+                1.0,
+            )
+            .normalize();
             let ray = Ray::new(Vec3::ZERO, dir);
             for t_max in [5.0, 12.0, 40.0] {
                 let expect = sph.iter().any(|s| s.intersect(&ray, 0.0, t_max).is_some());

@@ -62,7 +62,15 @@ where
         Some(dir) if !dir.as_os_str().is_empty() => dir,
         _ => Path::new("."),
     };
-    let temp = tempfile::NamedTempFile::new_in(dir).map_err(io_error)?;
+    // Temporary files are private (0600) by default; an output file is not.
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".twinray-").suffix(".tmp");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o644));
+    }
+    let temp = builder.tempfile_in(dir).map_err(io_error)?;
     let mut writer = BufWriter::new(temp);
     encode(&mut writer).map_err(|f| f.into_error(path))?;
     // On any error below, the NamedTempFile is dropped, which deletes it.
@@ -156,4 +164,12 @@ mod tests {
         assert!(matches!(err, Error::Encode { .. }));
         assert!(!Path::new("twinray-atomic-test.bin").exists());
     }
+}
+
+/// Writes a text file (statistics, reports) atomically, like every image.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_atomically(path, |sink| {
+        sink.write_all(text.as_bytes())?;
+        Ok(())
+    })
 }

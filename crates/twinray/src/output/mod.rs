@@ -30,6 +30,7 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 pub use anaglyph::{anaglyph, AnaglyphMethod};
+pub use atomic::write_text;
 pub use compare::{compare, difference_image, Difference};
 pub use encode::{read_image, write_image, ImageFormat, WriteOptions};
 pub use layouts::{cross, interlace, separate_paths, side_by_side, top_bottom, InterlaceMode};

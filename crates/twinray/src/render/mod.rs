@@ -130,8 +130,16 @@ impl Grid {
     fn for_camera(camera: &Camera, sampling: Sampling) -> Grid {
         let (w, h) = (camera.width as usize, camera.height as usize);
         match sampling {
-            Sampling::Centers => Grid { width: w, height: h, offset: 0.0 },
-            Sampling::Corners => Grid { width: w + 1, height: h + 1, offset: -0.5 },
+            Sampling::Centers => Grid {
+                width: w,
+                height: h,
+                offset: 0.0,
+            },
+            Sampling::Corners => Grid {
+                width: w + 1,
+                height: h + 1,
+                offset: -0.5,
+            },
         }
     }
 
@@ -139,7 +147,11 @@ impl Grid {
     fn resolve(&self, samples: &[Color], camera: &Camera) -> Image {
         let (w, h) = (camera.width, camera.height);
         if self.offset == 0.0 {
-            return Image { width: w, height: h, pixels: samples.to_vec() };
+            return Image {
+                width: w,
+                height: h,
+                pixels: samples.to_vec(),
+            };
         }
         let mut img = Image::new(w, h);
         for y in 0..h as usize {

@@ -10,7 +10,9 @@
 use crate::bvh::{Packet, PacketHits, SegmentPacket, TraversalStats};
 use crate::math::{reflect, refract, Color, Ray, Vec3};
 use crate::scene::Material;
-use crate::shading::{ambient, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint};
+use crate::shading::{
+    ambient, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint,
+};
 use crate::stats::TraceCounts;
 use crate::world::World;
 
@@ -69,7 +71,11 @@ impl<'a> Tracer<'a> {
     }
 
     /// Eye rays: lane `l` belongs to view `views[l]`.
-    pub fn trace_eye<const K: usize>(&mut self, packet: &Packet<K>, views: &[usize; K]) -> [Color; K] {
+    pub fn trace_eye<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        views: &[usize; K],
+    ) -> [Color; K] {
         let hits = self.closest(packet);
         self.counts.eye_traversals += 1;
         let mut lanes = packet.mask;
@@ -92,18 +98,31 @@ impl<'a> Tracer<'a> {
         let shapes = &self.world.scene.shapes;
         let (origins, dir) = (&packet.origins, packet.dir);
         let t_min = packet.t_min;
-        self.world.bvh.closest(packet, &mut self.traversal, |prim, lane, t_max| {
-            shapes[prim as usize].intersect(&Ray::new(origins[lane], dir), t_min, t_max)
-        })
+        self.world
+            .bvh
+            .closest(packet, &mut self.traversal, |prim, lane, t_max| {
+                shapes[prim as usize].intersect(&Ray::new(origins[lane], dir), t_min, t_max)
+            })
     }
 
     /// Traces a secondary packet at `level`.
-    fn trace<const K: usize>(&mut self, packet: &Packet<K>, level: u32, weights: [f32; K]) -> [Color; K] {
+    fn trace<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        level: u32,
+        weights: [f32; K],
+    ) -> [Color; K] {
         let hits = self.closest(packet);
         self.shade(packet, &hits, level, weights)
     }
 
-    fn shade<const K: usize>(&mut self, packet: &Packet<K>, hits: &PacketHits<K>, level: u32, weights: [f32; K]) -> [Color; K] {
+    fn shade<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        hits: &PacketHits<K>,
+        level: u32,
+        weights: [f32; K],
+    ) -> [Color; K] {
         let world = self.world;
         let scene = &world.scene;
         let mut out = [scene.background; K];
@@ -150,7 +169,11 @@ impl<'a> Tracer<'a> {
             let mut mirror = material.ks;
             if material.t > 0.0 {
                 let entering = shape.geometric_normal(point).dot(d) < 0.0;
-                let ior = if material.ior > 0.0 { material.ior } else { 1.0 };
+                let ior = if material.ior > 0.0 {
+                    material.ior
+                } else {
+                    1.0
+                };
                 let eta = if entering { 1.0 / ior } else { ior };
                 match refract(d, facing, eta) {
                     Some(dir) => {
@@ -188,7 +211,8 @@ impl<'a> Tracer<'a> {
                     let l = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;
                     if let Some((dir, dist)) = toward_light(&points[l], light.position) {
-                        seg.origins[l] = offset_point(points[l].point, points[l].normal, points[l].t);
+                        seg.origins[l] =
+                            offset_point(points[l].point, points[l].normal, points[l].t);
                         seg.dirs[l] = dir;
                         seg.t_max[l] = dist;
                         seg.mask |= 1 << l;
@@ -245,7 +269,12 @@ impl<'a> Tracer<'a> {
     }
 
     /// Traces every lane's spawned ray, lanes with bit-equal directions as one packet.
-    fn trace_spawned<const K: usize>(&mut self, spawns: &[Option<Spawn>; K], level: u32, weights: &[f32; K]) -> [Color; K] {
+    fn trace_spawned<const K: usize>(
+        &mut self,
+        spawns: &[Option<Spawn>; K],
+        level: u32,
+        weights: &[f32; K],
+    ) -> [Color; K] {
         let mut out = [Color::ZERO; K];
         let mut pending: u32 = 0;
         for (l, s) in spawns.iter().enumerate() {
