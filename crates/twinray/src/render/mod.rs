@@ -247,6 +247,9 @@ fn render_twin<const K: usize>(
                         mask |= 1 << v;
                     }
                 }
+                if mask == 0 {
+                    continue; // a gap between views' images (shifts wider than the image)
+                }
                 let packet = Packet {
                     origins,
                     dir: camera.direction(c as f32 + grid.offset, row),

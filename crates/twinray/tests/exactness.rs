@@ -1,0 +1,173 @@
+//! The paper's claim, tested: the twin method gives the same pixels as two
+//! (or N) independent renders — bit for bit in float, so identically in 8-bit —
+//! for every shipped scene (mirrors, glass, smooth patches, cones, floors and
+//! walls parallel to the eyes), interaxial distances from 0 to large, and
+//! convergence finite and infinite.
+
+mod common;
+
+use common::*;
+use twinray::render::{Method, Sampling};
+use twinray::rig::Rig;
+use twinray::Image;
+
+fn assert_same_pixels(a: &Image, b: &Image, what: &str) {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let mut worst = 0.0f32;
+    let mut differing = 0;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        let d = (*p - *q).abs().max_element();
+        if d > 0.0 || p.to_array().map(f32::to_bits) != q.to_array().map(f32::to_bits) {
+            differing += 1;
+        }
+        worst = worst.max(d);
+    }
+    // The bound the issue allows is 1e-5; the implementation gives bit equality.
+    assert!(worst <= 1e-5, "{what}: max difference {worst}");
+    assert_eq!(
+        differing, 0,
+        "{what}: {differing} pixels differ in their bits (max {worst})"
+    );
+    // 8-bit output identical follows from bit equality; check it anyway.
+    let to8 = |c: f32| (c.clamp(0.0, 1.0) * 255.0).round() as u8;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        assert_eq!(
+            p.to_array().map(to8),
+            q.to_array().map(to8),
+            "{what}: 8-bit"
+        );
+    }
+}
+
+fn check_scene(name: &str, width: u32, height: u32, interaxials: &[f32], sampling: Sampling) {
+    let world = world(name);
+    let cam = camera(&world, width, height);
+    let conv = default_convergence(&world);
+    for &b in interaxials {
+        for convergence in [None, Some(conv), Some(conv * 0.4)] {
+            let rig = Rig::stereo(&cam, b, convergence);
+            let reference = run(&world, &cam, &rig, &options(Method::Independent, sampling));
+            let twin = run(&world, &cam, &rig, &options(Method::Twin, sampling));
+            for v in 0..2 {
+                let what =
+                    format!("{name} b={b} convergence={convergence:?} view {v} {sampling:?}");
+                assert_same_pixels(&reference.images[v], &twin.images[v], &what);
+            }
+            // Same rays traced; no more descents for the eye rays (fewer where the views overlap).
+            assert_eq!(
+                reference.counts.rays, twin.counts.rays,
+                "{name} b={b}: ray counts"
+            );
+            assert!(twin.counts.eye_traversals <= reference.counts.eye_traversals);
+        }
+    }
+}
+
+#[test]
+fn example_scene_twin_equals_independent() {
+    // Mirror wall and floor parallel to the eyes, glass, cones, torus patches, a gear polygon.
+    check_scene(
+        "example.nff",
+        96,
+        72,
+        &[0.0, 0.05, 0.3, 1.5],
+        Sampling::Centers,
+    );
+}
+
+#[test]
+fn shelf_scene_twin_equals_independent() {
+    // Many small objects: the views' hits are often on different objects.
+    check_scene(
+        "shelf.nff",
+        80,
+        60,
+        &[0.0, 0.1, 0.8, 4.0],
+        Sampling::Centers,
+    );
+}
+
+#[test]
+fn probe_scene_twin_equals_independent() {
+    check_scene("probe.nff", 129, 65, &[0.0, 0.065, 0.5], Sampling::Centers);
+}
+
+#[test]
+fn spd_corner_sampling_twin_equals_independent() {
+    check_scene("example.nff", 48, 48, &[0.2], Sampling::Corners);
+}
+
+#[test]
+fn interaxial_zero_gives_identical_eyes() {
+    let world = world("example.nff");
+    let cam = camera(&world, 64, 48);
+    let rig = Rig::stereo(&cam, 0.0, None);
+    let out = run(
+        &world,
+        &cam,
+        &rig,
+        &options(Method::Twin, Sampling::Centers),
+    );
+    assert_same_pixels(&out.images[0], &out.images[1], "b=0");
+}
+
+#[test]
+fn multi_view_twin_equals_independent() {
+    let world = world("example.nff");
+    let cam = camera(&world, 64, 48);
+    for count in [3, 5, 8] {
+        let rig = Rig::multi_view(&cam, count, 0.12, Some(default_convergence(&world)));
+        let reference = run(
+            &world,
+            &cam,
+            &rig,
+            &options(Method::Independent, Sampling::Centers),
+        );
+        let twin = run(
+            &world,
+            &cam,
+            &rig,
+            &options(Method::Twin, Sampling::Centers),
+        );
+        for v in 0..count {
+            assert_same_pixels(
+                &reference.images[v],
+                &twin.images[v],
+                &format!("{count} views, view {v}"),
+            );
+        }
+        // One descent serves every view whose image holds the column.
+        let per_ray = twin.counts.eye_traversals as f64 / twin.counts.rays.eye as f64;
+        assert!(
+            per_ray < 1.0 / count as f64 + 0.2,
+            "{count} views: {per_ray} traversals per eye ray"
+        );
+    }
+}
+
+#[test]
+fn flat_surfaces_share_their_secondary_rays() {
+    // The floor and the mirror wall are parallel to the interocular line: the
+    // views' reflected rays there are parallel and must be traced as one.
+    let world = world("example.nff");
+    let cam = camera(&world, 96, 72);
+    let rig = Rig::stereo(&cam, 0.3, None);
+    let twin = run(
+        &world,
+        &cam,
+        &rig,
+        &options(Method::Twin, Sampling::Centers),
+    );
+    assert!(twin.counts.shared_secondary > 0);
+    assert_eq!(
+        twin.counts.shared_secondary_rays,
+        2 * twin.counts.shared_secondary
+    );
+    let reference = run(
+        &world,
+        &cam,
+        &rig,
+        &options(Method::Independent, Sampling::Centers),
+    );
+    assert_eq!(reference.counts.shared_secondary, 0);
+}
