@@ -116,6 +116,9 @@ struct RenderArgs {
     /// Largest image side a scene file may ask for.
     #[arg(long, default_value_t = 16384)]
     max_resolution: u32,
+    /// Most vertices one polygon or patch of the scene file may have.
+    #[arg(long, default_value_t = 1_000_000)]
+    max_vertices: usize,
 
     /// Render a stereo pair.
     #[arg(long)]
@@ -124,10 +127,10 @@ struct RenderArgs {
     #[arg(long)]
     views: Option<usize>,
     /// Distance between the eyes, in scene units.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     interaxial: Option<f32>,
     /// Zero-parallax distance: a number, or "inf" for parallel cameras (default: distance to the NFF 'at' point).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     convergence: Option<String>,
     /// How the views are computed.
     #[arg(long, value_enum, default_value_t = MethodArg::Twin)]
@@ -156,8 +159,47 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+/// A command-line error from clap as one line (`twinray: ...`), like every other
+/// error; help and version requests are printed by clap as usual.
+fn parse_args() -> std::result::Result<Cli, ExitCode> {
+    use clap::error::ErrorKind;
+    match Cli::try_parse() {
+        Ok(cli) => Ok(cli),
+        Err(e)
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) =>
+        {
+            e.exit()
+        }
+        Err(e) => {
+            let mut line = String::new();
+            for part in e.to_string().lines().map(str::trim) {
+                if part.starts_with("Usage:") || part.starts_with("For more information") {
+                    break;
+                }
+                if part.is_empty() {
+                    continue;
+                }
+                if !line.is_empty() {
+                    line.push_str(if line.ends_with(':') { " " } else { "; " });
+                }
+                line.push_str(part.strip_prefix("error: ").unwrap_or(part));
+            }
+            eprintln!("twinray: {line} (see --help)");
+            Err(ExitCode::from(2))
+        }
+    }
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match parse_args() {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
     let result = match cli.command {
         Command::Render(args) => run_render(args),
         Command::Compare { a, b, diff, gain } => run_compare(&a, &b, diff.as_deref(), gain),
@@ -243,7 +285,13 @@ fn plan_views(args: &RenderArgs, default_convergence: f64) -> Result<ViewPlan> {
         bail!("--layout needs --stereo (or --views)");
     }
     if count != 2 && !matches!(args.layout, LayoutArg::Separate | LayoutArg::Multiview) {
-        bail!("layout {:?} takes exactly two views", args.layout);
+        bail!(
+            "--layout {} takes exactly two views",
+            args.layout
+                .to_possible_value()
+                .map(|v| v.get_name().to_string())
+                .unwrap_or_default()
+        );
     }
     check_layout_format(args.layout, &args.output)?;
     Ok(ViewPlan {
@@ -282,7 +330,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     }
     let load_opts = LoadOptions {
         max_resolution: args.max_resolution,
-        ..LoadOptions::default()
+        max_vertices: args.max_vertices,
     };
     let scene = load_scene(&args.scene, &load_opts)?;
     let load_s = t0.elapsed().as_secs_f64();

@@ -86,17 +86,17 @@ impl Transmittance {
     }
 }
 
-/// The shadow rays of a packet of surface points toward light `light`, traced
-/// together; returns the transmittance of each lane in `mask`.
+/// The shadow rays of a packet of surface points toward one light, traced
+/// together. Returns each lane's transmittance and, for lanes in full shadow,
+/// the opaque primitive that blocked them (for the shadow cache).
 pub fn shadow_packet<const K: usize>(
     world: &World,
     segments: &SegmentPacket<K>,
     stats: &mut TraversalStats,
-) -> [f32; K] {
+) -> ([f32; K], [Option<u32>; K]) {
     let mut through = [Transmittance::default(); K];
+    let mut blocker = [None; K];
     let shapes = &world.scene.shapes;
-    let mats = &world.scene.shape_material;
-    let materials = &world.scene.materials;
     world.bvh.occlusion(segments, stats, |prim, l| {
         let ray = Ray::new(segments.origins[l], segments.dirs[l]);
         if shapes[prim as usize]
@@ -105,9 +105,23 @@ pub fn shadow_packet<const K: usize>(
         {
             return AnyHit::Continue;
         }
-        through[l].meet(materials[mats[prim as usize] as usize].t)
+        let t = world.transmission_of(prim);
+        if t <= 0.0 {
+            blocker[l] = Some(prim);
+        }
+        through[l].meet(t)
     });
-    std::array::from_fn(|l| through[l].value())
+    (std::array::from_fn(|l| through[l].value()), blocker)
+}
+
+/// Whether the opaque primitive `prim` blocks the segment: the shadow cache's
+/// first guess. A yes is exact (any opaque object on the segment means full
+/// shadow, whatever else is there); a no falls back to the full traversal.
+#[inline]
+pub fn blocks(world: &World, prim: u32, origin: Vec3, dir: Vec3, dist: f32) -> bool {
+    world.scene.shapes[prim as usize]
+        .intersect(&Ray::new(origin, dir), 0.0, dist)
+        .is_some()
 }
 
 /// The direction and distance from a surface point to a light, if the light is

@@ -38,6 +38,12 @@ impl World {
         }
     }
 
+    /// The transmission coefficient `T` of a primitive's material.
+    #[inline]
+    pub fn transmission_of(&self, prim: u32) -> f32 {
+        self.scene.materials[self.scene.shape_material[prim as usize] as usize].t
+    }
+
     /// Bytes held by shapes, materials, normals and the hierarchy.
     pub fn memory_bytes(&self) -> usize {
         let s = &self.scene;

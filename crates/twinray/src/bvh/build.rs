@@ -17,7 +17,7 @@ impl Default for BuildOptions {
     fn default() -> Self {
         BuildOptions {
             bins: 16,
-            max_leaf: 8,
+            max_leaf: 4,
             traversal_cost: 1.0,
         }
     }
@@ -204,7 +204,7 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
     let mut best: Option<Split> = None;
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
     for axis in 0..3 {
-        if !(cb.max[axis] > cb.min[axis]) {
+        if cb.max[axis] <= cb.min[axis] || cb.max[axis].is_nan() {
             continue;
         }
         let mut bin_box = vec![Aabb::EMPTY; n];

@@ -81,6 +81,26 @@ const STACK: usize = 128;
 /// Ize's robust slab test: widen the exit distance by 1 + 2*gamma(3).
 const ROBUST: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
+/// `min` and `max` without the NaN rules of `f32::min` (one instruction each):
+/// the slab test never produces NaN, since `safe_inverse` keeps 1/d finite.
+#[inline(always)]
+fn fmin(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+#[inline(always)]
+fn fmax(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
 /// 1/d with zero components replaced by a huge finite value of the right sign,
 /// so that the slab test never computes 0 * inf.
 #[inline]
@@ -148,8 +168,8 @@ impl Bvh {
             let (nz, fz) = (nz * inv.z, fz * inv.z);
             let mut hit_mask = 0;
             for l in 0..K {
-                let tn = (nx - ox[l]).max(ny - oy[l]).max((nz - oz[l]).max(t_min));
-                let tf = (fx - ox[l]).min(fy - oy[l]).min(fz - oz[l]) * ROBUST;
+                let tn = fmax(fmax(nx - ox[l], ny - oy[l]), fmax(nz - oz[l], t_min));
+                let tf = fmin(fmin(fx - ox[l], fy - oy[l]), fz - oz[l]) * ROBUST;
                 tnear[l] = tn;
                 if tn <= tf && tn <= best[l] {
                     hit_mask |= 1 << l;
@@ -251,15 +271,45 @@ impl Bvh {
         let oy: [f32; K] = std::array::from_fn(|l| packet.origins[l].y * inv[l].y);
         let oz: [f32; K] = std::array::from_fn(|l| packet.origins[l].z * inv[l].z);
         let mut live = packet.mask;
+        // Shadow rays toward one light from nearby points nearly always agree in
+        // the signs of their directions: then the entry and exit planes of a box
+        // are the same for every lane and need no min/max.
+        let same_signs = (0..K).filter(|&l| packet.mask & (1 << l) != 0).all(|l| {
+            (inv[l].x < 0.0) == neg[0] && (inv[l].y < 0.0) == neg[1] && (inv[l].z < 0.0) == neg[2]
+        });
         let enters = |min: &[f32; 3], max: &[f32; 3], mask: u32| -> u32 {
             let mut m = 0;
+            if same_signs {
+                let pick = |a: usize| {
+                    if neg[a] {
+                        (max[a], min[a])
+                    } else {
+                        (min[a], max[a])
+                    }
+                };
+                let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
+                for l in 0..K {
+                    let tn = fmax(
+                        fmax(nx * ix[l] - ox[l], ny * iy[l] - oy[l]),
+                        fmax(nz * iz[l] - oz[l], 0.0),
+                    );
+                    let tf = fmin(
+                        fmin(fx * ix[l] - ox[l], fy * iy[l] - oy[l]),
+                        fz * iz[l] - oz[l],
+                    ) * ROBUST;
+                    if tn <= fmin(tf, packet.t_max[l]) {
+                        m |= 1 << l;
+                    }
+                }
+                return m & mask;
+            }
             for l in 0..K {
                 let (x0, x1) = (min[0] * ix[l] - ox[l], max[0] * ix[l] - ox[l]);
                 let (y0, y1) = (min[1] * iy[l] - oy[l], max[1] * iy[l] - oy[l]);
                 let (z0, z1) = (min[2] * iz[l] - oz[l], max[2] * iz[l] - oz[l]);
-                let tn = x0.min(x1).max(y0.min(y1)).max(z0.min(z1).max(0.0));
-                let tf = (x0.max(x1).min(y0.max(y1)).min(z0.max(z1)) * ROBUST).min(packet.t_max[l]);
-                if tn <= tf {
+                let tn = fmax(fmax(fmin(x0, x1), fmin(y0, y1)), fmax(fmin(z0, z1), 0.0));
+                let tf = fmin(fmin(fmax(x0, x1), fmax(y0, y1)), fmax(z0, z1)) * ROBUST;
+                if tn <= fmin(tf, packet.t_max[l]) {
                     m |= 1 << l;
                 }
             }
@@ -314,65 +364,6 @@ impl Bvh {
                 top += 1;
             }
         }
-    }
-
-    /// Visits the primitives whose boxes the segment `origin + t*dir`,
-    /// `t_min < t < t_max`, enters, until `test` says stop. Returns whether it stopped.
-    pub fn any_hit(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_min: f32,
-        t_max: f32,
-        stats: &mut TraversalStats,
-        mut test: impl FnMut(u32) -> AnyHit,
-    ) -> bool {
-        if self.nodes.is_empty() {
-            return false;
-        }
-        let inv = safe_inverse(dir);
-        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
-        let os = origin * inv;
-        let enters = |min: &[f32; 3], max: &[f32; 3]| -> bool {
-            let t0 = Vec3::from(*min) * inv - os;
-            let t1 = Vec3::from(*max) * inv - os;
-            let tn = t0.min(t1).max_element().max(t_min);
-            let tf = (t0.max(t1).min_element() * ROBUST).min(t_max);
-            tn <= tf
-        };
-        stats.box_tests += 1;
-        if !enters(&self.nodes[0].min, &self.nodes[0].max) {
-            return false;
-        }
-        let mut stack = [0u32; STACK];
-        let mut top = 1usize;
-        while top > 0 {
-            top -= 1;
-            stats.nodes += 1;
-            let node = &self.nodes[stack[top] as usize];
-            if node.is_leaf() {
-                let first = node.first as usize;
-                for &prim in &self.order[first..first + node.count() as usize] {
-                    stats.prim_tests += 1;
-                    if test(prim) == AnyHit::Stop {
-                        return true;
-                    }
-                }
-                continue;
-            }
-            let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
-            stats.box_tests += 2;
-            if enters(&self.nodes[far].min, &self.nodes[far].max) && top < STACK {
-                stack[top] = far as u32;
-                top += 1;
-            }
-            if enters(&self.nodes[near].min, &self.nodes[near].max) && top < STACK {
-                stack[top] = near as u32;
-                top += 1;
-            }
-        }
-        false
     }
 }
 
@@ -486,29 +477,53 @@ mod tests {
     }
 
     #[test]
-    fn any_hit_finds_an_occluder_and_respects_the_segment() {
+    fn occlusion_finds_every_occluder_on_the_segment() {
         let sph = spheres(300);
         let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
         let bvh = build(&boxes, &BuildOptions::default());
         let mut stats = TraversalStats::default();
         for i in 0..200 {
-            let dir = Vec3::new(
-                (i as f32 * 0.37).sin() * 0.4,
-                (i as f32 * 0.11).cos() * 0.4,
-                1.0,
-            )
-            .normalize();
-            let ray = Ray::new(Vec3::ZERO, dir);
+            let dirs = [
+                Vec3::new(
+                    (i as f32 * 0.37).sin() * 0.4,
+                    (i as f32 * 0.11).cos() * 0.4,
+                    1.0,
+                )
+                .normalize(),
+                Vec3::new(
+                    (i as f32 * 0.23).cos() * 0.4,
+                    (i as f32 * 0.31).sin() * -0.4,
+                    1.0,
+                )
+                .normalize(),
+            ];
+            let origins = [Vec3::ZERO, Vec3::new(0.5, 0.0, 0.0)];
             for t_max in [5.0, 12.0, 40.0] {
-                let expect = sph.iter().any(|s| s.intersect(&ray, 0.0, t_max).is_some());
-                let got = bvh.any_hit(ray.origin, dir, 0.0, t_max, &mut stats, |p| {
-                    if sph[p as usize].intersect(&ray, 0.0, t_max).is_some() {
-                        AnyHit::Stop
-                    } else {
-                        AnyHit::Continue
+                let packet = SegmentPacket {
+                    origins,
+                    dirs,
+                    t_max: [t_max; 2],
+                    mask: 0b11,
+                };
+                let mut found = [Vec::new(), Vec::new()];
+                bvh.occlusion(&packet, &mut stats, |p, l| {
+                    if sph[p as usize]
+                        .intersect(&Ray::new(origins[l], dirs[l]), 0.0, t_max)
+                        .is_some()
+                    {
+                        found[l].push(p);
                     }
+                    AnyHit::Continue
                 });
-                assert_eq!(got, expect);
+                for l in 0..2 {
+                    let ray = Ray::new(origins[l], dirs[l]);
+                    let mut expect: Vec<u32> = (0..sph.len() as u32)
+                        .filter(|&p| sph[p as usize].intersect(&ray, 0.0, t_max).is_some())
+                        .collect();
+                    found[l].sort();
+                    expect.sort();
+                    assert_eq!(found[l], expect, "lane {l}");
+                }
             }
         }
     }

@@ -80,6 +80,14 @@ where
     Ok(())
 }
 
+/// Writes a text file (statistics, reports) atomically, like every image.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_atomically(path, |sink| {
+        sink.write_all(text.as_bytes())?;
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -164,12 +172,4 @@ mod tests {
         assert!(matches!(err, Error::Encode { .. }));
         assert!(!Path::new("twinray-atomic-test.bin").exists());
     }
-}
-
-/// Writes a text file (statistics, reports) atomically, like every image.
-pub fn write_text(path: &Path, text: &str) -> Result<()> {
-    write_atomically(path, |sink| {
-        sink.write_all(text.as_bytes())?;
-        Ok(())
-    })
 }

@@ -11,7 +11,7 @@ use crate::bvh::{Packet, PacketHits, SegmentPacket, TraversalStats};
 use crate::math::{reflect, refract, Color, Ray, Vec3};
 use crate::scene::Material;
 use crate::shading::{
-    ambient, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint,
+    ambient, blocks, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint,
 };
 use crate::stats::TraceCounts;
 use crate::world::World;
@@ -44,6 +44,8 @@ pub struct Tracer<'a> {
     pub settings: TraceSettings,
     pub counts: TraceCounts,
     traversal: TraversalStats,
+    /// Per light, the opaque primitive that last blocked a shadow ray toward it.
+    shadow_cache: Vec<Option<u32>>,
 }
 
 /// A secondary ray one lane wants traced, and its weight in the lane's colour.
@@ -61,6 +63,7 @@ impl<'a> Tracer<'a> {
             settings,
             counts: TraceCounts::default(),
             traversal: TraversalStats::default(),
+            shadow_cache: vec![None; world.scene.lights.len()],
         }
     }
 
@@ -222,22 +225,54 @@ impl<'a> Tracer<'a> {
                     continue;
                 }
                 self.counts.rays.shadow += seg.mask.count_ones() as u64;
-                let through = if K > 1 && seg.mask.count_ones() == 1 {
-                    let l = seg.mask.trailing_zeros() as usize;
+                let with_shadow_ray = seg.mask;
+                // Shadow cache: the opaque object that last shadowed this light is
+                // tried first; lanes it blocks need no traversal.
+                let mut through = [1.0f32; K];
+                if let Some(prim) = self.shadow_cache.get(i).copied().flatten() {
+                    let mut lanes = seg.mask;
+                    while lanes != 0 {
+                        let l = lanes.trailing_zeros() as usize;
+                        lanes &= lanes - 1;
+                        if blocks(world, prim, seg.origins[l], seg.dirs[l], seg.t_max[l]) {
+                            through[l] = 0.0;
+                            seg.mask &= !(1 << l);
+                        }
+                    }
+                }
+                let traced = seg.mask;
+                let (found, blocker) = if traced == 0 {
+                    ([1.0; K], [None; K])
+                } else if K > 1 && traced.count_ones() == 1 {
+                    let l = traced.trailing_zeros() as usize;
                     let single = SegmentPacket {
                         origins: [seg.origins[l]],
                         dirs: [seg.dirs[l]],
                         t_max: [seg.t_max[l]],
                         mask: 1,
                     };
-                    let mut t = [0.0; K];
-                    t[l] = shadow_packet(world, &single, &mut self.traversal)[0];
-                    t
+                    let (t1, b1) = shadow_packet(world, &single, &mut self.traversal);
+                    let mut t = [1.0; K];
+                    let mut b = [None; K];
+                    t[l] = t1[0];
+                    b[l] = b1[0];
+                    (t, b)
                 } else {
                     shadow_packet(world, &seg, &mut self.traversal)
                 };
+                let mut lanes = traced;
+                while lanes != 0 {
+                    let l = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    through[l] = found[l];
+                    if let Some(b) = blocker[l] {
+                        if let Some(slot) = self.shadow_cache.get_mut(i) {
+                            *slot = Some(b);
+                        }
+                    }
+                }
                 let color = scene.light_color(i);
-                let mut lanes = seg.mask;
+                let mut lanes = with_shadow_ray;
                 while lanes != 0 {
                     let l = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;

@@ -45,7 +45,7 @@ impl Cone {
         })
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
         let w = self.axis;
         let k = self.slope;

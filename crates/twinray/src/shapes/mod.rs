@@ -32,7 +32,7 @@ pub enum Shape {
 
 impl Shape {
     /// The nearest intersection with `t_min < t < t_max`.
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
         match self {
             Shape::Sphere(s) => s.intersect(ray, t_min, t_max),

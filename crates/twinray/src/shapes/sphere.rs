@@ -10,7 +10,7 @@ pub struct Sphere {
 }
 
 impl Sphere {
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
         // Geometric form: project the centre on the ray, then step back by the half
         // chord. Better conditioned than the quadratic formula for distant spheres.

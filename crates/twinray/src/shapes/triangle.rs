@@ -32,7 +32,7 @@ impl Triangle {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
         let p = ray.dir.cross(self.e2);
         let det = self.e1.dot(p);

@@ -1,0 +1,1001 @@
+//! End-to-end tests of the `twinray` binary: outputs and their sizes, the stats
+//! file, one-line errors for bad scenes and bad parameters (with no output left
+//! behind), every stereo layout, determinism across thread counts, and twin
+//! versus independent stereo through the command line.
+//!
+//! Renders are tiny (48x36) so the whole file runs in seconds.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde_json::Value;
+use tempfile::TempDir;
+
+const W: u32 = 48;
+const H: u32 = 36;
+const SIZE: &str = "48x36";
+
+// ---------------------------------------------------------------------------
+// Running the binary
+// ---------------------------------------------------------------------------
+
+struct Run {
+    args: Vec<String>,
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+impl Run {
+    /// Exit 0, and no panic on stderr.
+    fn ok(&self) -> &Run {
+        assert_eq!(
+            self.code,
+            Some(0),
+            "twinray {:?} failed\nstdout: {}\nstderr: {}",
+            self.args,
+            self.stdout,
+            self.stderr
+        );
+        self.no_panic();
+        self
+    }
+
+    fn no_panic(&self) {
+        assert!(
+            !self.stderr.contains("panicked") && !self.stderr.contains("RUST_BACKTRACE"),
+            "twinray {:?} panicked: {}",
+            self.args,
+            self.stderr
+        );
+        assert_ne!(
+            self.code,
+            Some(101),
+            "twinray {:?}: {}",
+            self.args,
+            self.stderr
+        );
+    }
+
+    /// A failure reported as exactly one `twinray: ...` line on stderr; returns it.
+    fn one_line_error(&self) -> &str {
+        assert!(
+            self.code.is_some_and(|c| c != 0),
+            "twinray {:?} should fail (exit {:?})\nstderr: {}",
+            self.args,
+            self.code,
+            self.stderr
+        );
+        self.no_panic();
+        let lines: Vec<&str> = self.stderr.lines().collect();
+        assert_eq!(
+            lines.len(),
+            1,
+            "twinray {:?}: expected one line on stderr, got:\n{}",
+            self.args,
+            self.stderr
+        );
+        assert!(
+            lines[0].starts_with("twinray: "),
+            "twinray {:?}: {}",
+            self.args,
+            lines[0]
+        );
+        lines[0]
+    }
+}
+
+fn twinray(args: &[&str]) -> Run {
+    let out = Command::new(env!("CARGO_BIN_EXE_twinray"))
+        .args(args)
+        .env_remove("RUST_BACKTRACE")
+        .env_remove("RUST_LIB_BACKTRACE")
+        .output()
+        .expect("cannot start the twinray binary");
+    Run {
+        args: args.iter().map(|s| s.to_string()).collect(),
+        code: out.status.code(),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
+
+/// `twinray render SCENE -o OUT --quiet EXTRA...`
+fn render(scene: &Path, out: &Path, extra: &[&str]) -> Run {
+    let mut args = vec!["render", s(scene), "-o", s(out), "--quiet"];
+    args.extend_from_slice(extra);
+    twinray(&args)
+}
+
+/// A shipped scene (in the repository's `scenes/`).
+fn scene(name: &str) -> PathBuf {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name);
+    assert!(p.is_file(), "missing shipped scene {}", p.display());
+    p
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("temporary paths are UTF-8")
+}
+
+fn tmp() -> TempDir {
+    tempfile::tempdir().expect("cannot make a temporary directory")
+}
+
+/// Every entry of `dir` (hidden ones included), sorted.
+fn entries(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+fn assert_empty(dir: &Path, what: &str) {
+    let left = entries(dir);
+    assert!(left.is_empty(), "{what}: files left behind: {left:?}");
+}
+
+fn read(p: &Path) -> Vec<u8> {
+    std::fs::read(p).unwrap_or_else(|e| panic!("cannot read {}: {e}", p.display()))
+}
+
+// ---------------------------------------------------------------------------
+// Reading outputs back without an image crate
+// ---------------------------------------------------------------------------
+
+fn png_size(p: &Path) -> (u32, u32) {
+    let b = read(p);
+    assert!(
+        b.len() > 24 && b.starts_with(b"\x89PNG\r\n\x1a\n") && &b[12..16] == b"IHDR",
+        "{} is not a PNG",
+        p.display()
+    );
+    let be = |i: usize| u32::from_be_bytes(b[i..i + 4].try_into().unwrap());
+    (be(16), be(20))
+}
+
+fn exr_size(p: &Path) -> (u32, u32) {
+    let b = read(p);
+    assert!(
+        b.starts_with(&[0x76, 0x2f, 0x31, 0x01]),
+        "{} is not an OpenEXR file",
+        p.display()
+    );
+    let key = b"dataWindow\0box2i\0";
+    let at = b
+        .windows(key.len())
+        .position(|w| w == key)
+        .unwrap_or_else(|| panic!("{}: no dataWindow", p.display()));
+    let le = |i: usize| i32::from_le_bytes(b[i..i + 4].try_into().unwrap());
+    let v = at + key.len();
+    assert_eq!(le(v), 16, "box2i attribute size");
+    let (x0, y0, x1, y1) = (le(v + 4), le(v + 8), le(v + 12), le(v + 16));
+    ((x1 - x0 + 1) as u32, (y1 - y0 + 1) as u32)
+}
+
+/// A colour PFM, rows top to bottom.
+struct Pfm {
+    width: usize,
+    height: usize,
+    pixels: Vec<[f32; 3]>,
+}
+
+impl Pfm {
+    fn get(&self, x: usize, y: usize) -> [f32; 3] {
+        self.pixels[y * self.width + x]
+    }
+}
+
+fn read_pfm(p: &Path) -> Pfm {
+    let b = read(p);
+    let mut pos = 0;
+    let mut fields = Vec::new();
+    while fields.len() < 4 {
+        while b[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        let start = pos;
+        while !b[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        fields.push(std::str::from_utf8(&b[start..pos]).unwrap().to_string());
+    }
+    pos += 1; // the single whitespace character ending the header
+    assert_eq!(fields[0], "PF", "{}: not a colour PFM", p.display());
+    let width: usize = fields[1].parse().unwrap();
+    let height: usize = fields[2].parse().unwrap();
+    let scale: f32 = fields[3].parse().unwrap();
+    let data = &b[pos..];
+    assert_eq!(
+        data.len(),
+        width * height * 12,
+        "{}: data size",
+        p.display()
+    );
+    let value = |i: usize| {
+        let bytes: [u8; 4] = data[i * 4..i * 4 + 4].try_into().unwrap();
+        if scale < 0.0 {
+            f32::from_le_bytes(bytes)
+        } else {
+            f32::from_be_bytes(bytes)
+        }
+    };
+    let mut pixels = Vec::with_capacity(width * height);
+    for y in 0..height {
+        let row = height - 1 - y; // PFM rows run bottom to top
+        for x in 0..width {
+            let i = (row * width + x) * 3;
+            pixels.push([value(i), value(i + 1), value(i + 2)]);
+        }
+    }
+    Pfm {
+        width,
+        height,
+        pixels,
+    }
+}
+
+fn image_size(p: &Path) -> (u32, u32) {
+    match p.extension().and_then(|e| e.to_str()) {
+        Some("png") => png_size(p),
+        Some("exr") => exr_size(p),
+        Some("pfm") => {
+            let img = read_pfm(p);
+            (img.width as u32, img.height as u32)
+        }
+        other => panic!("no size reader for {other:?}"),
+    }
+}
+
+/// The PSNR printed by `twinray compare A B` (`inf` for identical images).
+fn psnr(a: &Path, b: &Path) -> f64 {
+    let run = twinray(&["compare", s(a), s(b)]);
+    run.ok();
+    let field = run
+        .stdout
+        .split_whitespace()
+        .skip_while(|w| *w != "psnr_db")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no psnr_db in {:?}", run.stdout));
+    field
+        .parse()
+        .unwrap_or_else(|_| panic!("bad psnr '{field}'"))
+}
+
+fn stats(p: &Path) -> Value {
+    serde_json::from_slice(&read(p)).expect("the stats file is JSON")
+}
+
+fn count(v: &Value, pointer: &str) -> u64 {
+    v.pointer(pointer)
+        .unwrap_or_else(|| panic!("no {pointer} in {v}"))
+        .as_u64()
+        .unwrap_or_else(|| panic!("{pointer} is not a count in {v}"))
+}
+
+// ---------------------------------------------------------------------------
+// Scene files written by the tests
+// ---------------------------------------------------------------------------
+
+/// A viewpoint on lines 1-7 and a light on line 8: the first entity a test
+/// appends is on line 9.
+const HEADER: &str =
+    "v\nfrom 0 -5 1\nat 0 0 0\nup 0 0 1\nangle 40\nhither 0.01\nresolution 32 24\n\
+                      l 2 -3 4\n";
+
+fn write_scene(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+/// Deterministic pseudo-random bytes (Knuth's MMIX LCG).
+fn noise(n: usize, mut seed: u64) -> Vec<u8> {
+    (0..n)
+        .map(|_| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 56) as u8
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------
+// Mono renders and the stats file
+// ---------------------------------------------------------------------------
+
+#[test]
+fn mono_png_exr_pfm_have_the_requested_size() {
+    let dir = tmp();
+    for ext in ["png", "exr", "pfm"] {
+        let out = dir.path().join(format!("mono.{ext}"));
+        render(&scene("example.nff"), &out, &["--size", SIZE]).ok();
+        assert!(out.is_file(), "{} not written", out.display());
+        assert_eq!(image_size(&out), (W, H), "{}", out.display());
+        assert_eq!(psnr(&out, &out), f64::INFINITY);
+    }
+    // Both float formats hold the same linear values.
+    assert_eq!(
+        psnr(&dir.path().join("mono.exr"), &dir.path().join("mono.pfm")),
+        f64::INFINITY
+    );
+    // Nothing but the three images (no temporary files).
+    assert_eq!(entries(dir.path()), ["mono.exr", "mono.pfm", "mono.png"]);
+}
+
+#[test]
+fn stats_file_counts_eye_rays() {
+    let dir = tmp();
+    let out = dir.path().join("s.png");
+    let json = dir.path().join("s.json");
+    let pixels = u64::from(W * H);
+
+    render(
+        &scene("example.nff"),
+        &out,
+        &["--size", SIZE, "--stats", s(&json)],
+    )
+    .ok();
+    let v = stats(&json);
+    for key in [
+        "/rays/eye",
+        "/rays/eye_hit",
+        "/rays/reflected",
+        "/rays/refracted",
+        "/rays/shadow",
+    ] {
+        count(&v, key);
+    }
+    for key in ["/time/load_s", "/time/build_s", "/time/render_s"] {
+        let t = v
+            .pointer(key)
+            .and_then(Value::as_f64)
+            .unwrap_or_else(|| panic!("no {key} in {v}"));
+        assert!(t.is_finite() && t >= 0.0, "{key} = {t}");
+    }
+    assert_eq!(count(&v, "/rays/eye"), pixels);
+    assert!(count(&v, "/rays/eye_hit") <= pixels);
+    assert!(
+        count(&v, "/rays/eye_hit") > 0,
+        "the example scene is visible"
+    );
+
+    for method in ["twin", "independent"] {
+        render(
+            &scene("example.nff"),
+            &out,
+            &[
+                "--size",
+                SIZE,
+                "--stereo",
+                "--interaxial",
+                "0.4",
+                "--method",
+                method,
+                "--stats",
+                s(&json),
+            ],
+        )
+        .ok();
+        let v = stats(&json);
+        assert_eq!(count(&v, "/rays/eye"), 2 * pixels, "{method}");
+        assert_eq!(count(&v, "/views"), 2, "{method}");
+    }
+
+    let spd = dir.path().join("spd.png");
+    render(
+        &scene("example.nff"),
+        &spd,
+        &["--spd", "--size", "16x16", "--stats", s(&json)],
+    )
+    .ok();
+    assert_eq!(count(&stats(&json), "/rays/eye"), 17 * 17);
+    assert_eq!(png_size(&spd), (16, 16));
+}
+
+// ---------------------------------------------------------------------------
+// Bad scene files
+// ---------------------------------------------------------------------------
+
+/// Each case: exit != 0, one `twinray: FILE:LINE: ...` line, no output at all.
+#[test]
+fn bad_scene_files_fail_with_one_line_naming_file_and_line() {
+    let scenes = tmp();
+    let mut garbage = format!("{HEADER}s 0 0 0 1\n").into_bytes();
+    garbage.push(0xff);
+    garbage.extend(noise(512, 7));
+    let mut png_as_scene = b"\x89PNG\r\n\x1a\n".to_vec();
+    png_as_scene.extend(noise(256, 11));
+    let cases: Vec<(&str, Vec<u8>, usize, &str)> = vec![
+        (
+            "truncated.nff",
+            format!("{HEADER}s 0 0 0 1\np 3\n0 0 0\n1 0").into_bytes(),
+            10,
+            "end of file",
+        ),
+        (
+            "vertex_count.nff",
+            format!("{HEADER}p 4\n0 0 0\n1 0 0\n1 1 0\ns 0 0 0 1\n").into_bytes(),
+            13,
+            "vertex 4 of 4",
+        ),
+        (
+            "nan.nff",
+            format!("{HEADER}s 0 0\nnan 1\n").into_bytes(),
+            10,
+            "nan",
+        ),
+        (
+            "negative_count.nff",
+            format!("{HEADER}s 0 0 0 1\np -3\n0 0 0\n1 0 0\n1 1 0\n").into_bytes(),
+            10,
+            "-3",
+        ),
+        (
+            "unknown.nff",
+            format!("{HEADER}s 0 0 0 1\n\nsphere 0 0 0 1\n").into_bytes(),
+            11,
+            "sphere",
+        ),
+        ("garbage.nff", garbage, 10, "not a text file"),
+        ("png_as_scene.nff", png_as_scene, 1, "not a text file"),
+        (
+            "huge.nff",
+            HEADER
+                .replace("resolution 32 24", "resolution 100000 100000")
+                .into_bytes(),
+            7,
+            "--max-resolution",
+        ),
+    ];
+    for (name, bytes, line, fragment) in &cases {
+        let path = write_scene(scenes.path(), name, bytes);
+        for ext in ["png", "exr"] {
+            let out = tmp();
+            let run = render(
+                &path,
+                &out.path().join(format!("x.{ext}")),
+                &["--stats", s(&out.path().join("x.json"))],
+            );
+            let msg = run.one_line_error();
+            let location = format!("twinray: {}:{line}: ", path.display());
+            assert!(msg.starts_with(&location), "{name}: {msg}");
+            assert!(msg.contains(fragment), "{name}: {msg}");
+            assert_empty(out.path(), name);
+        }
+    }
+
+    // The limit can be raised; the size on the command line is what is rendered.
+    let huge = scenes.path().join("huge.nff");
+    let out = tmp();
+    let png = out.path().join("h.png");
+    render(
+        &huge,
+        &png,
+        &["--max-resolution", "200000", "--size", "8x8"],
+    )
+    .ok();
+    assert_eq!(png_size(&png), (8, 8));
+}
+
+#[test]
+fn polygon_vertex_limit_names_its_option() {
+    let dir = tmp();
+    let path = write_scene(
+        dir.path(),
+        "pentagon.nff",
+        format!("{HEADER}\np 5\n0 0 0\n1 0 0\n1.5 0 1\n0.5 0 1.5\n-0.5 0 1\n").as_bytes(),
+    );
+    let out = tmp();
+    let png = out.path().join("p.png");
+    let run = render(&path, &png, &["--max-vertices", "4"]);
+    let msg = run.one_line_error();
+    assert!(
+        msg.starts_with(&format!("twinray: {}:10: ", path.display())),
+        "{msg}"
+    );
+    assert!(msg.contains("--max-vertices"), "{msg}");
+    assert_empty(out.path(), "vertex limit");
+    render(&path, &png, &["--max-vertices", "5"]).ok();
+    assert_eq!(png_size(&png), (32, 24));
+}
+
+#[test]
+fn missing_scene_file_is_one_line() {
+    let dir = tmp();
+    let missing = dir.path().join("nope.nff");
+    let run = render(&missing, &dir.path().join("x.png"), &[]);
+    let msg = run.one_line_error();
+    assert!(msg.contains(s(&missing)), "{msg}");
+    assert_empty(dir.path(), "missing scene");
+}
+
+#[test]
+fn degenerate_geometry_warns_and_renders() {
+    let dir = tmp();
+    let path = write_scene(
+        dir.path(),
+        "degenerate.nff",
+        format!("{HEADER}s 0 0 0 0\np 3\n0 0 0\n1 0 0\n2 0 0\ns 0 0 0 1\n").as_bytes(),
+    );
+    let out = dir.path().join("d.png");
+    let run = render(&path, &out, &[]);
+    run.ok();
+    assert_eq!(png_size(&out), (32, 24));
+    let warnings: Vec<&str> = run
+        .stderr
+        .lines()
+        .filter(|l| l.contains("warning"))
+        .collect();
+    for line in [9, 10] {
+        let location = format!("{}:{line}:", path.display());
+        assert!(
+            warnings.iter().any(|w| w.contains(&location)),
+            "no warning naming {location}: {:?}",
+            run.stderr
+        );
+    }
+    assert!(
+        warnings.iter().any(|w| w.contains("sphere")),
+        "{warnings:?}"
+    );
+    assert!(
+        warnings.iter().any(|w| w.contains("polygon")),
+        "{warnings:?}"
+    );
+}
+
+// ---------------------------------------------------------------------------
+// Parameter errors
+// ---------------------------------------------------------------------------
+
+#[test]
+fn parameter_errors_are_one_line_and_write_nothing() {
+    let stereo = ["--stereo", "--interaxial", "0.4"];
+    let cases: Vec<(&str, Vec<&str>, &str)> = vec![
+        ("x.png", vec!["--stereo"], "--interaxial"),
+        (
+            "x.png",
+            vec!["--stereo", "--interaxial", "-1"],
+            "--interaxial",
+        ),
+        (
+            "x.png",
+            vec!["--views", "3", "--interaxial", "nan"],
+            "--interaxial",
+        ),
+        (
+            "x.png",
+            [&stereo[..], &["--convergence", "0"]].concat(),
+            "--convergence",
+        ),
+        (
+            "x.png",
+            [&stereo[..], &["--convergence", "-2"]].concat(),
+            "--convergence",
+        ),
+        (
+            "x.png",
+            [&stereo[..], &["--convergence", "abc"]].concat(),
+            "--convergence",
+        ),
+        ("x.png", vec!["--convergence", "0"], "--convergence"),
+        ("x.png", [&stereo[..], &["--layout", "mpo"]].concat(), "mpo"),
+        (
+            "x.png",
+            [&stereo[..], &["--layout", "multiview"]].concat(),
+            ".exr",
+        ),
+        ("x.mpo", stereo.to_vec(), "mpo"),
+        ("x.png", vec!["--layout", "sbs"], "--stereo"),
+        (
+            "x.png",
+            vec!["--views", "4", "--interaxial", "0.1", "--layout", "sbs"],
+            "two views",
+        ),
+        (
+            "x.png",
+            vec!["--stereo", "--views", "3", "--interaxial", "0.1"],
+            "--views",
+        ),
+        ("x.png", vec!["--views", "0"], "--views"),
+        ("x.png", vec!["--threads", "0"], "--threads"),
+        ("x.png", vec!["--size", "0x5"], "--size"),
+        ("x.png", vec!["--size", "5"], "--size"),
+        ("x.png", vec!["--size", "100000x10"], "--max-resolution"),
+        ("x.bmp", vec![], ".bmp"),
+        ("x", vec![], "x"),
+        ("x.bmp", stereo.to_vec(), ".bmp"),
+        ("x.png", vec!["--layout", "hologram"], "--layout"),
+        ("x.png", vec!["--no-such-option"], "--no-such-option"),
+    ];
+    for (name, extra, fragment) in &cases {
+        let out = tmp();
+        let json = out.path().join("stats.json");
+        let mut args = extra.clone();
+        args.extend(["--stats", s(&json)]);
+        if !extra.contains(&"--size") {
+            args.extend(["--size", SIZE]);
+        }
+        let run = render(&scene("example.nff"), &out.path().join(name), &args);
+        let msg = run.one_line_error();
+        assert!(msg.contains(fragment), "{extra:?} -> {name}: {msg}");
+        assert_empty(out.path(), &format!("{extra:?} -> {name}"));
+    }
+}
+
+#[test]
+fn failing_render_keeps_an_existing_output() {
+    let dir = tmp();
+    let bad = write_scene(
+        dir.path(),
+        "bad.nff",
+        format!("{HEADER}s 0 0 0\n").as_bytes(),
+    );
+    let out = tmp();
+    let png = out.path().join("out.png");
+    let original = b"precious bytes, not a PNG".to_vec();
+    std::fs::write(&png, &original).unwrap();
+
+    render(&bad, &png, &[]).one_line_error();
+    render(&scene("example.nff"), &png, &["--threads", "0"]).one_line_error();
+    render(
+        &scene("example.nff"),
+        &png,
+        &["--stereo", "--interaxial", "0.4", "--layout", "mpo"],
+    )
+    .one_line_error();
+    assert_eq!(read(&png), original);
+    assert_eq!(entries(out.path()), ["out.png"]);
+
+    // A successful render replaces it.
+    render(&scene("example.nff"), &png, &["--size", SIZE]).ok();
+    assert_eq!(png_size(&png), (W, H));
+    assert_eq!(entries(out.path()), ["out.png"]);
+}
+
+// ---------------------------------------------------------------------------
+// Stereo layouts and multi-view sets
+// ---------------------------------------------------------------------------
+
+fn stereo_render(out: &Path, extra: &[&str]) -> Run {
+    let mut args = vec!["--size", SIZE, "--stereo", "--interaxial", "0.4"];
+    args.extend_from_slice(extra);
+    let run = render(&scene("example.nff"), out, &args);
+    run.ok();
+    run
+}
+
+#[test]
+fn separate_layout_writes_two_eyes() {
+    let dir = tmp();
+    stereo_render(&dir.path().join("pair.png"), &["--layout", "separate"]);
+    assert_eq!(entries(dir.path()), ["pair_L.png", "pair_R.png"]);
+    for eye in ["pair_L.png", "pair_R.png"] {
+        assert_eq!(png_size(&dir.path().join(eye)), (W, H));
+    }
+    // The eyes see different images.
+    let p = psnr(
+        &dir.path().join("pair_L.png"),
+        &dir.path().join("pair_R.png"),
+    );
+    assert!(p.is_finite(), "left and right are identical");
+}
+
+#[test]
+fn packed_layouts_hold_both_eyes() {
+    let dir = tmp();
+    let d = |name: &str| dir.path().join(name);
+    stereo_render(&d("pair.pfm"), &[]);
+    let (l, r) = (read_pfm(&d("pair_L.pfm")), read_pfm(&d("pair_R.pfm")));
+    let (w, h) = (W as usize, H as usize);
+
+    stereo_render(&d("sbs.pfm"), &["--layout", "sbs"]);
+    stereo_render(&d("cross.pfm"), &["--layout", "cross"]);
+    stereo_render(&d("tb.pfm"), &["--layout", "tb"]);
+    let (sbs, cross, tb) = (
+        read_pfm(&d("sbs.pfm")),
+        read_pfm(&d("cross.pfm")),
+        read_pfm(&d("tb.pfm")),
+    );
+    assert_eq!((sbs.width, sbs.height), (2 * w, h));
+    assert_eq!((cross.width, cross.height), (2 * w, h));
+    assert_eq!((tb.width, tb.height), (w, 2 * h));
+    for y in 0..h {
+        for x in 0..w {
+            assert_eq!(sbs.get(x, y), l.get(x, y), "sbs left ({x},{y})");
+            assert_eq!(sbs.get(w + x, y), r.get(x, y), "sbs right ({x},{y})");
+            assert_eq!(cross.get(x, y), r.get(x, y), "cross right ({x},{y})");
+            assert_eq!(cross.get(w + x, y), l.get(x, y), "cross left ({x},{y})");
+            assert_eq!(tb.get(x, y), l.get(x, y), "tb top ({x},{y})");
+            assert_eq!(tb.get(x, h + y), r.get(x, y), "tb bottom ({x},{y})");
+        }
+    }
+
+    for layout in ["sbs", "cross", "tb"] {
+        let out = d(&format!("{layout}_squeezed.png"));
+        stereo_render(&out, &["--layout", layout, "--squeeze"]);
+        assert_eq!(png_size(&out), (W, H), "{layout} --squeeze");
+        let out = d(&format!("{layout}.png"));
+        stereo_render(&out, &["--layout", layout]);
+        let full = if layout == "tb" {
+            (W, 2 * H)
+        } else {
+            (2 * W, H)
+        };
+        assert_eq!(png_size(&out), full, "{layout}");
+    }
+
+    // Even rows / columns / x + y from the left eye.
+    for mode in ["rows", "columns", "checker"] {
+        let from_left = |x: usize, y: usize| match mode {
+            "rows" => y.is_multiple_of(2),
+            "columns" => x.is_multiple_of(2),
+            _ => (x + y).is_multiple_of(2),
+        };
+        let out = d(&format!("interlace_{mode}.pfm"));
+        stereo_render(&out, &["--layout", "interlace", "--interlace", mode]);
+        let img = read_pfm(&out);
+        assert_eq!((img.width, img.height), (w, h), "{mode}");
+        for y in 0..h {
+            for x in 0..w {
+                let want = if from_left(x, y) {
+                    l.get(x, y)
+                } else {
+                    r.get(x, y)
+                };
+                assert_eq!(img.get(x, y), want, "interlace {mode} ({x},{y})");
+            }
+        }
+        let png = d(&format!("interlace_{mode}.png"));
+        stereo_render(&png, &["--layout", "interlace", "--interlace", mode]);
+        assert_eq!(png_size(&png), (W, H));
+    }
+}
+
+#[test]
+fn anaglyph_methods() {
+    let dir = tmp();
+    let mut seen: Vec<Vec<u8>> = Vec::new();
+    for method in ["dubois", "color", "gray", "green-magenta", "yellow-blue"] {
+        let out = dir.path().join(format!("ana_{method}.png"));
+        stereo_render(&out, &["--layout", "anaglyph", "--anaglyph", method]);
+        assert_eq!(png_size(&out), (W, H), "{method}");
+        let bytes = read(&out);
+        assert!(
+            !seen.contains(&bytes),
+            "{method} is the same as another method"
+        );
+        seen.push(bytes);
+    }
+    // The default method is Dubois.
+    let default = dir.path().join("ana_default.png");
+    stereo_render(&default, &["--layout", "anaglyph"]);
+    assert_eq!(read(&default), read(&dir.path().join("ana_dubois.png")));
+}
+
+#[test]
+fn mpo_holds_two_jpegs() {
+    let dir = tmp();
+    let out = dir.path().join("pair.mpo");
+    stereo_render(&out, &["--layout", "mpo"]);
+    assert_eq!(entries(dir.path()), ["pair.mpo"]);
+    let b = read(&out);
+    assert!(b.starts_with(&[0xff, 0xd8]), "not a JPEG start");
+    assert!(
+        b[2..].windows(3).any(|w| w == [0xff, 0xd8, 0xff]),
+        "no second JPEG in the MPO"
+    );
+
+    let exiftool = Command::new("exiftool").arg("-j").arg(&out).output();
+    let Ok(exif) = exiftool else {
+        if std::env::var_os("CI").is_some() {
+            panic!("exiftool is required on CI (apt-get install libimage-exiftool-perl)");
+        }
+        eprintln!("notice: exiftool not on PATH; MPO structure not checked");
+        return;
+    };
+    assert!(exif.status.success(), "exiftool failed: {exif:?}");
+    let v: Value = serde_json::from_slice(&exif.stdout).expect("exiftool -j prints JSON");
+    let tags = &v[0];
+    assert_eq!(tags["NumberOfImages"].as_u64(), Some(2), "{tags}");
+    assert_eq!(tags["FileType"].as_str(), Some("MPO"), "{tags}");
+    assert_eq!(tags["ImageWidth"].as_u64(), Some(u64::from(W)), "{tags}");
+    assert_eq!(tags["ImageHeight"].as_u64(), Some(u64::from(H)), "{tags}");
+}
+
+#[test]
+fn multiview_exr_holds_the_pair() {
+    let dir = tmp();
+    let out = dir.path().join("pair.exr");
+    stereo_render(&out, &["--layout", "multiview"]);
+    assert_eq!(entries(dir.path()), ["pair.exr"]);
+    assert_eq!(exr_size(&out), (W, H));
+    let b = read(&out);
+    let has = |needle: &[u8]| b.windows(needle.len()).any(|w| w == needle);
+    assert!(has(b"multiView\0"), "no multiView attribute");
+    assert!(
+        has(b"left") && has(b"right"),
+        "views not named left and right"
+    );
+    // Its default (first) view is the left eye.
+    let sep = tmp();
+    stereo_render(&sep.path().join("pair.exr"), &["--layout", "separate"]);
+    assert_eq!(psnr(&out, &sep.path().join("pair_L.exr")), f64::INFINITY);
+}
+
+#[test]
+fn views_write_numbered_files() {
+    let dir = tmp();
+    render(
+        &scene("example.nff"),
+        &dir.path().join("v.png"),
+        &["--size", SIZE, "--views", "4", "--interaxial", "0.1"],
+    )
+    .ok();
+    assert_eq!(
+        entries(dir.path()),
+        ["v_0.png", "v_1.png", "v_2.png", "v_3.png"]
+    );
+    for i in 0..4 {
+        assert_eq!(png_size(&dir.path().join(format!("v_{i}.png"))), (W, H));
+    }
+    assert!(psnr(&dir.path().join("v_0.png"), &dir.path().join("v_3.png")).is_finite());
+}
+
+// ---------------------------------------------------------------------------
+// Determinism and twin = independent
+// ---------------------------------------------------------------------------
+
+#[test]
+fn thread_count_does_not_change_the_files() {
+    let cases: [(&str, &[&str], &[&str]); 2] = [
+        ("mono", &[], &[""]),
+        (
+            "twin",
+            &["--stereo", "--interaxial", "0.4", "--method", "twin"],
+            &["_L", "_R"],
+        ),
+    ];
+    for (what, extra, suffixes) in cases {
+        for ext in ["png", "pfm"] {
+            let mut files: Vec<Vec<Vec<u8>>> = Vec::new();
+            for threads in ["1", "2"] {
+                let dir = tmp();
+                let mut args = vec!["--size", SIZE, "--threads", threads];
+                args.extend_from_slice(extra);
+                render(
+                    &scene("example.nff"),
+                    &dir.path().join(format!("t.{ext}")),
+                    &args,
+                )
+                .ok();
+                files.push(
+                    suffixes
+                        .iter()
+                        .map(|sfx| read(&dir.path().join(format!("t{sfx}.{ext}"))))
+                        .collect(),
+                );
+            }
+            assert!(
+                files[0] == files[1],
+                "{what} .{ext}: --threads 1 and --threads 2 differ"
+            );
+        }
+    }
+}
+
+#[test]
+fn twin_equals_independent() {
+    for name in ["example.nff", "shelf.nff"] {
+        for convergence in [None, Some("inf")] {
+            let mut eyes: Vec<(Vec<u8>, Vec<u8>)> = Vec::new();
+            for method in ["twin", "independent"] {
+                let dir = tmp();
+                let mut args = vec![
+                    "--size",
+                    SIZE,
+                    "--stereo",
+                    "--interaxial",
+                    "0.4",
+                    "--method",
+                    method,
+                    "--layout",
+                    "separate",
+                ];
+                if let Some(c) = convergence {
+                    args.extend(["--convergence", c]);
+                }
+                render(&scene(name), &dir.path().join("e.pfm"), &args).ok();
+                eyes.push((
+                    read(&dir.path().join("e_L.pfm")),
+                    read(&dir.path().join("e_R.pfm")),
+                ));
+            }
+            assert!(
+                eyes[0].0 == eyes[1].0,
+                "{name} (convergence {convergence:?}): left eyes differ between twin and independent"
+            );
+            assert!(
+                eyes[0].1 == eyes[1].1,
+                "{name} (convergence {convergence:?}): right eyes differ between twin and independent"
+            );
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// compare, help
+// ---------------------------------------------------------------------------
+
+#[test]
+fn compare_prints_psnr_and_writes_a_difference() {
+    let dir = tmp();
+    let d = |name: &str| dir.path().join(name);
+    render(&scene("example.nff"), &d("a.png"), &["--size", SIZE]).ok();
+    render(
+        &scene("example.nff"),
+        &d("b.png"),
+        &["--size", SIZE, "--max-depth", "1"],
+    )
+    .ok();
+
+    let same = twinray(&["compare", s(&d("a.png")), s(&d("a.png"))]);
+    same.ok();
+    assert!(same.stdout.starts_with("psnr_db inf"), "{}", same.stdout);
+
+    let p = psnr(&d("a.png"), &d("b.png"));
+    assert!(p.is_finite() && p > 0.0, "psnr {p}");
+
+    twinray(&[
+        "compare",
+        s(&d("a.png")),
+        s(&d("b.png")),
+        "--diff",
+        s(&d("diff.png")),
+    ])
+    .ok();
+    assert_eq!(png_size(&d("diff.png")), (W, H));
+
+    // Images of different sizes, or a missing file: one line, no diff written.
+    render(&scene("example.nff"), &d("small.png"), &["--size", "8x8"]).ok();
+    let run = twinray(&[
+        "compare",
+        s(&d("a.png")),
+        s(&d("small.png")),
+        "--diff",
+        s(&d("diff2.png")),
+    ]);
+    run.one_line_error();
+    let run = twinray(&["compare", s(&d("a.png")), s(&d("missing.png"))]);
+    assert!(
+        run.one_line_error().contains("missing.png"),
+        "{}",
+        run.stderr
+    );
+    assert!(!d("diff2.png").exists());
+}
+
+#[test]
+fn help_and_version_exit_zero() {
+    for args in [
+        &["--help"][..],
+        &["render", "--help"],
+        &["compare", "--help"],
+        &["help", "render"],
+        &["--version"],
+    ] {
+        let run = twinray(args);
+        run.ok();
+        assert!(!run.stdout.trim().is_empty(), "{args:?}: no output");
+    }
+    let run = twinray(&["render", "--help"]);
+    for option in ["--interaxial", "--layout", "--stats", "--max-resolution"] {
+        assert!(run.stdout.contains(option), "render --help lacks {option}");
+    }
+}
