@@ -12,9 +12,10 @@
 //! numbers, so a lane sees the same sequence of tests as the same ray traced
 //! alone (a packet of one). Ties in distance go to the lower primitive index.
 
-use super::Bvh;
+use super::{Bvh, Node};
 use crate::math::Vec3;
 use crate::shapes::SurfaceHit;
+use wide::f32x4;
 
 /// Rays sharing `dir`, one per active lane. Lanes not in `mask` are ignored.
 #[derive(Clone, Copy, Debug)]
@@ -78,6 +79,12 @@ impl TraversalStats {
 }
 
 const STACK: usize = 128;
+/// A box is skipped when its entry lies beyond the nearest hit so far by more
+/// than this factor. The slack covers the rounding of a primitive's hit
+/// distance against its box's entry distance (a floor polygon lies in its
+/// box's face), so that no traversal order can skip a hit another would find:
+/// the nearest hit is then the same for a lane traced alone or in any packet.
+const CULL_SLACK: f32 = 1.0 + 1.0 / 4096.0;
 /// Ize's robust slab test: widen the exit distance by 1 + 2*gamma(3).
 const ROBUST: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
@@ -115,6 +122,167 @@ fn safe_inverse(d: Vec3) -> Vec3 {
     Vec3::new(fix(d.x), fix(d.y), fix(d.z))
 }
 
+/// The lanes of a `Packet` prepared for slab tests: the shared direction's
+/// inverse and signs, and the origins scaled by it, as structure of arrays.
+struct RayLanes<const K: usize> {
+    inv: Vec3,
+    neg: [bool; 3],
+    ox: [f32; K],
+    oy: [f32; K],
+    oz: [f32; K],
+    t_min: f32,
+}
+
+impl<const K: usize> RayLanes<K> {
+    /// The lanes of `mask` that enter `node` before their nearest hit so far;
+    /// writes each lane's entry distance to `tnear`.
+    #[inline(always)]
+    fn enter(&self, node: &Node, mask: u32, best: &[f32; K], tnear: &mut [f32; K]) -> u32 {
+        let (min, max) = (&node.min, &node.max);
+        // The direction is shared: every lane enters through the same planes.
+        let pick = |a: usize| {
+            if self.neg[a] {
+                (max[a], min[a])
+            } else {
+                (min[a], max[a])
+            }
+        };
+        let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
+        let (nx, fx) = (nx * self.inv.x, fx * self.inv.x);
+        let (ny, fy) = (ny * self.inv.y, fy * self.inv.y);
+        let (nz, fz) = (nz * self.inv.z, fz * self.inv.z);
+        if K > 1 && K <= 4 {
+            // Up to four lanes in one SSE register: the same IEEE operations as
+            // the scalar path below, lane by lane, so the results are identical.
+            let pad = |a: &[f32; K]| {
+                let mut v = [0.0f32; 4];
+                v[..K].copy_from_slice(a);
+                f32x4::from(v)
+            };
+            let (ox, oy, oz) = (pad(&self.ox), pad(&self.oy), pad(&self.oz));
+            let tn = (f32x4::splat(nx) - ox)
+                .fast_max(f32x4::splat(ny) - oy)
+                .fast_max((f32x4::splat(nz) - oz).fast_max(f32x4::splat(self.t_min)));
+            let tf = (f32x4::splat(fx) - ox)
+                .fast_min(f32x4::splat(fy) - oy)
+                .fast_min(f32x4::splat(fz) - oz)
+                * f32x4::splat(ROBUST);
+            let bound = pad(best) * f32x4::splat(CULL_SLACK);
+            let hit = tn.simd_le(tf) & tn.simd_le(bound);
+            tnear.copy_from_slice(&tn.to_array()[..K]);
+            return hit.to_bitmask() & mask;
+        }
+        let mut hit_mask = 0;
+        for l in 0..K {
+            let tn = fmax(
+                fmax(nx - self.ox[l], ny - self.oy[l]),
+                fmax(nz - self.oz[l], self.t_min),
+            );
+            let tf = fmin(fmin(fx - self.ox[l], fy - self.oy[l]), fz - self.oz[l]) * ROBUST;
+            tnear[l] = tn;
+            if tn <= tf && tn <= best[l] * CULL_SLACK {
+                hit_mask |= 1 << l;
+            }
+        }
+        hit_mask & mask
+    }
+}
+
+/// The lanes of a `SegmentPacket` prepared for slab tests.
+struct SegmentLanes<const K: usize> {
+    ix: [f32; K],
+    iy: [f32; K],
+    iz: [f32; K],
+    ox: [f32; K],
+    oy: [f32; K],
+    oz: [f32; K],
+    t_max: [f32; K],
+    /// Direction signs of the first lane, which order the descent.
+    neg: [bool; 3],
+    /// Every active lane has the signs `neg`.
+    same_signs: bool,
+}
+
+impl<const K: usize> SegmentLanes<K> {
+    /// The lanes of `mask` whose segments enter `node`.
+    #[inline(always)]
+    fn enters(&self, node: &Node, mask: u32) -> u32 {
+        let (min, max) = (&node.min, &node.max);
+        let mut m = 0;
+        if self.same_signs && K > 1 && K <= 4 {
+            // As in `RayLanes::enter`: four lanes at once, the same operations.
+            let pad = |a: &[f32; K]| {
+                let mut v = [0.0f32; 4];
+                v[..K].copy_from_slice(a);
+                f32x4::from(v)
+            };
+            let pick = |a: usize| {
+                if self.neg[a] {
+                    (max[a], min[a])
+                } else {
+                    (min[a], max[a])
+                }
+            };
+            let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
+            let (ix, iy, iz) = (pad(&self.ix), pad(&self.iy), pad(&self.iz));
+            let (ox, oy, oz) = (pad(&self.ox), pad(&self.oy), pad(&self.oz));
+            let tn = (f32x4::splat(nx) * ix - ox)
+                .fast_max(f32x4::splat(ny) * iy - oy)
+                .fast_max((f32x4::splat(nz) * iz - oz).fast_max(f32x4::splat(0.0)));
+            let tf = (f32x4::splat(fx) * ix - ox)
+                .fast_min(f32x4::splat(fy) * iy - oy)
+                .fast_min(f32x4::splat(fz) * iz - oz)
+                * f32x4::splat(ROBUST);
+            let hit = tn.simd_le(tf.fast_min(pad(&self.t_max)));
+            return hit.to_bitmask() & mask;
+        }
+        if self.same_signs {
+            let pick = |a: usize| {
+                if self.neg[a] {
+                    (max[a], min[a])
+                } else {
+                    (min[a], max[a])
+                }
+            };
+            let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
+            for l in 0..K {
+                let tn = fmax(
+                    fmax(nx * self.ix[l] - self.ox[l], ny * self.iy[l] - self.oy[l]),
+                    fmax(nz * self.iz[l] - self.oz[l], 0.0),
+                );
+                let tf = fmin(
+                    fmin(fx * self.ix[l] - self.ox[l], fy * self.iy[l] - self.oy[l]),
+                    fz * self.iz[l] - self.oz[l],
+                ) * ROBUST;
+                if tn <= fmin(tf, self.t_max[l]) {
+                    m |= 1 << l;
+                }
+            }
+            return m & mask;
+        }
+        for l in 0..K {
+            let (x0, x1) = (
+                min[0] * self.ix[l] - self.ox[l],
+                max[0] * self.ix[l] - self.ox[l],
+            );
+            let (y0, y1) = (
+                min[1] * self.iy[l] - self.oy[l],
+                max[1] * self.iy[l] - self.oy[l],
+            );
+            let (z0, z1) = (
+                min[2] * self.iz[l] - self.oz[l],
+                max[2] * self.iz[l] - self.oz[l],
+            );
+            let tn = fmax(fmax(fmin(x0, x1), fmin(y0, y1)), fmax(fmin(z0, z1), 0.0));
+            let tf = fmin(fmin(fmax(x0, x1), fmax(y0, y1)), fmax(z0, z1)) * ROBUST;
+            if tn <= fmin(tf, self.t_max[l]) {
+                m |= 1 << l;
+            }
+        }
+        m & mask
+    }
+}
+
 impl Bvh {
     /// Nearest hit per lane. `test(prim, lane, t_max)` intersects one primitive with
     /// one lane's ray and returns a hit with `t < t_max` or `None`.
@@ -143,47 +311,20 @@ impl Bvh {
         // Lanes share the direction, so the entry and exit planes of every box are
         // the same for all of them: pick them once (no min/max per lane), and keep
         // the lanes' origins scaled by 1/d in structure-of-arrays form.
-        let ox: [f32; K] = std::array::from_fn(|l| packet.origins[l].x * inv.x);
-        let oy: [f32; K] = std::array::from_fn(|l| packet.origins[l].y * inv.y);
-        let oz: [f32; K] = std::array::from_fn(|l| packet.origins[l].z * inv.z);
-        let t_min = packet.t_min;
-
-        // Per lane: entry distance if the lane enters the box, else clears the bit.
-        let enter = |min: &[f32; 3],
-                     max: &[f32; 3],
-                     mask: u32,
-                     best: &[f32; K],
-                     tnear: &mut [f32; K]|
-         -> u32 {
-            let pick = |a: usize| {
-                if neg[a] {
-                    (max[a], min[a])
-                } else {
-                    (min[a], max[a])
-                }
-            };
-            let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
-            let (nx, fx) = (nx * inv.x, fx * inv.x);
-            let (ny, fy) = (ny * inv.y, fy * inv.y);
-            let (nz, fz) = (nz * inv.z, fz * inv.z);
-            let mut hit_mask = 0;
-            for l in 0..K {
-                let tn = fmax(fmax(nx - ox[l], ny - oy[l]), fmax(nz - oz[l], t_min));
-                let tf = fmin(fmin(fx - ox[l], fy - oy[l]), fz - oz[l]) * ROBUST;
-                tnear[l] = tn;
-                if tn <= tf && tn <= best[l] {
-                    hit_mask |= 1 << l;
-                }
-            }
-            hit_mask & mask
+        let rays = RayLanes::<K> {
+            inv,
+            neg,
+            ox: std::array::from_fn(|l| packet.origins[l].x * inv.x),
+            oy: std::array::from_fn(|l| packet.origins[l].y * inv.y),
+            oz: std::array::from_fn(|l| packet.origins[l].z * inv.z),
+            t_min: packet.t_min,
         };
 
         let mut stack: [(u32, u32, [f32; K]); STACK] = [(0, 0, [0.0; K]); STACK];
         let mut top = 0usize;
-        let root = &self.nodes[0];
         let mut tn_root = [0.0; K];
         stats.box_tests += packet.mask.count_ones() as u64;
-        let root_mask = enter(&root.min, &root.max, packet.mask, &best, &mut tn_root);
+        let root_mask = rays.enter(&self.nodes[0], packet.mask, &best, &mut tn_root);
         if root_mask == 0 {
             return out;
         }
@@ -195,7 +336,7 @@ impl Bvh {
             let (index, mut mask, tnear) = stack[top];
             // A lane whose nearest hit is now closer than this box skips it.
             for (l, tn) in tnear.iter().enumerate() {
-                if mask & (1 << l) != 0 && *tn > best[l] {
+                if mask & (1 << l) != 0 && *tn > best[l] * CULL_SLACK {
                     mask &= !(1 << l);
                 }
             }
@@ -226,13 +367,11 @@ impl Bvh {
             }
             let (a, b) = (node.first as usize, node.first as usize + 1);
             let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
-            let lanes = mask.count_ones() as u64;
-            stats.box_tests += 2 * lanes;
-            let (nn, nf) = (&self.nodes[near], &self.nodes[far]);
+            stats.box_tests += 2 * mask.count_ones() as u64;
             let mut tn_near = [0.0; K];
             let mut tn_far = [0.0; K];
-            let m_near = enter(&nn.min, &nn.max, mask, &best, &mut tn_near);
-            let m_far = enter(&nf.min, &nf.max, mask, &best, &mut tn_far);
+            let m_near = rays.enter(&self.nodes[near], mask, &best, &mut tn_near);
+            let m_far = rays.enter(&self.nodes[far], mask, &best, &mut tn_far);
             if m_far != 0 && top < STACK {
                 stack[top] = (far as u32, m_far, tn_far);
                 top += 1;
@@ -263,60 +402,26 @@ impl Bvh {
         let inv: [Vec3; K] = std::array::from_fn(|l| safe_inverse(packet.dirs[l]));
         let lead = packet.mask.trailing_zeros() as usize;
         let neg = [inv[lead].x < 0.0, inv[lead].y < 0.0, inv[lead].z < 0.0];
-        // Structure of arrays over lanes, so the lane loop vectorises.
-        let ix: [f32; K] = std::array::from_fn(|l| inv[l].x);
-        let iy: [f32; K] = std::array::from_fn(|l| inv[l].y);
-        let iz: [f32; K] = std::array::from_fn(|l| inv[l].z);
-        let ox: [f32; K] = std::array::from_fn(|l| packet.origins[l].x * inv[l].x);
-        let oy: [f32; K] = std::array::from_fn(|l| packet.origins[l].y * inv[l].y);
-        let oz: [f32; K] = std::array::from_fn(|l| packet.origins[l].z * inv[l].z);
-        let mut live = packet.mask;
         // Shadow rays toward one light from nearby points nearly always agree in
         // the signs of their directions: then the entry and exit planes of a box
         // are the same for every lane and need no min/max.
         let same_signs = (0..K).filter(|&l| packet.mask & (1 << l) != 0).all(|l| {
             (inv[l].x < 0.0) == neg[0] && (inv[l].y < 0.0) == neg[1] && (inv[l].z < 0.0) == neg[2]
         });
-        let enters = |min: &[f32; 3], max: &[f32; 3], mask: u32| -> u32 {
-            let mut m = 0;
-            if same_signs {
-                let pick = |a: usize| {
-                    if neg[a] {
-                        (max[a], min[a])
-                    } else {
-                        (min[a], max[a])
-                    }
-                };
-                let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
-                for l in 0..K {
-                    let tn = fmax(
-                        fmax(nx * ix[l] - ox[l], ny * iy[l] - oy[l]),
-                        fmax(nz * iz[l] - oz[l], 0.0),
-                    );
-                    let tf = fmin(
-                        fmin(fx * ix[l] - ox[l], fy * iy[l] - oy[l]),
-                        fz * iz[l] - oz[l],
-                    ) * ROBUST;
-                    if tn <= fmin(tf, packet.t_max[l]) {
-                        m |= 1 << l;
-                    }
-                }
-                return m & mask;
-            }
-            for l in 0..K {
-                let (x0, x1) = (min[0] * ix[l] - ox[l], max[0] * ix[l] - ox[l]);
-                let (y0, y1) = (min[1] * iy[l] - oy[l], max[1] * iy[l] - oy[l]);
-                let (z0, z1) = (min[2] * iz[l] - oz[l], max[2] * iz[l] - oz[l]);
-                let tn = fmax(fmax(fmin(x0, x1), fmin(y0, y1)), fmax(fmin(z0, z1), 0.0));
-                let tf = fmin(fmin(fmax(x0, x1), fmax(y0, y1)), fmax(z0, z1)) * ROBUST;
-                if tn <= fmin(tf, packet.t_max[l]) {
-                    m |= 1 << l;
-                }
-            }
-            m & mask
+        let segments = SegmentLanes::<K> {
+            ix: std::array::from_fn(|l| inv[l].x),
+            iy: std::array::from_fn(|l| inv[l].y),
+            iz: std::array::from_fn(|l| inv[l].z),
+            ox: std::array::from_fn(|l| packet.origins[l].x * inv[l].x),
+            oy: std::array::from_fn(|l| packet.origins[l].y * inv[l].y),
+            oz: std::array::from_fn(|l| packet.origins[l].z * inv[l].z),
+            t_max: packet.t_max,
+            neg,
+            same_signs,
         };
+        let mut live = packet.mask;
         stats.box_tests += live.count_ones() as u64;
-        let root_mask = enters(&self.nodes[0].min, &self.nodes[0].max, live);
+        let root_mask = segments.enters(&self.nodes[0], live);
         if root_mask == 0 {
             return;
         }
@@ -353,8 +458,8 @@ impl Bvh {
             let (a, b) = (node.first as usize, node.first as usize + 1);
             let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
             stats.box_tests += 2 * mask.count_ones() as u64;
-            let m_far = enters(&self.nodes[far].min, &self.nodes[far].max, mask);
-            let m_near = enters(&self.nodes[near].min, &self.nodes[near].max, mask);
+            let m_far = segments.enters(&self.nodes[far], mask);
+            let m_near = segments.enters(&self.nodes[near], mask);
             if m_far != 0 && top < STACK {
                 stack[top] = (far as u32, m_far);
                 top += 1;
