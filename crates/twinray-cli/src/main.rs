@@ -1,5 +1,7 @@
 //! The `twinray` command: parses arguments, shows progress, calls the library.
 
+mod bench;
+
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -32,6 +34,8 @@ struct Cli {
 enum Command {
     /// Render a scene (NFF) to an image, or a stereo pair / view set in a layout.
     Render(RenderArgs),
+    /// Time stereo pairs: the twin method against two independent renders (the paper's tables 2.1, 2.2).
+    BenchStereo(bench::BenchArgs),
     /// Compare two images: PSNR, largest difference, differing pixels.
     Compare {
         a: PathBuf,
@@ -202,6 +206,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => run_render(args),
+        Command::BenchStereo(args) => bench::run(args),
         Command::Compare { a, b, diff, gain } => run_compare(&a, &b, diff.as_deref(), gain),
     };
     match result {

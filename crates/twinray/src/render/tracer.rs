@@ -44,7 +44,8 @@ pub struct Tracer<'a> {
     pub settings: TraceSettings,
     pub counts: TraceCounts,
     traversal: TraversalStats,
-    /// Per light, the opaque primitive that last blocked a shadow ray toward it.
+    /// Per light and lane, the opaque primitive that last blocked a shadow ray
+    /// toward the light (index `light * MAX_VIEWS + lane`).
     shadow_cache: Vec<Option<u32>>,
 }
 
@@ -63,7 +64,7 @@ impl<'a> Tracer<'a> {
             settings,
             counts: TraceCounts::default(),
             traversal: TraversalStats::default(),
-            shadow_cache: vec![None; world.scene.lights.len()],
+            shadow_cache: vec![None; world.scene.lights.len() * super::MAX_VIEWS],
         }
     }
 
@@ -229,11 +230,16 @@ impl<'a> Tracer<'a> {
                 // Shadow cache: the opaque object that last shadowed this light is
                 // tried first; lanes it blocks need no traversal.
                 let mut through = [1.0f32; K];
-                if let Some(prim) = self.shadow_cache.get(i).copied().flatten() {
-                    let mut lanes = seg.mask;
-                    while lanes != 0 {
-                        let l = lanes.trailing_zeros() as usize;
-                        lanes &= lanes - 1;
+                let mut lanes = seg.mask;
+                while lanes != 0 {
+                    let l = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    let cached = self
+                        .shadow_cache
+                        .get(i * super::MAX_VIEWS + l)
+                        .copied()
+                        .flatten();
+                    if let Some(prim) = cached {
                         if blocks(world, prim, seg.origins[l], seg.dirs[l], seg.t_max[l]) {
                             through[l] = 0.0;
                             seg.mask &= !(1 << l);
@@ -266,7 +272,7 @@ impl<'a> Tracer<'a> {
                     lanes &= lanes - 1;
                     through[l] = found[l];
                     if let Some(b) = blocker[l] {
-                        if let Some(slot) = self.shadow_cache.get_mut(i) {
+                        if let Some(slot) = self.shadow_cache.get_mut(i * super::MAX_VIEWS + l) {
                             *slot = Some(b);
                         }
                     }
