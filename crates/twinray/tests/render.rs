@@ -215,3 +215,29 @@ fn spd_procedure_spawns_every_secondary_ray() {
     );
     assert!(normal.counts.rays.reflected < normal.counts.rays.eye_hit);
 }
+
+#[test]
+fn polygons_are_shaded_from_the_side_the_ray_comes_from() {
+    // The rule: an opaque surface is lit from whichever side the eye sees, so a
+    // polygon's vertex order does not matter; a light on the far side leaves
+    // the seen side with its ambient term only.
+    let scene = |order: &str, light_z: f32| {
+        format!(
+            "b 0 0 0\nv\nfrom 0 0 10\nat 0 0 0\nup 0 1 0\nangle 30\nhither 0.01\nresolution 9 9\n\
+             l 0 0 {light_z} 1 1 1\nf 1 1 1 0.6 0 1 0 1\np 4\n{order}"
+        )
+    };
+    let ccw = "-5 -5 0\n5 -5 0\n5 5 0\n-5 5 0\n";
+    let cw = "-5 5 0\n5 5 0\n5 -5 0\n-5 -5 0\n";
+    let centre = |text: String| {
+        let w = world_from(&text);
+        let cam = Camera::new(&w.scene.viewpoint, 9, 9);
+        run(&w, &cam, &Rig::mono(), &options(Method::Independent, Sampling::Centers)).images[0].get(4, 4)
+    };
+    let front = centre(scene(ccw, 100.0));
+    let back = centre(scene(cw, 100.0));
+    assert_eq!(front, back, "vertex order must not matter");
+    assert!((front.x - 1.0).abs() < 1e-5, "lit: ambient 0.4 + 0.6: {front}");
+    let behind = centre(scene(ccw, -100.0));
+    assert!((behind.x - 0.4).abs() < 1e-6, "light behind: ambient only: {behind}");
+}
