@@ -5,8 +5,8 @@ pub use glam::Vec3;
 /// RGB colour, linear, one `f32` per channel.
 pub type Color = Vec3;
 
-/// A ray `origin + t * dir`. `dir` need not be normalised for intersection,
-/// but every ray twinray generates has a unit direction so that `t` is a distance.
+/// A ray `origin + t * dir`. Sphere intersection assumes a unit `dir`;
+/// every ray twinray generates has one, so that `t` is a distance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
     pub origin: Vec3,

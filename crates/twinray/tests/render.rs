@@ -232,12 +232,25 @@ fn polygons_are_shaded_from_the_side_the_ray_comes_from() {
     let centre = |text: String| {
         let w = world_from(&text);
         let cam = Camera::new(&w.scene.viewpoint, 9, 9);
-        run(&w, &cam, &Rig::mono(), &options(Method::Independent, Sampling::Centers)).images[0].get(4, 4)
+        run(
+            &w,
+            &cam,
+            &Rig::mono(),
+            &options(Method::Independent, Sampling::Centers),
+        )
+        .images[0]
+            .get(4, 4)
     };
     let front = centre(scene(ccw, 100.0));
     let back = centre(scene(cw, 100.0));
     assert_eq!(front, back, "vertex order must not matter");
-    assert!((front.x - 1.0).abs() < 1e-5, "lit: ambient 0.4 + 0.6: {front}");
+    assert!(
+        (front.x - 1.0).abs() < 1e-5,
+        "lit: ambient 0.4 + 0.6: {front}"
+    );
     let behind = centre(scene(ccw, -100.0));
-    assert!((behind.x - 0.4).abs() < 1e-6, "light behind: ambient only: {behind}");
+    assert!(
+        (behind.x - 0.4).abs() < 1e-6,
+        "light behind: ambient only: {behind}"
+    );
 }

@@ -305,6 +305,20 @@ impl Bvh {
         if self.nodes.is_empty() || packet.mask == 0 {
             return out;
         }
+        if K == 1 {
+            // A ray alone: the same tests in the same order, without lane bookkeeping.
+            let (prim, hit) = self.closest_single(
+                packet.origins[0],
+                packet.dir,
+                packet.t_min,
+                packet.t_max[0],
+                stats,
+                |p, t| test(p, 0, t),
+            );
+            out.prim[0] = prim;
+            out.hit[0] = hit;
+            return out;
+        }
         let mut best = packet.t_max;
         let inv = safe_inverse(packet.dir);
         let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
@@ -399,6 +413,16 @@ impl Bvh {
         if self.nodes.is_empty() || packet.mask == 0 {
             return;
         }
+        if K == 1 {
+            self.occlusion_single(
+                packet.origins[0],
+                packet.dirs[0],
+                packet.t_max[0],
+                stats,
+                |p| test(p, 0),
+            );
+            return;
+        }
         let inv: [Vec3; K] = std::array::from_fn(|l| safe_inverse(packet.dirs[l]));
         let lead = packet.mask.trailing_zeros() as usize;
         let neg = [inv[lead].x < 0.0, inv[lead].y < 0.0, inv[lead].z < 0.0];
@@ -469,6 +493,184 @@ impl Bvh {
                 top += 1;
             }
         }
+    }
+
+    /// `closest` for a packet of one lane, written out for speed. Its boxes are
+    /// tested with the very operations `RayLanes::enter` uses for a lane, in the
+    /// same order, so a lane alone and a lane in a packet see the same tests.
+    #[inline(always)]
+    fn closest_single(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_min: f32,
+        t_max: f32,
+        stats: &mut TraversalStats,
+        mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
+    ) -> (u32, SurfaceHit) {
+        let mut prim_hit = PacketHits::<1>::NO_HIT;
+        let mut hit = SurfaceHit {
+            t: f32::INFINITY,
+            u: 0.0,
+            v: 0.0,
+        };
+        let inv = safe_inverse(dir);
+        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
+        let (ox, oy, oz) = (origin.x * inv.x, origin.y * inv.y, origin.z * inv.z);
+        let mut best = t_max;
+        let entry = |node: &Node, best: f32| -> Option<f32> {
+            let (min, max) = (&node.min, &node.max);
+            let (nx, fx) = if neg[0] {
+                (max[0], min[0])
+            } else {
+                (min[0], max[0])
+            };
+            let (ny, fy) = if neg[1] {
+                (max[1], min[1])
+            } else {
+                (min[1], max[1])
+            };
+            let (nz, fz) = if neg[2] {
+                (max[2], min[2])
+            } else {
+                (min[2], max[2])
+            };
+            let (nx, fx) = (nx * inv.x, fx * inv.x);
+            let (ny, fy) = (ny * inv.y, fy * inv.y);
+            let (nz, fz) = (nz * inv.z, fz * inv.z);
+            let tn = fmax(fmax(nx - ox, ny - oy), fmax(nz - oz, t_min));
+            let tf = fmin(fmin(fx - ox, fy - oy), fz - oz) * ROBUST;
+            (tn <= tf && tn <= best * CULL_SLACK).then_some(tn)
+        };
+        // Counted in locals (registers), added to `stats` once at the end.
+        let (mut nodes, mut boxes, mut prims) = (0u64, 1u64, 0u64);
+        let Some(tn_root) = entry(&self.nodes[0], best) else {
+            stats.box_tests += 1;
+            return (prim_hit, hit);
+        };
+        let mut stack = [(0u32, 0f32); STACK];
+        stack[0] = (0, tn_root);
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let (index, tnear) = stack[top];
+            if tnear > best * CULL_SLACK {
+                continue;
+            }
+            nodes += 1;
+            let node = &self.nodes[index as usize];
+            if node.is_leaf() {
+                let first = node.first as usize;
+                for &prim in &self.order[first..first + node.count() as usize] {
+                    prims += 1;
+                    if let Some(h) = test(prim, best.next_up()) {
+                        if h.t < best || (h.t == best && prim < prim_hit) {
+                            best = h.t;
+                            prim_hit = prim;
+                            hit = h;
+                        }
+                    }
+                }
+                continue;
+            }
+            let (a, b) = (node.first as usize, node.first as usize + 1);
+            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
+            boxes += 2;
+            let t_near = entry(&self.nodes[near], best);
+            if let Some(tn) = entry(&self.nodes[far], best) {
+                if top < STACK {
+                    stack[top] = (far as u32, tn);
+                    top += 1;
+                }
+            }
+            if let Some(tn) = t_near {
+                if top < STACK {
+                    stack[top] = (near as u32, tn);
+                    top += 1;
+                }
+            }
+        }
+        stats.nodes += nodes;
+        stats.box_tests += boxes;
+        stats.prim_tests += prims;
+        (prim_hit, hit)
+    }
+
+    /// `occlusion` for one segment, written out for speed.
+    #[inline(always)]
+    fn occlusion_single(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        stats: &mut TraversalStats,
+        mut test: impl FnMut(u32) -> AnyHit,
+    ) {
+        let inv = safe_inverse(dir);
+        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
+        let (ox, oy, oz) = (origin.x * inv.x, origin.y * inv.y, origin.z * inv.z);
+        let enters = |node: &Node| -> bool {
+            let (min, max) = (&node.min, &node.max);
+            let (nx, fx) = if neg[0] {
+                (max[0], min[0])
+            } else {
+                (min[0], max[0])
+            };
+            let (ny, fy) = if neg[1] {
+                (max[1], min[1])
+            } else {
+                (min[1], max[1])
+            };
+            let (nz, fz) = if neg[2] {
+                (max[2], min[2])
+            } else {
+                (min[2], max[2])
+            };
+            let tn = fmax(
+                fmax(nx * inv.x - ox, ny * inv.y - oy),
+                fmax(nz * inv.z - oz, 0.0),
+            );
+            let tf = fmin(fmin(fx * inv.x - ox, fy * inv.y - oy), fz * inv.z - oz) * ROBUST;
+            tn <= fmin(tf, t_max)
+        };
+        stats.box_tests += 1;
+        if !enters(&self.nodes[0]) {
+            return;
+        }
+        let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
+        let mut stack = [0u32; STACK];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            nodes += 1;
+            let node = &self.nodes[stack[top] as usize];
+            if node.is_leaf() {
+                let first = node.first as usize;
+                for &prim in &self.order[first..first + node.count() as usize] {
+                    prims += 1;
+                    if test(prim) == AnyHit::Stop {
+                        top = 0;
+                        break;
+                    }
+                }
+                continue;
+            }
+            let (a, b) = (node.first as usize, node.first as usize + 1);
+            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
+            boxes += 2;
+            let near_in = enters(&self.nodes[near]);
+            if enters(&self.nodes[far]) && top < STACK {
+                stack[top] = far as u32;
+                top += 1;
+            }
+            if near_in && top < STACK {
+                stack[top] = near as u32;
+                top += 1;
+            }
+        }
+        stats.nodes += nodes;
+        stats.box_tests += boxes;
+        stats.prim_tests += prims;
     }
 }
 

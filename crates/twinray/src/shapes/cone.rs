@@ -49,6 +49,8 @@ impl Cone {
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
         let w = self.axis;
         let k = self.slope;
+        // The components across the axis are formed explicitly: |x|^2 - (x.w)^2
+        // cancels badly for a ray that starts on the surface (shadow acne).
         let co = ray.origin - self.base;
         let dw = ray.dir.dot(w);
         let cw = co.dot(w);

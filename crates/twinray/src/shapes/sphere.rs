@@ -14,16 +14,16 @@ impl Sphere {
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<SurfaceHit> {
         // Geometric form: project the centre on the ray, then step back by the half
         // chord. Better conditioned than the quadratic formula for distant spheres.
+        // Every ray twinray traces has a unit direction, so |d|^2 = 1 is not divided out.
         let oc = self.center - ray.origin;
-        let a = ray.dir.length_squared();
-        let tc = oc.dot(ray.dir) / a;
+        let tc = oc.dot(ray.dir);
         let closest = oc - ray.dir * tc;
         let d2 = closest.length_squared();
         let r2 = self.radius * self.radius;
         if d2 > r2 {
             return None;
         }
-        let half_chord = ((r2 - d2) / a).sqrt();
+        let half_chord = (r2 - d2).sqrt();
         let t0 = tc - half_chord;
         if t0 > t_min && t0 < t_max {
             return Some(SurfaceHit {
