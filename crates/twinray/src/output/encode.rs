@@ -120,11 +120,14 @@ fn quantise(v: f32, srgb: bool) -> u8 {
 
 /// The image as interleaved 8-bit RGB, top row first.
 pub(crate) fn to_rgb8(img: &Image, opts: &WriteOptions) -> Vec<u8> {
-    img.pixels
-        .iter()
-        .flat_map(|c| [c.x, c.y, c.z])
-        .map(|v| quantise(v, opts.srgb))
-        .collect()
+    let channels = img.pixels.iter().flat_map(|c| [c.x, c.y, c.z]);
+    // Two loops, not one with a test inside: the compiler may evaluate a
+    // side-effect-free `powf` on both sides of a branch it flattens.
+    if opts.srgb {
+        channels.map(|v| quantise(v, true)).collect()
+    } else {
+        channels.map(|v| quantise(v, false)).collect()
+    }
 }
 
 fn encode_png(
