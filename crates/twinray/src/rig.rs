@@ -85,7 +85,8 @@ impl Rig {
         }
     }
 
-    /// The range of camera columns that some view's image needs.
+    /// The range of camera columns that some view's image (or sample grid) of
+    /// `width` columns needs.
     pub fn column_range(&self, width: u32) -> (i32, i32) {
         let lo = self.views.iter().map(|v| v.shift).min().unwrap_or(0);
         let hi = self.views.iter().map(|v| v.shift).max().unwrap_or(0) + width as i32 - 1;

@@ -108,6 +108,22 @@ fn fmax(a: f32, b: f32) -> f32 {
     }
 }
 
+/// The planes through which a ray with direction signs `neg` enters and leaves
+/// `node`, per axis: `(near, far)`.
+#[inline(always)]
+fn slab_planes(node: &Node, neg: &[bool; 3]) -> ([f32; 3], [f32; 3]) {
+    let (min, max) = (&node.min, &node.max);
+    let pick = |a: usize| {
+        if neg[a] {
+            (max[a], min[a])
+        } else {
+            (min[a], max[a])
+        }
+    };
+    let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
+    ([nx, ny, nz], [fx, fy, fz])
+}
+
 /// 1/d with zero components replaced by a huge finite value of the right sign,
 /// so that the slab test never computes 0 * inf.
 #[inline]
@@ -138,16 +154,8 @@ impl<const K: usize> RayLanes<K> {
     /// writes each lane's entry distance to `tnear`.
     #[inline(always)]
     fn enter(&self, node: &Node, mask: u32, best: &[f32; K], tnear: &mut [f32; K]) -> u32 {
-        let (min, max) = (&node.min, &node.max);
         // The direction is shared: every lane enters through the same planes.
-        let pick = |a: usize| {
-            if self.neg[a] {
-                (max[a], min[a])
-            } else {
-                (min[a], max[a])
-            }
-        };
-        let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
+        let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
         let (nx, fx) = (nx * self.inv.x, fx * self.inv.x);
         let (ny, fy) = (ny * self.inv.y, fy * self.inv.y);
         let (nz, fz) = (nz * self.inv.z, fz * self.inv.z);
@@ -216,14 +224,7 @@ impl<const K: usize> SegmentLanes<K> {
                 v[..K].copy_from_slice(a);
                 f32x4::from(v)
             };
-            let pick = |a: usize| {
-                if self.neg[a] {
-                    (max[a], min[a])
-                } else {
-                    (min[a], max[a])
-                }
-            };
-            let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
+            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
             let (ix, iy, iz) = (pad(&self.ix), pad(&self.iy), pad(&self.iz));
             let (ox, oy, oz) = (pad(&self.ox), pad(&self.oy), pad(&self.oz));
             let tn = (f32x4::splat(nx) * ix - ox)
@@ -237,14 +238,7 @@ impl<const K: usize> SegmentLanes<K> {
             return hit.to_bitmask() & mask;
         }
         if self.same_signs {
-            let pick = |a: usize| {
-                if self.neg[a] {
-                    (max[a], min[a])
-                } else {
-                    (min[a], max[a])
-                }
-            };
-            let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
+            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
             for l in 0..K {
                 let tn = fmax(
                     fmax(nx * self.ix[l] - self.ox[l], ny * self.iy[l] - self.oy[l]),
@@ -519,22 +513,7 @@ impl Bvh {
         let (ox, oy, oz) = (origin.x * inv.x, origin.y * inv.y, origin.z * inv.z);
         let mut best = t_max;
         let entry = |node: &Node, best: f32| -> Option<f32> {
-            let (min, max) = (&node.min, &node.max);
-            let (nx, fx) = if neg[0] {
-                (max[0], min[0])
-            } else {
-                (min[0], max[0])
-            };
-            let (ny, fy) = if neg[1] {
-                (max[1], min[1])
-            } else {
-                (min[1], max[1])
-            };
-            let (nz, fz) = if neg[2] {
-                (max[2], min[2])
-            } else {
-                (min[2], max[2])
-            };
+            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
             let (nx, fx) = (nx * inv.x, fx * inv.x);
             let (ny, fy) = (ny * inv.y, fy * inv.y);
             let (nz, fz) = (nz * inv.z, fz * inv.z);
@@ -610,22 +589,7 @@ impl Bvh {
         let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
         let (ox, oy, oz) = (origin.x * inv.x, origin.y * inv.y, origin.z * inv.z);
         let enters = |node: &Node| -> bool {
-            let (min, max) = (&node.min, &node.max);
-            let (nx, fx) = if neg[0] {
-                (max[0], min[0])
-            } else {
-                (min[0], max[0])
-            };
-            let (ny, fy) = if neg[1] {
-                (max[1], min[1])
-            } else {
-                (min[1], max[1])
-            };
-            let (nz, fz) = if neg[2] {
-                (max[2], min[2])
-            } else {
-                (min[2], max[2])
-            };
+            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
             let tn = fmax(
                 fmax(nx * inv.x - ox, ny * inv.y - oy),
                 fmax(nz * inv.z - oz, 0.0),

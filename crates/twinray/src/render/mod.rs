@@ -223,8 +223,7 @@ fn render_twin<const K: usize>(
 ) -> (Vec<Vec<Color>>, TraceCounts) {
     let n = rig.views.len();
     let shifts: Vec<i32> = rig.views.iter().map(|v| v.shift).collect();
-    let lo = *shifts.iter().min().unwrap_or(&0);
-    let hi = *shifts.iter().max().unwrap_or(&0) + grid.width as i32 - 1;
+    let (lo, hi) = rig.column_range(grid.width as u32);
     let mut origins = [camera.eye; K];
     let mut view_of_lane = [0usize; K];
     for (v, view) in rig.views.iter().enumerate() {
