@@ -138,6 +138,58 @@ fn safe_inverse(d: Vec3) -> Vec3 {
     Vec3::new(fix(d.x), fix(d.y), fix(d.z))
 }
 
+/// One ray prepared for slab tests (see `RayLanes` for the same per lane).
+struct SingleRay {
+    inv: Vec3,
+    neg: [bool; 3],
+    /// The origin scaled by `inv`.
+    origin: [f32; 3],
+    t_min: f32,
+}
+
+impl SingleRay {
+    /// Entry distance into `node`, if the ray enters it before `best` (with slack).
+    /// The same operations as one lane of `RayLanes::enter`.
+    #[inline(always)]
+    fn entry(&self, node: &Node, best: f32) -> Option<f32> {
+        let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
+        let (nx, fx) = (nx * self.inv.x, fx * self.inv.x);
+        let (ny, fy) = (ny * self.inv.y, fy * self.inv.y);
+        let (nz, fz) = (nz * self.inv.z, fz * self.inv.z);
+        let [ox, oy, oz] = self.origin;
+        let tn = fmax(fmax(nx - ox, ny - oy), fmax(nz - oz, self.t_min));
+        let tf = fmin(fmin(fx - ox, fy - oy), fz - oz) * ROBUST;
+        (tn <= tf && tn <= best * CULL_SLACK).then_some(tn)
+    }
+}
+
+/// One segment prepared for slab tests (a shadow ray).
+struct SingleSegment {
+    inv: [f32; 3],
+    neg: [bool; 3],
+    /// The origin scaled by `inv`.
+    origin: [f32; 3],
+    t_max: f32,
+}
+
+impl SingleSegment {
+    #[inline(always)]
+    fn enters(&self, node: &Node) -> bool {
+        let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
+        let ([ix, iy, iz], [ox, oy, oz]) = (self.inv, self.origin);
+        let tn = fmax(fmax(nx * ix - ox, ny * iy - oy), fmax(nz * iz - oz, 0.0));
+        let tf = fmin(fmin(fx * ix - ox, fy * iy - oy), fz * iz - oz) * ROBUST;
+        tn <= fmin(tf, self.t_max)
+    }
+}
+
+/// One lane's nearest hit so far.
+struct LaneHit {
+    best: f32,
+    prim: u32,
+    hit: SurfaceHit,
+}
+
 /// The lanes of a `Packet` prepared for slab tests: the shared direction's
 /// inverse and signs, and the origins scaled by it, as structure of arrays.
 struct RayLanes<const K: usize> {
@@ -351,6 +403,26 @@ impl Bvh {
             if mask == 0 {
                 continue;
             }
+            if mask.count_ones() == 1 {
+                // One lane left in this subtree: finish it as a plain ray.
+                let l = mask.trailing_zeros() as usize;
+                let ray = SingleRay {
+                    inv,
+                    neg,
+                    origin: [rays.ox[l], rays.oy[l], rays.oz[l]],
+                    t_min: packet.t_min,
+                };
+                let mut state = LaneHit {
+                    best: best[l],
+                    prim: out.prim[l],
+                    hit: out.hit[l],
+                };
+                self.descend_single(index, tnear[l], &ray, &mut state, stats, |p, t| {
+                    test(p, l, t)
+                });
+                (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
+                continue;
+            }
             stats.nodes += 1;
             let node = &self.nodes[index as usize];
             if node.is_leaf() {
@@ -453,6 +525,21 @@ impl Bvh {
             if mask == 0 {
                 continue;
             }
+            if mask.count_ones() == 1 {
+                // One live lane left in this subtree: finish it as a plain segment.
+                let l = mask.trailing_zeros() as usize;
+                let (ix, iy, iz) = (segments.ix[l], segments.iy[l], segments.iz[l]);
+                let segment = SingleSegment {
+                    inv: [ix, iy, iz],
+                    neg: [ix < 0.0, iy < 0.0, iz < 0.0],
+                    origin: [segments.ox[l], segments.oy[l], segments.oz[l]],
+                    t_max: segments.t_max[l],
+                };
+                if self.descend_occlusion(index, &segment, stats, |p| test(p, l)) {
+                    live &= !(1 << l);
+                }
+                continue;
+            }
             stats.nodes += 1;
             let node = &self.nodes[index as usize];
             if node.is_leaf() {
@@ -500,40 +587,54 @@ impl Bvh {
         t_min: f32,
         t_max: f32,
         stats: &mut TraversalStats,
-        mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
+        test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
     ) -> (u32, SurfaceHit) {
-        let mut prim_hit = PacketHits::<1>::NO_HIT;
-        let mut hit = SurfaceHit {
-            t: f32::INFINITY,
-            u: 0.0,
-            v: 0.0,
-        };
         let inv = safe_inverse(dir);
-        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
-        let (ox, oy, oz) = (origin.x * inv.x, origin.y * inv.y, origin.z * inv.z);
-        let mut best = t_max;
-        let entry = |node: &Node, best: f32| -> Option<f32> {
-            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
-            let (nx, fx) = (nx * inv.x, fx * inv.x);
-            let (ny, fy) = (ny * inv.y, fy * inv.y);
-            let (nz, fz) = (nz * inv.z, fz * inv.z);
-            let tn = fmax(fmax(nx - ox, ny - oy), fmax(nz - oz, t_min));
-            let tf = fmin(fmin(fx - ox, fy - oy), fz - oz) * ROBUST;
-            (tn <= tf && tn <= best * CULL_SLACK).then_some(tn)
+        let ray = SingleRay {
+            inv,
+            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
+            origin: [origin.x * inv.x, origin.y * inv.y, origin.z * inv.z],
+            t_min,
         };
+        let mut state = LaneHit {
+            best: t_max,
+            prim: PacketHits::<1>::NO_HIT,
+            hit: SurfaceHit {
+                t: f32::INFINITY,
+                u: 0.0,
+                v: 0.0,
+            },
+        };
+        stats.box_tests += 1;
+        if let Some(tn_root) = ray.entry(&self.nodes[0], state.best) {
+            self.descend_single(0, tn_root, &ray, &mut state, stats, test);
+        }
+        (state.prim, state.hit)
+    }
+
+    /// One ray's depth-first descent of the subtree at `start` (entered at
+    /// `tn_start`), improving `state`. A packet hands a lane over to this when it
+    /// is the only lane left in a subtree: depth-first order visits that whole
+    /// subtree next either way, so the lane's sequence of tests is unchanged.
+    #[inline(always)]
+    fn descend_single(
+        &self,
+        start: u32,
+        tn_start: f32,
+        ray: &SingleRay,
+        state: &mut LaneHit,
+        stats: &mut TraversalStats,
+        mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
+    ) {
         // Counted in locals (registers), added to `stats` once at the end.
-        let (mut nodes, mut boxes, mut prims) = (0u64, 1u64, 0u64);
-        let Some(tn_root) = entry(&self.nodes[0], best) else {
-            stats.box_tests += 1;
-            return (prim_hit, hit);
-        };
+        let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
         let mut stack = [(0u32, 0f32); STACK];
-        stack[0] = (0, tn_root);
+        stack[0] = (start, tn_start);
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
             let (index, tnear) = stack[top];
-            if tnear > best * CULL_SLACK {
+            if tnear > state.best * CULL_SLACK {
                 continue;
             }
             nodes += 1;
@@ -542,21 +643,22 @@ impl Bvh {
                 let first = node.first as usize;
                 for &prim in &self.order[first..first + node.count() as usize] {
                     prims += 1;
-                    if let Some(h) = test(prim, best.next_up()) {
-                        if h.t < best || (h.t == best && prim < prim_hit) {
-                            best = h.t;
-                            prim_hit = prim;
-                            hit = h;
+                    // next_up lets an equal distance through, for the index tie-break.
+                    if let Some(h) = test(prim, state.best.next_up()) {
+                        if h.t < state.best || (h.t == state.best && prim < state.prim) {
+                            state.best = h.t;
+                            state.prim = prim;
+                            state.hit = h;
                         }
                     }
                 }
                 continue;
             }
             let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
+            let (near, far) = if ray.neg[node.axis()] { (b, a) } else { (a, b) };
             boxes += 2;
-            let t_near = entry(&self.nodes[near], best);
-            if let Some(tn) = entry(&self.nodes[far], best) {
+            let t_near = ray.entry(&self.nodes[near], state.best);
+            if let Some(tn) = ray.entry(&self.nodes[far], state.best) {
                 if top < STACK {
                     stack[top] = (far as u32, tn);
                     top += 1;
@@ -572,7 +674,6 @@ impl Bvh {
         stats.nodes += nodes;
         stats.box_tests += boxes;
         stats.prim_tests += prims;
-        (prim_hit, hit)
     }
 
     /// `occlusion` for one segment, written out for speed.
@@ -583,28 +684,38 @@ impl Bvh {
         dir: Vec3,
         t_max: f32,
         stats: &mut TraversalStats,
-        mut test: impl FnMut(u32) -> AnyHit,
+        test: impl FnMut(u32) -> AnyHit,
     ) {
         let inv = safe_inverse(dir);
-        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
-        let (ox, oy, oz) = (origin.x * inv.x, origin.y * inv.y, origin.z * inv.z);
-        let enters = |node: &Node| -> bool {
-            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
-            let tn = fmax(
-                fmax(nx * inv.x - ox, ny * inv.y - oy),
-                fmax(nz * inv.z - oz, 0.0),
-            );
-            let tf = fmin(fmin(fx * inv.x - ox, fy * inv.y - oy), fz * inv.z - oz) * ROBUST;
-            tn <= fmin(tf, t_max)
+        let segment = SingleSegment {
+            inv: [inv.x, inv.y, inv.z],
+            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
+            origin: [origin.x * inv.x, origin.y * inv.y, origin.z * inv.z],
+            t_max,
         };
         stats.box_tests += 1;
-        if !enters(&self.nodes[0]) {
-            return;
+        if segment.enters(&self.nodes[0]) {
+            self.descend_occlusion(0, &segment, stats, test);
         }
+    }
+
+    /// One segment's any-hit descent of the subtree at `start`; returns whether
+    /// `test` said stop. A shadow packet hands a lane over to this when it is the
+    /// only live lane in a subtree.
+    #[inline(always)]
+    fn descend_occlusion(
+        &self,
+        start: u32,
+        segment: &SingleSegment,
+        stats: &mut TraversalStats,
+        mut test: impl FnMut(u32) -> AnyHit,
+    ) -> bool {
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
+        let mut stopped = false;
         let mut stack = [0u32; STACK];
+        stack[0] = start;
         let mut top = 1usize;
-        while top > 0 {
+        'descent: while top > 0 {
             top -= 1;
             nodes += 1;
             let node = &self.nodes[stack[top] as usize];
@@ -613,17 +724,21 @@ impl Bvh {
                 for &prim in &self.order[first..first + node.count() as usize] {
                     prims += 1;
                     if test(prim) == AnyHit::Stop {
-                        top = 0;
-                        break;
+                        stopped = true;
+                        break 'descent;
                     }
                 }
                 continue;
             }
             let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
+            let (near, far) = if segment.neg[node.axis()] {
+                (b, a)
+            } else {
+                (a, b)
+            };
             boxes += 2;
-            let near_in = enters(&self.nodes[near]);
-            if enters(&self.nodes[far]) && top < STACK {
+            let near_in = segment.enters(&self.nodes[near]);
+            if segment.enters(&self.nodes[far]) && top < STACK {
                 stack[top] = far as u32;
                 top += 1;
             }
@@ -635,6 +750,7 @@ impl Bvh {
         stats.nodes += nodes;
         stats.box_tests += boxes;
         stats.prim_tests += prims;
+        stopped
     }
 }
 
