@@ -198,10 +198,14 @@ impl<'a> Lexer<'a> {
     }
 
     fn peek(&mut self) -> Option<Tok<'a>> {
-        if self.peeked.is_none() {
-            self.peeked = Some(self.advance());
+        match self.peeked {
+            Some(t) => t,
+            None => {
+                let t = self.advance();
+                self.peeked = Some(t);
+                t
+            }
         }
-        self.peeked.unwrap()
     }
 
     /// The last line read (at end of input: the last line of the file), at least 1.
