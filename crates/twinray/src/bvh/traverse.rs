@@ -139,6 +139,7 @@ fn safe_inverse(d: Vec3) -> Vec3 {
 }
 
 /// One ray prepared for slab tests (see `RayLanes` for the same per lane).
+#[derive(Clone, Copy)]
 struct SingleRay {
     inv: Vec3,
     neg: [bool; 3],
@@ -164,6 +165,7 @@ impl SingleRay {
 }
 
 /// One segment prepared for slab tests (a shadow ray).
+#[derive(Clone, Copy)]
 struct SingleSegment {
     inv: [f32; 3],
     neg: [bool; 3],
@@ -587,29 +589,79 @@ impl Bvh {
         t_min: f32,
         t_max: f32,
         stats: &mut TraversalStats,
-        test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
+        mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
     ) -> (u32, SurfaceHit) {
+        let mut prim_hit = PacketHits::<1>::NO_HIT;
+        let mut hit = SurfaceHit {
+            t: f32::INFINITY,
+            u: 0.0,
+            v: 0.0,
+        };
         let inv = safe_inverse(dir);
-        let ray = SingleRay {
-            inv,
-            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
-            origin: [origin.x * inv.x, origin.y * inv.y, origin.z * inv.z],
-            t_min,
+        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
+        let (ox, oy, oz) = (origin.x * inv.x, origin.y * inv.y, origin.z * inv.z);
+        let mut best = t_max;
+        let entry = |node: &Node, best: f32| -> Option<f32> {
+            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
+            let (nx, fx) = (nx * inv.x, fx * inv.x);
+            let (ny, fy) = (ny * inv.y, fy * inv.y);
+            let (nz, fz) = (nz * inv.z, fz * inv.z);
+            let tn = fmax(fmax(nx - ox, ny - oy), fmax(nz - oz, t_min));
+            let tf = fmin(fmin(fx - ox, fy - oy), fz - oz) * ROBUST;
+            (tn <= tf && tn <= best * CULL_SLACK).then_some(tn)
         };
-        let mut state = LaneHit {
-            best: t_max,
-            prim: PacketHits::<1>::NO_HIT,
-            hit: SurfaceHit {
-                t: f32::INFINITY,
-                u: 0.0,
-                v: 0.0,
-            },
+        // Counted in locals (registers), added to `stats` once at the end.
+        let (mut nodes, mut boxes, mut prims) = (0u64, 1u64, 0u64);
+        let Some(tn_root) = entry(&self.nodes[0], best) else {
+            stats.box_tests += 1;
+            return (prim_hit, hit);
         };
-        stats.box_tests += 1;
-        if let Some(tn_root) = ray.entry(&self.nodes[0], state.best) {
-            self.descend_single(0, tn_root, &ray, &mut state, stats, test);
+        let mut stack = [(0u32, 0f32); STACK];
+        stack[0] = (0, tn_root);
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let (index, tnear) = stack[top];
+            if tnear > best * CULL_SLACK {
+                continue;
+            }
+            nodes += 1;
+            let node = &self.nodes[index as usize];
+            if node.is_leaf() {
+                let first = node.first as usize;
+                for &prim in &self.order[first..first + node.count() as usize] {
+                    prims += 1;
+                    if let Some(h) = test(prim, best.next_up()) {
+                        if h.t < best || (h.t == best && prim < prim_hit) {
+                            best = h.t;
+                            prim_hit = prim;
+                            hit = h;
+                        }
+                    }
+                }
+                continue;
+            }
+            let (a, b) = (node.first as usize, node.first as usize + 1);
+            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
+            boxes += 2;
+            let t_near = entry(&self.nodes[near], best);
+            if let Some(tn) = entry(&self.nodes[far], best) {
+                if top < STACK {
+                    stack[top] = (far as u32, tn);
+                    top += 1;
+                }
+            }
+            if let Some(tn) = t_near {
+                if top < STACK {
+                    stack[top] = (near as u32, tn);
+                    top += 1;
+                }
+            }
         }
-        (state.prim, state.hit)
+        stats.nodes += nodes;
+        stats.box_tests += boxes;
+        stats.prim_tests += prims;
+        (prim_hit, hit)
     }
 
     /// One ray's depth-first descent of the subtree at `start` (entered at
@@ -626,15 +678,18 @@ impl Bvh {
         stats: &mut TraversalStats,
         mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
     ) {
-        // Counted in locals (registers), added to `stats` once at the end.
+        // Counters and the hit so far live in locals (registers) during the
+        // descent and are written back once at the end.
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
+        let (mut best, mut best_prim, mut best_hit) = (state.best, state.prim, state.hit);
+        let ray = *ray;
         let mut stack = [(0u32, 0f32); STACK];
         stack[0] = (start, tn_start);
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
             let (index, tnear) = stack[top];
-            if tnear > state.best * CULL_SLACK {
+            if tnear > best * CULL_SLACK {
                 continue;
             }
             nodes += 1;
@@ -644,11 +699,11 @@ impl Bvh {
                 for &prim in &self.order[first..first + node.count() as usize] {
                     prims += 1;
                     // next_up lets an equal distance through, for the index tie-break.
-                    if let Some(h) = test(prim, state.best.next_up()) {
-                        if h.t < state.best || (h.t == state.best && prim < state.prim) {
-                            state.best = h.t;
-                            state.prim = prim;
-                            state.hit = h;
+                    if let Some(h) = test(prim, best.next_up()) {
+                        if h.t < best || (h.t == best && prim < best_prim) {
+                            best = h.t;
+                            best_prim = prim;
+                            best_hit = h;
                         }
                     }
                 }
@@ -657,8 +712,8 @@ impl Bvh {
             let (a, b) = (node.first as usize, node.first as usize + 1);
             let (near, far) = if ray.neg[node.axis()] { (b, a) } else { (a, b) };
             boxes += 2;
-            let t_near = ray.entry(&self.nodes[near], state.best);
-            if let Some(tn) = ray.entry(&self.nodes[far], state.best) {
+            let t_near = ray.entry(&self.nodes[near], best);
+            if let Some(tn) = ray.entry(&self.nodes[far], best) {
                 if top < STACK {
                     stack[top] = (far as u32, tn);
                     top += 1;
@@ -671,6 +726,7 @@ impl Bvh {
                 }
             }
         }
+        (state.best, state.prim, state.hit) = (best, best_prim, best_hit);
         stats.nodes += nodes;
         stats.box_tests += boxes;
         stats.prim_tests += prims;
@@ -684,19 +740,58 @@ impl Bvh {
         dir: Vec3,
         t_max: f32,
         stats: &mut TraversalStats,
-        test: impl FnMut(u32) -> AnyHit,
+        mut test: impl FnMut(u32) -> AnyHit,
     ) {
         let inv = safe_inverse(dir);
-        let segment = SingleSegment {
-            inv: [inv.x, inv.y, inv.z],
-            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
-            origin: [origin.x * inv.x, origin.y * inv.y, origin.z * inv.z],
-            t_max,
+        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
+        let (ox, oy, oz) = (origin.x * inv.x, origin.y * inv.y, origin.z * inv.z);
+        let enters = |node: &Node| -> bool {
+            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
+            let tn = fmax(
+                fmax(nx * inv.x - ox, ny * inv.y - oy),
+                fmax(nz * inv.z - oz, 0.0),
+            );
+            let tf = fmin(fmin(fx * inv.x - ox, fy * inv.y - oy), fz * inv.z - oz) * ROBUST;
+            tn <= fmin(tf, t_max)
         };
         stats.box_tests += 1;
-        if segment.enters(&self.nodes[0]) {
-            self.descend_occlusion(0, &segment, stats, test);
+        if !enters(&self.nodes[0]) {
+            return;
         }
+        let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
+        let mut stack = [0u32; STACK];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            nodes += 1;
+            let node = &self.nodes[stack[top] as usize];
+            if node.is_leaf() {
+                let first = node.first as usize;
+                for &prim in &self.order[first..first + node.count() as usize] {
+                    prims += 1;
+                    if test(prim) == AnyHit::Stop {
+                        top = 0;
+                        break;
+                    }
+                }
+                continue;
+            }
+            let (a, b) = (node.first as usize, node.first as usize + 1);
+            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
+            boxes += 2;
+            let near_in = enters(&self.nodes[near]);
+            if enters(&self.nodes[far]) && top < STACK {
+                stack[top] = far as u32;
+                top += 1;
+            }
+            if near_in && top < STACK {
+                stack[top] = near as u32;
+                top += 1;
+            }
+        }
+        stats.nodes += nodes;
+        stats.box_tests += boxes;
+        stats.prim_tests += prims;
     }
 
     /// One segment's any-hit descent of the subtree at `start`; returns whether
@@ -711,6 +806,7 @@ impl Bvh {
         mut test: impl FnMut(u32) -> AnyHit,
     ) -> bool {
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
+        let segment = *segment;
         let mut stopped = false;
         let mut stack = [0u32; STACK];
         stack[0] = start;
