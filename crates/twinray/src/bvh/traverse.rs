@@ -148,22 +148,6 @@ struct SingleRay {
     t_min: f32,
 }
 
-impl SingleRay {
-    /// Entry distance into `node`, if the ray enters it before `best` (with slack).
-    /// The same operations as one lane of `RayLanes::enter`.
-    #[inline(always)]
-    fn entry(&self, node: &Node, best: f32) -> Option<f32> {
-        let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
-        let (nx, fx) = (nx * self.inv.x, fx * self.inv.x);
-        let (ny, fy) = (ny * self.inv.y, fy * self.inv.y);
-        let (nz, fz) = (nz * self.inv.z, fz * self.inv.z);
-        let [ox, oy, oz] = self.origin;
-        let tn = fmax(fmax(nx - ox, ny - oy), fmax(nz - oz, self.t_min));
-        let tf = fmin(fmin(fx - ox, fy - oy), fz - oz) * ROBUST;
-        (tn <= tf && tn <= best * CULL_SLACK).then_some(tn)
-    }
-}
-
 /// One segment prepared for slab tests (a shadow ray).
 #[derive(Clone, Copy)]
 struct SingleSegment {
@@ -172,17 +156,6 @@ struct SingleSegment {
     /// The origin scaled by `inv`.
     origin: [f32; 3],
     t_max: f32,
-}
-
-impl SingleSegment {
-    #[inline(always)]
-    fn enters(&self, node: &Node) -> bool {
-        let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
-        let ([ix, iy, iz], [ox, oy, oz]) = (self.inv, self.origin);
-        let tn = fmax(fmax(nx * ix - ox, ny * iy - oy), fmax(nz * iz - oz, 0.0));
-        let tf = fmin(fmin(fx * ix - ox, fy * iy - oy), fz * iz - oz) * ROBUST;
-        tn <= fmin(tf, self.t_max)
-    }
 }
 
 /// One lane's nearest hit so far.
@@ -668,6 +641,7 @@ impl Bvh {
     /// `tn_start`), improving `state`. A packet hands a lane over to this when it
     /// is the only lane left in a subtree: depth-first order visits that whole
     /// subtree next either way, so the lane's sequence of tests is unchanged.
+    /// (Written like `closest_single`, with the ray's numbers in locals.)
     #[inline(always)]
     fn descend_single(
         &self,
@@ -678,11 +652,19 @@ impl Bvh {
         stats: &mut TraversalStats,
         mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
     ) {
-        // Counters and the hit so far live in locals (registers) during the
-        // descent and are written back once at the end.
+        let (inv, neg, t_min) = (ray.inv, ray.neg, ray.t_min);
+        let [ox, oy, oz] = ray.origin;
+        let (mut best, mut prim_hit, mut hit) = (state.best, state.prim, state.hit);
+        let entry = |node: &Node, best: f32| -> Option<f32> {
+            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
+            let (nx, fx) = (nx * inv.x, fx * inv.x);
+            let (ny, fy) = (ny * inv.y, fy * inv.y);
+            let (nz, fz) = (nz * inv.z, fz * inv.z);
+            let tn = fmax(fmax(nx - ox, ny - oy), fmax(nz - oz, t_min));
+            let tf = fmin(fmin(fx - ox, fy - oy), fz - oz) * ROBUST;
+            (tn <= tf && tn <= best * CULL_SLACK).then_some(tn)
+        };
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
-        let (mut best, mut best_prim, mut best_hit) = (state.best, state.prim, state.hit);
-        let ray = *ray;
         let mut stack = [(0u32, 0f32); STACK];
         stack[0] = (start, tn_start);
         let mut top = 1usize;
@@ -698,22 +680,21 @@ impl Bvh {
                 let first = node.first as usize;
                 for &prim in &self.order[first..first + node.count() as usize] {
                     prims += 1;
-                    // next_up lets an equal distance through, for the index tie-break.
                     if let Some(h) = test(prim, best.next_up()) {
-                        if h.t < best || (h.t == best && prim < best_prim) {
+                        if h.t < best || (h.t == best && prim < prim_hit) {
                             best = h.t;
-                            best_prim = prim;
-                            best_hit = h;
+                            prim_hit = prim;
+                            hit = h;
                         }
                     }
                 }
                 continue;
             }
             let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if ray.neg[node.axis()] { (b, a) } else { (a, b) };
+            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
             boxes += 2;
-            let t_near = ray.entry(&self.nodes[near], best);
-            if let Some(tn) = ray.entry(&self.nodes[far], best) {
+            let t_near = entry(&self.nodes[near], best);
+            if let Some(tn) = entry(&self.nodes[far], best) {
                 if top < STACK {
                     stack[top] = (far as u32, tn);
                     top += 1;
@@ -726,7 +707,7 @@ impl Bvh {
                 }
             }
         }
-        (state.best, state.prim, state.hit) = (best, best_prim, best_hit);
+        (state.best, state.prim, state.hit) = (best, prim_hit, hit);
         stats.nodes += nodes;
         stats.box_tests += boxes;
         stats.prim_tests += prims;
@@ -805,8 +786,15 @@ impl Bvh {
         stats: &mut TraversalStats,
         mut test: impl FnMut(u32) -> AnyHit,
     ) -> bool {
+        let ([ix, iy, iz], [ox, oy, oz]) = (segment.inv, segment.origin);
+        let (neg, t_max) = (segment.neg, segment.t_max);
+        let enters = |node: &Node| -> bool {
+            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
+            let tn = fmax(fmax(nx * ix - ox, ny * iy - oy), fmax(nz * iz - oz, 0.0));
+            let tf = fmin(fmin(fx * ix - ox, fy * iy - oy), fz * iz - oz) * ROBUST;
+            tn <= fmin(tf, t_max)
+        };
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
-        let segment = *segment;
         let mut stopped = false;
         let mut stack = [0u32; STACK];
         stack[0] = start;
@@ -827,14 +815,10 @@ impl Bvh {
                 continue;
             }
             let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if segment.neg[node.axis()] {
-                (b, a)
-            } else {
-                (a, b)
-            };
+            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
             boxes += 2;
-            let near_in = segment.enters(&self.nodes[near]);
-            if segment.enters(&self.nodes[far]) && top < STACK {
+            let near_in = enters(&self.nodes[near]);
+            if enters(&self.nodes[far]) && top < STACK {
                 stack[top] = far as u32;
                 top += 1;
             }

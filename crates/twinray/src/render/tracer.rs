@@ -249,19 +249,26 @@ impl<'a> Tracer<'a> {
                 let traced = seg.mask;
                 let (found, blocker) = if traced == 0 {
                     ([1.0; K], [None; K])
-                } else if K > 1 && traced.count_ones() == 1 {
-                    let l = traced.trailing_zeros() as usize;
-                    let single = SegmentPacket {
-                        origins: [seg.origins[l]],
-                        dirs: [seg.dirs[l]],
-                        t_max: [seg.t_max[l]],
-                        mask: 1,
-                    };
-                    let (t1, b1) = shadow_packet(world, &single, &mut self.traversal);
+                } else if K > 1 {
+                    // Each lane's shadow ray alone: the views' shadow rays start at
+                    // different points and part ways near them; the single-ray
+                    // descent measured faster than the packet (docs/benchmarks.md).
                     let mut t = [1.0; K];
                     let mut b = [None; K];
-                    t[l] = t1[0];
-                    b[l] = b1[0];
+                    let mut lanes = traced;
+                    while lanes != 0 {
+                        let l = lanes.trailing_zeros() as usize;
+                        lanes &= lanes - 1;
+                        let single = SegmentPacket {
+                            origins: [seg.origins[l]],
+                            dirs: [seg.dirs[l]],
+                            t_max: [seg.t_max[l]],
+                            mask: 1,
+                        };
+                        let (t1, b1) = shadow_packet(world, &single, &mut self.traversal);
+                        t[l] = t1[0];
+                        b[l] = b1[0];
+                    }
                     (t, b)
                 } else {
                     shadow_packet(world, &seg, &mut self.traversal)
