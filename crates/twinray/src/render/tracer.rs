@@ -249,10 +249,11 @@ impl<'a> Tracer<'a> {
                 let traced = seg.mask;
                 let (found, blocker) = if traced == 0 {
                     ([1.0; K], [None; K])
-                } else if K > 1 {
-                    // Each lane's shadow ray alone: the views' shadow rays start at
-                    // different points and part ways near them; the single-ray
-                    // descent measured faster than the packet (docs/benchmarks.md).
+                } else if K > 1 && !same_primitive(hits, traced) {
+                    // Each lane's shadow ray alone: from points on different
+                    // primitives the views' shadow rays part ways early, and the
+                    // single-ray descent measured faster than the packet there
+                    // (docs/benchmarks.md). From one primitive they go as a packet.
                     let mut t = [1.0; K];
                     let mut b = [None; K];
                     let mut lanes = traced;
@@ -382,4 +383,10 @@ impl<'a> Tracer<'a> {
         }
         out
     }
+}
+
+/// Whether every lane in `mask` hit the same primitive.
+fn same_primitive<const K: usize>(hits: &PacketHits<K>, mask: u32) -> bool {
+    let first = hits.prim[mask.trailing_zeros() as usize];
+    (0..K).all(|l| mask & (1 << l) == 0 || hits.prim[l] == first)
 }
