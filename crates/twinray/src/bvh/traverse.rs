@@ -392,7 +392,7 @@ impl Bvh {
                     prim: out.prim[l],
                     hit: out.hit[l],
                 };
-                self.descend_single(index, tnear[l], &ray, &mut state, stats, |p, t| {
+                self.descend_single(Some((index, tnear[l])), &ray, &mut state, stats, |p, t| {
                     test(p, l, t)
                 });
                 (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
@@ -510,7 +510,7 @@ impl Bvh {
                     origin: [segments.ox[l], segments.oy[l], segments.oz[l]],
                     t_max: segments.t_max[l],
                 };
-                if self.descend_occlusion(index, &segment, stats, |p| test(p, l)) {
+                if self.descend_occlusion(Some(index), &segment, stats, |p| test(p, l)) {
                     live &= !(1 << l);
                 }
                 continue;
@@ -551,9 +551,9 @@ impl Bvh {
         }
     }
 
-    /// `closest` for a packet of one lane, written out for speed. Its boxes are
-    /// tested with the very operations `RayLanes::enter` uses for a lane, in the
-    /// same order, so a lane alone and a lane in a packet see the same tests.
+    /// `closest` for a packet of one lane, without lane bookkeeping. Its boxes
+    /// are tested with the very operations `RayLanes::enter` uses for a lane, in
+    /// the same order, so a lane alone and a lane in a packet see the same tests.
     #[inline(always)]
     fn closest_single(
         &self,
@@ -562,79 +562,27 @@ impl Bvh {
         t_min: f32,
         t_max: f32,
         stats: &mut TraversalStats,
-        mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
+        test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
     ) -> (u32, SurfaceHit) {
-        let mut prim_hit = PacketHits::<1>::NO_HIT;
-        let mut hit = SurfaceHit {
-            t: f32::INFINITY,
-            u: 0.0,
-            v: 0.0,
-        };
         let inv = safe_inverse(dir);
-        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
-        let (ox, oy, oz) = (origin.x * inv.x, origin.y * inv.y, origin.z * inv.z);
-        let mut best = t_max;
-        let entry = |node: &Node, best: f32| -> Option<f32> {
-            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
-            let (nx, fx) = (nx * inv.x, fx * inv.x);
-            let (ny, fy) = (ny * inv.y, fy * inv.y);
-            let (nz, fz) = (nz * inv.z, fz * inv.z);
-            let tn = fmax(fmax(nx - ox, ny - oy), fmax(nz - oz, t_min));
-            let tf = fmin(fmin(fx - ox, fy - oy), fz - oz) * ROBUST;
-            (tn <= tf && tn <= best * CULL_SLACK).then_some(tn)
+        let ray = SingleRay {
+            inv,
+            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
+            origin: [origin.x * inv.x, origin.y * inv.y, origin.z * inv.z],
+            t_min,
         };
-        // Counted in locals (registers), added to `stats` once at the end.
-        let (mut nodes, mut boxes, mut prims) = (0u64, 1u64, 0u64);
-        let Some(tn_root) = entry(&self.nodes[0], best) else {
-            stats.box_tests += 1;
-            return (prim_hit, hit);
+        let mut state = LaneHit {
+            best: t_max,
+            prim: PacketHits::<1>::NO_HIT,
+            hit: SurfaceHit {
+                t: f32::INFINITY,
+                u: 0.0,
+                v: 0.0,
+            },
         };
-        let mut stack = [(0u32, 0f32); STACK];
-        stack[0] = (0, tn_root);
-        let mut top = 1usize;
-        while top > 0 {
-            top -= 1;
-            let (index, tnear) = stack[top];
-            if tnear > best * CULL_SLACK {
-                continue;
-            }
-            nodes += 1;
-            let node = &self.nodes[index as usize];
-            if node.is_leaf() {
-                let first = node.first as usize;
-                for &prim in &self.order[first..first + node.count() as usize] {
-                    prims += 1;
-                    if let Some(h) = test(prim, best.next_up()) {
-                        if h.t < best || (h.t == best && prim < prim_hit) {
-                            best = h.t;
-                            prim_hit = prim;
-                            hit = h;
-                        }
-                    }
-                }
-                continue;
-            }
-            let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
-            boxes += 2;
-            let t_near = entry(&self.nodes[near], best);
-            if let Some(tn) = entry(&self.nodes[far], best) {
-                if top < STACK {
-                    stack[top] = (far as u32, tn);
-                    top += 1;
-                }
-            }
-            if let Some(tn) = t_near {
-                if top < STACK {
-                    stack[top] = (near as u32, tn);
-                    top += 1;
-                }
-            }
-        }
-        stats.nodes += nodes;
-        stats.box_tests += boxes;
-        stats.prim_tests += prims;
-        (prim_hit, hit)
+        // The root is entered like any child: the descent re-tests nothing.
+        self.descend_single(None, &ray, &mut state, stats, test);
+        (state.prim, state.hit)
     }
 
     /// One ray's depth-first descent of the subtree at `start` (entered at
@@ -645,8 +593,7 @@ impl Bvh {
     #[inline(always)]
     fn descend_single(
         &self,
-        start: u32,
-        tn_start: f32,
+        start: Option<(u32, f32)>,
         ray: &SingleRay,
         state: &mut LaneHit,
         stats: &mut TraversalStats,
@@ -665,8 +612,19 @@ impl Bvh {
             (tn <= tf && tn <= best * CULL_SLACK).then_some(tn)
         };
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
+        // From a packet's hand-over: a node already entered; alone: the root.
+        let start = match start {
+            Some(s) => s,
+            None => {
+                stats.box_tests += 1;
+                match entry(&self.nodes[0], best) {
+                    Some(tn) => (0, tn),
+                    None => return,
+                }
+            }
+        };
         let mut stack = [(0u32, 0f32); STACK];
-        stack[0] = (start, tn_start);
+        stack[0] = start;
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
@@ -713,7 +671,7 @@ impl Bvh {
         stats.prim_tests += prims;
     }
 
-    /// `occlusion` for one segment, written out for speed.
+    /// `occlusion` for one segment, without lane bookkeeping.
     #[inline(always)]
     fn occlusion_single(
         &self,
@@ -721,58 +679,16 @@ impl Bvh {
         dir: Vec3,
         t_max: f32,
         stats: &mut TraversalStats,
-        mut test: impl FnMut(u32) -> AnyHit,
+        test: impl FnMut(u32) -> AnyHit,
     ) {
         let inv = safe_inverse(dir);
-        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
-        let (ox, oy, oz) = (origin.x * inv.x, origin.y * inv.y, origin.z * inv.z);
-        let enters = |node: &Node| -> bool {
-            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
-            let tn = fmax(
-                fmax(nx * inv.x - ox, ny * inv.y - oy),
-                fmax(nz * inv.z - oz, 0.0),
-            );
-            let tf = fmin(fmin(fx * inv.x - ox, fy * inv.y - oy), fz * inv.z - oz) * ROBUST;
-            tn <= fmin(tf, t_max)
+        let segment = SingleSegment {
+            inv: [inv.x, inv.y, inv.z],
+            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
+            origin: [origin.x * inv.x, origin.y * inv.y, origin.z * inv.z],
+            t_max,
         };
-        stats.box_tests += 1;
-        if !enters(&self.nodes[0]) {
-            return;
-        }
-        let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
-        let mut stack = [0u32; STACK];
-        let mut top = 1usize;
-        while top > 0 {
-            top -= 1;
-            nodes += 1;
-            let node = &self.nodes[stack[top] as usize];
-            if node.is_leaf() {
-                let first = node.first as usize;
-                for &prim in &self.order[first..first + node.count() as usize] {
-                    prims += 1;
-                    if test(prim) == AnyHit::Stop {
-                        top = 0;
-                        break;
-                    }
-                }
-                continue;
-            }
-            let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
-            boxes += 2;
-            let near_in = enters(&self.nodes[near]);
-            if enters(&self.nodes[far]) && top < STACK {
-                stack[top] = far as u32;
-                top += 1;
-            }
-            if near_in && top < STACK {
-                stack[top] = near as u32;
-                top += 1;
-            }
-        }
-        stats.nodes += nodes;
-        stats.box_tests += boxes;
-        stats.prim_tests += prims;
+        self.descend_occlusion(None, &segment, stats, test);
     }
 
     /// One segment's any-hit descent of the subtree at `start`; returns whether
@@ -781,7 +697,7 @@ impl Bvh {
     #[inline(always)]
     fn descend_occlusion(
         &self,
-        start: u32,
+        start: Option<u32>,
         segment: &SingleSegment,
         stats: &mut TraversalStats,
         mut test: impl FnMut(u32) -> AnyHit,
@@ -796,6 +712,17 @@ impl Bvh {
         };
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
         let mut stopped = false;
+        // From a packet's hand-over: a node already entered; alone: the root.
+        let start = match start {
+            Some(s) => s,
+            None => {
+                stats.box_tests += 1;
+                if !enters(&self.nodes[0]) {
+                    return false;
+                }
+                0
+            }
+        };
         let mut stack = [0u32; STACK];
         stack[0] = start;
         let mut top = 1usize;
