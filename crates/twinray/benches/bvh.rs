@@ -149,12 +149,12 @@ fn random_rays(n: usize, seed: u64) -> Vec<Ray> {
 fn twin_closest(bvh: &Bvh, tris: &[Triangle], ray: &Ray, st: &mut TraversalStats) -> (u32, f32) {
     let p = Packet {
         origins: [ray.origin],
-        dir: ray.dir,
+        dirs: [ray.dir],
         t_min: 0.0,
         t_max: [f32::INFINITY],
         mask: 1,
     };
-    let h = bvh.closest(&p, st, |prim, _, t_max| {
+    let h = bvh.closest(&p, st, |prim: u32, _: usize, t_max: f32| {
         tris[prim as usize].intersect(ray, 0.0, t_max)
     });
     (h.prim[0], h.hit[0].t)
@@ -459,13 +459,13 @@ fn bench_trace(c: &mut Criterion) {
     let pair = |r: &Ray, st: &mut TraversalStats| -> PacketHits<2> {
         let p = Packet {
             origins: [r.origin, r.origin + offset],
-            dir: r.dir,
+            dirs: [r.dir; 2],
             t_min: 0.0,
             t_max: [f32::INFINITY; 2],
             mask: 0b11,
         };
         let rr = [*r, Ray::new(r.origin + offset, r.dir)];
-        ours.closest(&p, st, |prim, lane, t_max| {
+        ours.closest(&p, st, |prim: u32, lane: usize, t_max: f32| {
             tris[prim as usize].intersect(&rr[lane], 0.0, t_max)
         })
     };

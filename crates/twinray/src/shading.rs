@@ -9,7 +9,7 @@
 //! opaque object, the product of `T` over the transmitting objects in between.
 //! No shadow ray is cast where the normal faces away from the light.
 
-use crate::bvh::{AnyHit, SegmentPacket, TraversalStats};
+use crate::bvh::{AnyHit, AnyHitTest, SegmentPacket, TraversalStats};
 use crate::math::{Color, Ray, Vec3};
 use crate::scene::Material;
 use crate::world::World;
@@ -94,24 +94,70 @@ pub fn shadow_packet<const K: usize>(
     segments: &SegmentPacket<K>,
     stats: &mut TraversalStats,
 ) -> ([f32; K], [Option<u32>; K]) {
-    let mut through = [Transmittance::default(); K];
-    let mut blocker = [None; K];
-    let shapes = &world.scene.shapes;
-    world.bvh.occlusion(segments, stats, |prim, l| {
-        let ray = Ray::new(segments.origins[l], segments.dirs[l]);
-        if shapes[prim as usize]
-            .intersect(&ray, 0.0, segments.t_max[l])
+    let mut test = ShadowTest {
+        world,
+        segments,
+        through: [Transmittance::default(); K],
+        blocker: [None; K],
+    };
+    world.bvh.occlusion(segments, stats, &mut test);
+    (
+        std::array::from_fn(|l| test.through[l].value()),
+        test.blocker,
+    )
+}
+
+/// What the shadow rays of a packet met so far.
+struct ShadowTest<'a, const K: usize> {
+    world: &'a World,
+    segments: &'a SegmentPacket<K>,
+    through: [Transmittance; K],
+    blocker: [Option<u32>; K],
+}
+
+impl<const K: usize> ShadowTest<'_, K> {
+    #[inline(always)]
+    fn met(&mut self, prim: u32, lane: usize) -> AnyHit {
+        let t = self.world.transmission_of(prim);
+        if t <= 0.0 {
+            self.blocker[lane] = Some(prim);
+        }
+        self.through[lane].meet(t)
+    }
+
+    #[inline(always)]
+    fn ray(&self, lane: usize) -> Ray {
+        Ray::new(self.segments.origins[lane], self.segments.dirs[lane])
+    }
+}
+
+impl<const K: usize> AnyHitTest for ShadowTest<'_, K> {
+    #[inline(always)]
+    fn test(&mut self, prim: u32, lane: usize) -> AnyHit {
+        let shape = &self.world.scene.shapes[prim as usize];
+        if shape
+            .intersect(&self.ray(lane), 0.0, self.segments.t_max[lane])
             .is_none()
         {
             return AnyHit::Continue;
         }
-        let t = world.transmission_of(prim);
-        if t <= 0.0 {
-            blocker[l] = Some(prim);
-        }
-        through[l].meet(t)
-    });
-    (std::array::from_fn(|l| through[l].value()), blocker)
+        self.met(prim, lane)
+    }
+
+    #[inline(always)]
+    fn test_pair(&mut self, prim: u32) -> [AnyHit; 2] {
+        let (a, b) = (0, 1 % K);
+        let shape = &self.world.scene.shapes[prim as usize];
+        let t_max = [self.segments.t_max[a], self.segments.t_max[b]];
+        let found = shape.intersect_pair(&[self.ray(a), self.ray(b)], 0.0, t_max);
+        [a, b].map(|l| {
+            if found[l].is_none() {
+                AnyHit::Continue
+            } else {
+                self.met(prim, l)
+            }
+        })
+    }
 }
 
 /// Whether the opaque primitive `prim` blocks the segment: the shadow cache's

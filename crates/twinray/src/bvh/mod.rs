@@ -10,7 +10,9 @@ mod build;
 mod traverse;
 
 pub use build::{build, BuildOptions};
-pub use traverse::{AnyHit, Packet, PacketHits, SegmentPacket, TraversalStats};
+pub use traverse::{
+    AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats,
+};
 
 use crate::math::Aabb;
 

@@ -1,27 +1,30 @@
-//! Traversals: nearest hit per lane for a packet of rays with one direction,
-//! and any-hit along one ray.
+//! Traversals: nearest hit per lane for a packet of rays, and any-hit per
+//! lane for a packet of segments (shadow rays).
 //!
-//! A packet is the paper's "one eye ray, the nearest hit of every view": lane
-//! `v` is view `v`'s ray (origin offset along the interocular line, direction
-//! shared), which is the same as tracing one ray through view `v`'s twin
-//! objects. One descent serves every lane; each lane keeps its own nearest
-//! distance and is carried into a node only if its own box test passes.
+//! A packet carries one ray per view — the paper's twin objects realised as
+//! rays: view `v`'s ray through the shared world is the same as one ray through
+//! view `v`'s translated twins. One descent serves every lane; each lane keeps
+//! its own nearest distance and is carried into a node only if its own box test
+//! passes. The lanes of a packet may have different directions (the twin method
+//! pairs the views' rays that see one surface point, see `render`).
 //!
-//! Exactness: the order in which nodes are visited depends only on the shared
-//! direction, and every lane's box and primitive tests use that lane's own
-//! numbers, so a lane sees the same sequence of tests as the same ray traced
-//! alone (a packet of one). Ties in distance go to the lower primitive index.
+//! Exactness: every lane's box and primitive tests use that lane's own numbers,
+//! with the operations the single-ray descent uses; culling is conservative
+//! (`CULL_SLACK`), so the nearest hit — ties in distance go to the lower
+//! primitive index — does not depend on the order in which nodes are visited:
+//! a lane in any packet gets what the same ray traced alone gets.
 
 use super::{Bvh, Node};
 use crate::math::Vec3;
 use crate::shapes::SurfaceHit;
 use wide::f32x4;
 
-/// Rays sharing `dir`, one per active lane. Lanes not in `mask` are ignored.
+/// Rays `origins[l] + t * dirs[l]`, `t_min < t < t_max[l]`, one per active
+/// lane. Lanes not in `mask` are ignored.
 #[derive(Clone, Copy, Debug)]
 pub struct Packet<const K: usize> {
     pub origins: [Vec3; K],
-    pub dir: Vec3,
+    pub dirs: [Vec3; K],
     pub t_min: f32,
     pub t_max: [f32; K],
     pub mask: u32,
@@ -75,6 +78,45 @@ impl TraversalStats {
         self.nodes += o.nodes;
         self.box_tests += o.box_tests;
         self.prim_tests += o.prim_tests;
+    }
+}
+
+/// The primitive test of a nearest-hit traversal.
+pub trait NearestTest {
+    /// Intersects primitive `prim` with lane `lane`'s ray: a hit with `t < t_max`, or `None`.
+    fn test(&mut self, prim: u32, lane: usize, t_max: f32) -> Option<SurfaceHit>;
+
+    /// Lanes 0 and 1 against one primitive at once (a stereo pair in a leaf).
+    /// Must return what two calls of `test` return.
+    #[inline(always)]
+    fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
+        [self.test(prim, 0, t_max[0]), self.test(prim, 1, t_max[1])]
+    }
+}
+
+impl<F: FnMut(u32, usize, f32) -> Option<SurfaceHit>> NearestTest for F {
+    #[inline(always)]
+    fn test(&mut self, prim: u32, lane: usize, t_max: f32) -> Option<SurfaceHit> {
+        self(prim, lane, t_max)
+    }
+}
+
+/// The primitive test of an any-hit traversal.
+pub trait AnyHitTest {
+    /// Primitive `prim` met by lane `lane`'s segment (or not: the test decides).
+    fn test(&mut self, prim: u32, lane: usize) -> AnyHit;
+
+    /// Lanes 0 and 1 at once; must do what two calls of `test` do.
+    #[inline(always)]
+    fn test_pair(&mut self, prim: u32) -> [AnyHit; 2] {
+        [self.test(prim, 0), self.test(prim, 1)]
+    }
+}
+
+impl<F: FnMut(u32, usize) -> AnyHit> AnyHitTest for F {
+    #[inline(always)]
+    fn test(&mut self, prim: u32, lane: usize) -> AnyHit {
+        self(prim, lane)
     }
 }
 
@@ -138,24 +180,39 @@ fn safe_inverse(d: Vec3) -> Vec3 {
     Vec3::new(fix(d.x), fix(d.y), fix(d.z))
 }
 
-/// One ray prepared for slab tests (see `RayLanes` for the same per lane).
+/// One ray prepared for slab tests (see `Lanes` for the same per lane).
 #[derive(Clone, Copy)]
 struct SingleRay {
-    inv: Vec3,
+    inv: [f32; 3],
     neg: [bool; 3],
     /// The origin scaled by `inv`.
     origin: [f32; 3],
     t_min: f32,
 }
 
-/// One segment prepared for slab tests (a shadow ray).
-#[derive(Clone, Copy)]
-struct SingleSegment {
-    inv: [f32; 3],
-    neg: [bool; 3],
-    /// The origin scaled by `inv`.
-    origin: [f32; 3],
-    t_max: f32,
+impl SingleRay {
+    fn new(origin: Vec3, dir: Vec3, t_min: f32) -> SingleRay {
+        let inv = safe_inverse(dir);
+        SingleRay {
+            inv: [inv.x, inv.y, inv.z],
+            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
+            origin: [origin.x * inv.x, origin.y * inv.y, origin.z * inv.z],
+            t_min,
+        }
+    }
+
+    /// Entry and (robustly widened) exit distance of the ray for `node`.
+    #[inline(always)]
+    fn slabs(&self, node: &Node) -> (f32, f32) {
+        let ([ix, iy, iz], [ox, oy, oz]) = (self.inv, self.origin);
+        let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
+        let tn = fmax(
+            fmax(nx * ix - ox, ny * iy - oy),
+            fmax(nz * iz - oz, self.t_min),
+        );
+        let tf = fmin(fmin(fx * ix - ox, fy * iy - oy), fz * iz - oz) * ROBUST;
+        (tn, tf)
+    }
 }
 
 /// One lane's nearest hit so far.
@@ -165,142 +222,201 @@ struct LaneHit {
     hit: SurfaceHit,
 }
 
-/// The lanes of a `Packet` prepared for slab tests: the shared direction's
-/// inverse and signs, and the origins scaled by it, as structure of arrays.
-struct RayLanes<const K: usize> {
-    inv: Vec3,
-    neg: [bool; 3],
-    ox: [f32; K],
-    oy: [f32; K],
-    oz: [f32; K],
-    t_min: f32,
-}
-
-impl<const K: usize> RayLanes<K> {
-    /// The lanes of `mask` that enter `node` before their nearest hit so far;
-    /// writes each lane's entry distance to `tnear`.
-    #[inline(always)]
-    fn enter(&self, node: &Node, mask: u32, best: &[f32; K], tnear: &mut [f32; K]) -> u32 {
-        // The direction is shared: every lane enters through the same planes.
-        let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
-        let (nx, fx) = (nx * self.inv.x, fx * self.inv.x);
-        let (ny, fy) = (ny * self.inv.y, fy * self.inv.y);
-        let (nz, fz) = (nz * self.inv.z, fz * self.inv.z);
-        if K > 1 && K <= 4 {
-            // Up to four lanes in one SSE register: the same IEEE operations as
-            // the scalar path below, lane by lane, so the results are identical.
-            let pad = |a: &[f32; K]| {
-                let mut v = [0.0f32; 4];
-                v[..K].copy_from_slice(a);
-                f32x4::from(v)
-            };
-            let (ox, oy, oz) = (pad(&self.ox), pad(&self.oy), pad(&self.oz));
-            let tn = (f32x4::splat(nx) - ox)
-                .fast_max(f32x4::splat(ny) - oy)
-                .fast_max((f32x4::splat(nz) - oz).fast_max(f32x4::splat(self.t_min)));
-            let tf = (f32x4::splat(fx) - ox)
-                .fast_min(f32x4::splat(fy) - oy)
-                .fast_min(f32x4::splat(fz) - oz)
-                * f32x4::splat(ROBUST);
-            let bound = pad(best) * f32x4::splat(CULL_SLACK);
-            let hit = tn.simd_le(tf) & tn.simd_le(bound);
-            tnear.copy_from_slice(&tn.to_array()[..K]);
-            return hit.to_bitmask() & mask;
-        }
-        let mut hit_mask = 0;
-        for l in 0..K {
-            let tn = fmax(
-                fmax(nx - self.ox[l], ny - self.oy[l]),
-                fmax(nz - self.oz[l], self.t_min),
-            );
-            let tf = fmin(fmin(fx - self.ox[l], fy - self.oy[l]), fz - self.oz[l]) * ROBUST;
-            tnear[l] = tn;
-            if tn <= tf && tn <= best[l] * CULL_SLACK {
-                hit_mask |= 1 << l;
-            }
-        }
-        hit_mask & mask
-    }
-}
-
-/// The lanes of a `SegmentPacket` prepared for slab tests.
-struct SegmentLanes<const K: usize> {
+/// The lanes of a packet prepared for slab tests, as structure of arrays: each
+/// lane's inverse direction and its origin scaled by it.
+struct Lanes<const K: usize> {
     ix: [f32; K],
     iy: [f32; K],
     iz: [f32; K],
     ox: [f32; K],
     oy: [f32; K],
     oz: [f32; K],
-    t_max: [f32; K],
-    /// Direction signs of the first lane, which order the descent.
+    /// Two lanes (a stereo pair) twice over, `[l0, l1, l0, l1]`: both children of
+    /// a node are tested for both lanes in one register. Unused for K != 2.
+    pair: [f32x4; 6],
+    /// Direction signs of the first active lane, which order the descent.
     neg: [bool; 3],
-    /// Every active lane has the signs `neg`.
-    same_signs: bool,
+    t_min: f32,
 }
 
-impl<const K: usize> SegmentLanes<K> {
-    /// The lanes of `mask` whose segments enter `node`.
+/// Lanes `[a0, a1, b0, b1]` of a pair test split into child `a`'s and child
+/// `b`'s two-lane masks.
+#[inline(always)]
+fn split_pair(bits: u32) -> (u32, u32) {
+    (bits & 0b11, bits >> 2)
+}
+
+impl<const K: usize> Lanes<K> {
+    fn new(origins: &[Vec3; K], dirs: &[Vec3; K], mask: u32, t_min: f32) -> Lanes<K> {
+        let inv: [Vec3; K] = std::array::from_fn(|l| safe_inverse(dirs[l]));
+        let lead = (mask.trailing_zeros() as usize).min(K - 1);
+        let neg = [inv[lead].x < 0.0, inv[lead].y < 0.0, inv[lead].z < 0.0];
+        let mut lanes = Lanes {
+            ix: std::array::from_fn(|l| inv[l].x),
+            iy: std::array::from_fn(|l| inv[l].y),
+            iz: std::array::from_fn(|l| inv[l].z),
+            ox: std::array::from_fn(|l| origins[l].x * inv[l].x),
+            oy: std::array::from_fn(|l| origins[l].y * inv[l].y),
+            oz: std::array::from_fn(|l| origins[l].z * inv[l].z),
+            pair: [f32x4::ZERO; 6],
+            neg,
+            t_min,
+        };
+        if K == 2 {
+            let twice = |a: &[f32; K]| f32x4::from([a[0], a[1 % K], a[0], a[1 % K]]);
+            lanes.pair = [
+                twice(&lanes.ix),
+                twice(&lanes.iy),
+                twice(&lanes.iz),
+                twice(&lanes.ox),
+                twice(&lanes.oy),
+                twice(&lanes.oz),
+            ];
+        }
+        lanes
+    }
+
+    /// Lane `l` as a ray of its own, for the single-ray descent.
+    fn single(&self, l: usize) -> SingleRay {
+        let (ix, iy, iz) = (self.ix[l], self.iy[l], self.iz[l]);
+        SingleRay {
+            inv: [ix, iy, iz],
+            neg: [ix < 0.0, iy < 0.0, iz < 0.0],
+            origin: [self.ox[l], self.oy[l], self.oz[l]],
+            t_min: self.t_min,
+        }
+    }
+
+    /// Entry and (robustly widened) exit distances of the lanes `inv`, `org`
+    /// (scaled origins) for the boxes `min`, `max` given per register lane.
+    ///
+    /// Per lane these are the values `SingleRay::slabs` computes: it picks the
+    /// entry plane by the direction's sign, here the min/max of both planes is
+    /// taken, and the two agree because scaling and shifting preserve order
+    /// under rounding; min and max are exact, so their order does not matter.
     #[inline(always)]
-    fn enters(&self, node: &Node, mask: u32) -> u32 {
-        let (min, max) = (&node.min, &node.max);
-        let mut m = 0;
-        if self.same_signs && K > 1 && K <= 4 {
-            // As in `RayLanes::enter`: four lanes at once, the same operations.
+    fn slabs4(
+        min: [f32x4; 3],
+        max: [f32x4; 3],
+        inv: &[f32x4],
+        org: &[f32x4],
+        t_min: f32,
+    ) -> (f32x4, f32x4) {
+        let x0 = min[0] * inv[0] - org[0];
+        let x1 = max[0] * inv[0] - org[0];
+        let y0 = min[1] * inv[1] - org[1];
+        let y1 = max[1] * inv[1] - org[1];
+        let z0 = min[2] * inv[2] - org[2];
+        let z1 = max[2] * inv[2] - org[2];
+        let tn = x0
+            .fast_min(x1)
+            .fast_max(y0.fast_min(y1))
+            .fast_max(z0.fast_min(z1).fast_max(f32x4::splat(t_min)));
+        let tf = x0
+            .fast_max(x1)
+            .fast_min(y0.fast_max(y1))
+            .fast_min(z0.fast_max(z1))
+            * f32x4::splat(ROBUST);
+        (tn, tf)
+    }
+
+    /// Every lane's entry and exit distance for `node` (see `slabs4`).
+    #[inline(always)]
+    fn slabs(&self, node: &Node) -> ([f32; K], [f32; K]) {
+        let (mut tn, mut tf) = ([0.0f32; K], [0.0f32; K]);
+        if K <= 4 {
             let pad = |a: &[f32; K]| {
                 let mut v = [0.0f32; 4];
                 v[..K].copy_from_slice(a);
                 f32x4::from(v)
             };
-            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
-            let (ix, iy, iz) = (pad(&self.ix), pad(&self.iy), pad(&self.iz));
-            let (ox, oy, oz) = (pad(&self.ox), pad(&self.oy), pad(&self.oz));
-            let tn = (f32x4::splat(nx) * ix - ox)
-                .fast_max(f32x4::splat(ny) * iy - oy)
-                .fast_max((f32x4::splat(nz) * iz - oz).fast_max(f32x4::splat(0.0)));
-            let tf = (f32x4::splat(fx) * ix - ox)
-                .fast_min(f32x4::splat(fy) * iy - oy)
-                .fast_min(f32x4::splat(fz) * iz - oz)
-                * f32x4::splat(ROBUST);
-            let hit = tn.simd_le(tf.fast_min(pad(&self.t_max)));
-            return hit.to_bitmask() & mask;
-        }
-        if self.same_signs {
-            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
-            for l in 0..K {
-                let tn = fmax(
-                    fmax(nx * self.ix[l] - self.ox[l], ny * self.iy[l] - self.oy[l]),
-                    fmax(nz * self.iz[l] - self.oz[l], 0.0),
-                );
-                let tf = fmin(
-                    fmin(fx * self.ix[l] - self.ox[l], fy * self.iy[l] - self.oy[l]),
-                    fz * self.iz[l] - self.oz[l],
-                ) * ROBUST;
-                if tn <= fmin(tf, self.t_max[l]) {
-                    m |= 1 << l;
-                }
-            }
-            return m & mask;
+            let inv = [pad(&self.ix), pad(&self.iy), pad(&self.iz)];
+            let org = [pad(&self.ox), pad(&self.oy), pad(&self.oz)];
+            let splat = |p: &[f32; 3]| p.map(f32x4::splat);
+            let (n, f) = Self::slabs4(splat(&node.min), splat(&node.max), &inv, &org, self.t_min);
+            tn.copy_from_slice(&n.to_array()[..K]);
+            tf.copy_from_slice(&f.to_array()[..K]);
+            return (tn, tf);
         }
         for l in 0..K {
-            let (x0, x1) = (
-                min[0] * self.ix[l] - self.ox[l],
-                max[0] * self.ix[l] - self.ox[l],
-            );
-            let (y0, y1) = (
-                min[1] * self.iy[l] - self.oy[l],
-                max[1] * self.iy[l] - self.oy[l],
-            );
-            let (z0, z1) = (
-                min[2] * self.iz[l] - self.oz[l],
-                max[2] * self.iz[l] - self.oz[l],
-            );
-            let tn = fmax(fmax(fmin(x0, x1), fmin(y0, y1)), fmax(fmin(z0, z1), 0.0));
-            let tf = fmin(fmin(fmax(x0, x1), fmax(y0, y1)), fmax(z0, z1)) * ROBUST;
-            if tn <= fmin(tf, self.t_max[l]) {
-                m |= 1 << l;
+            let (near, far) = self.single(l).slabs(node);
+            tn[l] = near;
+            tf[l] = far;
+        }
+        (tn, tf)
+    }
+
+    /// Both children `a` and `b` of a node, for a pair of lanes: the entry
+    /// distances `[a0, a1, b0, b1]` and the exit distances.
+    #[inline(always)]
+    fn pair_slabs(&self, a: &Node, b: &Node) -> (f32x4, f32x4) {
+        let both = |x: f32, y: f32| f32x4::from([x, x, y, y]);
+        let min = [0, 1, 2].map(|i| both(a.min[i], b.min[i]));
+        let max = [0, 1, 2].map(|i| both(a.max[i], b.max[i]));
+        Self::slabs4(min, max, &self.pair[..3], &self.pair[3..], self.t_min)
+    }
+
+    /// The lanes of `mask` that enter `a` and `b` before their nearest hits so
+    /// far, with each lane's entry distances.
+    #[inline(always)]
+    fn enter_children(
+        &self,
+        a: &Node,
+        b: &Node,
+        mask: u32,
+        best: &[f32; K],
+    ) -> ((u32, [f32; K]), (u32, [f32; K])) {
+        if K == 2 {
+            let (tn, tf) = self.pair_slabs(a, b);
+            let bound = f32x4::from([best[0], best[1 % K], best[0], best[1 % K]])
+                * f32x4::splat(CULL_SLACK);
+            let (ma, mb) = split_pair((tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask());
+            let t = tn.to_array();
+            let (mut ta, mut tb) = ([0.0; K], [0.0; K]);
+            ta[..2].copy_from_slice(&t[..2]);
+            tb[..2].copy_from_slice(&t[2..]);
+            return ((ma & mask, ta), (mb & mask, tb));
+        }
+        (self.enter(a, mask, best), self.enter(b, mask, best))
+    }
+
+    /// The lanes of `mask` that enter `node` before their nearest hits so far,
+    /// with each lane's entry distance.
+    #[inline(always)]
+    fn enter(&self, node: &Node, mask: u32, best: &[f32; K]) -> (u32, [f32; K]) {
+        let (tn, tf) = self.slabs(node);
+        let mut hit = 0;
+        for l in 0..K {
+            if tn[l] <= tf[l] && tn[l] <= best[l] * CULL_SLACK {
+                hit |= 1 << l;
             }
         }
-        m & mask
+        (hit & mask, tn)
+    }
+
+    /// The lanes of `mask` whose segments `t_min < t < t_max` enter `a`, and `b`.
+    #[inline(always)]
+    fn enters_children(&self, a: &Node, b: &Node, mask: u32, t_max: &[f32; K]) -> (u32, u32) {
+        if K == 2 {
+            let (tn, tf) = self.pair_slabs(a, b);
+            let limit = f32x4::from([t_max[0], t_max[1 % K], t_max[0], t_max[1 % K]]);
+            let (ma, mb) = split_pair(tn.simd_le(tf.fast_min(limit)).to_bitmask());
+            return (ma & mask, mb & mask);
+        }
+        (self.enters(a, mask, t_max), self.enters(b, mask, t_max))
+    }
+
+    /// The lanes of `mask` whose segments enter `node`.
+    #[inline(always)]
+    fn enters(&self, node: &Node, mask: u32, t_max: &[f32; K]) -> u32 {
+        let (tn, tf) = self.slabs(node);
+        let mut hit = 0;
+        for l in 0..K {
+            if tn[l] <= fmin(tf[l], t_max[l]) {
+                hit |= 1 << l;
+            }
+        }
+        hit & mask
     }
 }
 
@@ -312,7 +428,7 @@ impl Bvh {
         &self,
         packet: &Packet<K>,
         stats: &mut TraversalStats,
-        mut test: impl FnMut(u32, usize, f32) -> Option<SurfaceHit>,
+        mut test: impl NearestTest,
     ) -> PacketHits<K> {
         let none = SurfaceHit {
             t: f32::INFINITY,
@@ -326,40 +442,33 @@ impl Bvh {
         if self.nodes.is_empty() || packet.mask == 0 {
             return out;
         }
-        if K == 1 {
+        if K == 1 || packet.mask.count_ones() == 1 {
             // A ray alone: the same tests in the same order, without lane bookkeeping.
-            let (prim, hit) = self.closest_single(
-                packet.origins[0],
-                packet.dir,
-                packet.t_min,
-                packet.t_max[0],
-                stats,
-                |p, t| test(p, 0, t),
-            );
-            out.prim[0] = prim;
-            out.hit[0] = hit;
+            // (A constant lane for K = 1 lets the test closure fold its indexing.)
+            let l = if K == 1 {
+                0
+            } else {
+                packet.mask.trailing_zeros() as usize
+            };
+            let ray = SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min);
+            let mut state = LaneHit {
+                best: packet.t_max[l],
+                prim: PacketHits::<K>::NO_HIT,
+                hit: none,
+            };
+            self.descend_single(None, &ray, &mut state, stats, |p, t| test.test(p, l, t));
+            out.prim[l] = state.prim;
+            out.hit[l] = state.hit;
             return out;
         }
         let mut best = packet.t_max;
-        let inv = safe_inverse(packet.dir);
-        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
-        // Lanes share the direction, so the entry and exit planes of every box are
-        // the same for all of them: pick them once (no min/max per lane), and keep
-        // the lanes' origins scaled by 1/d in structure-of-arrays form.
-        let rays = RayLanes::<K> {
-            inv,
-            neg,
-            ox: std::array::from_fn(|l| packet.origins[l].x * inv.x),
-            oy: std::array::from_fn(|l| packet.origins[l].y * inv.y),
-            oz: std::array::from_fn(|l| packet.origins[l].z * inv.z),
-            t_min: packet.t_min,
-        };
+        let rays = Lanes::<K>::new(&packet.origins, &packet.dirs, packet.mask, packet.t_min);
+        let neg = rays.neg;
 
         let mut stack: [(u32, u32, [f32; K]); STACK] = [(0, 0, [0.0; K]); STACK];
         let mut top = 0usize;
-        let mut tn_root = [0.0; K];
         stats.box_tests += packet.mask.count_ones() as u64;
-        let root_mask = rays.enter(&self.nodes[0], packet.mask, &best, &mut tn_root);
+        let (root_mask, tn_root) = rays.enter(&self.nodes[0], packet.mask, &best);
         if root_mask == 0 {
             return out;
         }
@@ -381,19 +490,14 @@ impl Bvh {
             if mask.count_ones() == 1 {
                 // One lane left in this subtree: finish it as a plain ray.
                 let l = mask.trailing_zeros() as usize;
-                let ray = SingleRay {
-                    inv,
-                    neg,
-                    origin: [rays.ox[l], rays.oy[l], rays.oz[l]],
-                    t_min: packet.t_min,
-                };
                 let mut state = LaneHit {
                     best: best[l],
                     prim: out.prim[l],
                     hit: out.hit[l],
                 };
+                let ray = rays.single(l);
                 self.descend_single(Some((index, tnear[l])), &ray, &mut state, stats, |p, t| {
-                    test(p, l, t)
+                    test.test(p, l, t)
                 });
                 (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
                 continue;
@@ -403,13 +507,29 @@ impl Bvh {
             if node.is_leaf() {
                 let first = node.first as usize;
                 for &prim in &self.order[first..first + node.count() as usize] {
+                    if K == 2 && mask == 0b11 {
+                        // Both rays of a stereo pair against one primitive at once.
+                        stats.prim_tests += 2;
+                        let found =
+                            test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
+                        for (l, h) in found.into_iter().enumerate() {
+                            if let Some(h) = h {
+                                if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
+                                    best[l] = h.t;
+                                    out.prim[l] = prim;
+                                    out.hit[l] = h;
+                                }
+                            }
+                        }
+                        continue;
+                    }
                     let mut lanes = mask;
                     while lanes != 0 {
                         let l = lanes.trailing_zeros() as usize;
                         lanes &= lanes - 1;
                         stats.prim_tests += 1;
                         // next_up lets an equal distance through, for the index tie-break.
-                        if let Some(h) = test(prim, l, best[l].next_up()) {
+                        if let Some(h) = test.test(prim, l, best[l].next_up()) {
                             if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
                                 best[l] = h.t;
                                 out.prim[l] = prim;
@@ -423,10 +543,8 @@ impl Bvh {
             let (a, b) = (node.first as usize, node.first as usize + 1);
             let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
             stats.box_tests += 2 * mask.count_ones() as u64;
-            let mut tn_near = [0.0; K];
-            let mut tn_far = [0.0; K];
-            let m_near = rays.enter(&self.nodes[near], mask, &best, &mut tn_near);
-            let m_far = rays.enter(&self.nodes[far], mask, &best, &mut tn_far);
+            let ((m_near, tn_near), (m_far, tn_far)) =
+                rays.enter_children(&self.nodes[near], &self.nodes[far], mask, &best);
             if m_far != 0 && top < STACK {
                 stack[top] = (far as u32, m_far, tn_far);
                 top += 1;
@@ -449,44 +567,27 @@ impl Bvh {
         &self,
         packet: &SegmentPacket<K>,
         stats: &mut TraversalStats,
-        mut test: impl FnMut(u32, usize) -> AnyHit,
+        test: &mut impl AnyHitTest,
     ) {
         if self.nodes.is_empty() || packet.mask == 0 {
             return;
         }
-        if K == 1 {
-            self.occlusion_single(
-                packet.origins[0],
-                packet.dirs[0],
-                packet.t_max[0],
-                stats,
-                |p| test(p, 0),
-            );
+        if K == 1 || packet.mask.count_ones() == 1 {
+            let l = if K == 1 {
+                0
+            } else {
+                packet.mask.trailing_zeros() as usize
+            };
+            let ray = SingleRay::new(packet.origins[l], packet.dirs[l], 0.0);
+            self.descend_occlusion(None, &ray, packet.t_max[l], stats, |p| test.test(p, l));
             return;
         }
-        let inv: [Vec3; K] = std::array::from_fn(|l| safe_inverse(packet.dirs[l]));
-        let lead = packet.mask.trailing_zeros() as usize;
-        let neg = [inv[lead].x < 0.0, inv[lead].y < 0.0, inv[lead].z < 0.0];
-        // Shadow rays toward one light from nearby points nearly always agree in
-        // the signs of their directions: then the entry and exit planes of a box
-        // are the same for every lane and need no min/max.
-        let same_signs = (0..K).filter(|&l| packet.mask & (1 << l) != 0).all(|l| {
-            (inv[l].x < 0.0) == neg[0] && (inv[l].y < 0.0) == neg[1] && (inv[l].z < 0.0) == neg[2]
-        });
-        let segments = SegmentLanes::<K> {
-            ix: std::array::from_fn(|l| inv[l].x),
-            iy: std::array::from_fn(|l| inv[l].y),
-            iz: std::array::from_fn(|l| inv[l].z),
-            ox: std::array::from_fn(|l| packet.origins[l].x * inv[l].x),
-            oy: std::array::from_fn(|l| packet.origins[l].y * inv[l].y),
-            oz: std::array::from_fn(|l| packet.origins[l].z * inv[l].z),
-            t_max: packet.t_max,
-            neg,
-            same_signs,
-        };
+        let segments = Lanes::<K>::new(&packet.origins, &packet.dirs, packet.mask, 0.0);
+        let neg = segments.neg;
+        let t_max = &packet.t_max;
         let mut live = packet.mask;
         stats.box_tests += live.count_ones() as u64;
-        let root_mask = segments.enters(&self.nodes[0], live);
+        let root_mask = segments.enters(&self.nodes[0], live, t_max);
         if root_mask == 0 {
             return;
         }
@@ -503,14 +604,8 @@ impl Bvh {
             if mask.count_ones() == 1 {
                 // One live lane left in this subtree: finish it as a plain segment.
                 let l = mask.trailing_zeros() as usize;
-                let (ix, iy, iz) = (segments.ix[l], segments.iy[l], segments.iz[l]);
-                let segment = SingleSegment {
-                    inv: [ix, iy, iz],
-                    neg: [ix < 0.0, iy < 0.0, iz < 0.0],
-                    origin: [segments.ox[l], segments.oy[l], segments.oz[l]],
-                    t_max: segments.t_max[l],
-                };
-                if self.descend_occlusion(Some(index), &segment, stats, |p| test(p, l)) {
+                let ray = segments.single(l);
+                if self.descend_occlusion(Some(index), &ray, t_max[l], stats, |p| test.test(p, l)) {
                     live &= !(1 << l);
                 }
                 continue;
@@ -520,12 +615,22 @@ impl Bvh {
             if node.is_leaf() {
                 let first = node.first as usize;
                 for &prim in &self.order[first..first + node.count() as usize] {
+                    if K == 2 && mask & live == 0b11 {
+                        stats.prim_tests += 2;
+                        let answers = test.test_pair(prim);
+                        for (l, a) in answers.into_iter().enumerate() {
+                            if a == AnyHit::Stop {
+                                live &= !(1 << l);
+                            }
+                        }
+                        continue;
+                    }
                     let mut lanes = mask & live;
                     while lanes != 0 {
                         let l = lanes.trailing_zeros() as usize;
                         lanes &= lanes - 1;
                         stats.prim_tests += 1;
-                        if test(prim, l) == AnyHit::Stop {
+                        if test.test(prim, l) == AnyHit::Stop {
                             live &= !(1 << l);
                         }
                     }
@@ -538,8 +643,8 @@ impl Bvh {
             let (a, b) = (node.first as usize, node.first as usize + 1);
             let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
             stats.box_tests += 2 * mask.count_ones() as u64;
-            let m_far = segments.enters(&self.nodes[far], mask);
-            let m_near = segments.enters(&self.nodes[near], mask);
+            let (m_near, m_far) =
+                segments.enters_children(&self.nodes[near], &self.nodes[far], mask, t_max);
             if m_far != 0 && top < STACK {
                 stack[top] = (far as u32, m_far);
                 top += 1;
@@ -551,45 +656,10 @@ impl Bvh {
         }
     }
 
-    /// `closest` for a packet of one lane, without lane bookkeeping. Its boxes
-    /// are tested with the very operations `RayLanes::enter` uses for a lane, in
-    /// the same order, so a lane alone and a lane in a packet see the same tests.
-    #[inline(always)]
-    fn closest_single(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_min: f32,
-        t_max: f32,
-        stats: &mut TraversalStats,
-        test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
-    ) -> (u32, SurfaceHit) {
-        let inv = safe_inverse(dir);
-        let ray = SingleRay {
-            inv,
-            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
-            origin: [origin.x * inv.x, origin.y * inv.y, origin.z * inv.z],
-            t_min,
-        };
-        let mut state = LaneHit {
-            best: t_max,
-            prim: PacketHits::<1>::NO_HIT,
-            hit: SurfaceHit {
-                t: f32::INFINITY,
-                u: 0.0,
-                v: 0.0,
-            },
-        };
-        // The root is entered like any child: the descent re-tests nothing.
-        self.descend_single(None, &ray, &mut state, stats, test);
-        (state.prim, state.hit)
-    }
-
     /// One ray's depth-first descent of the subtree at `start` (entered at
-    /// `tn_start`), improving `state`. A packet hands a lane over to this when it
-    /// is the only lane left in a subtree: depth-first order visits that whole
-    /// subtree next either way, so the lane's sequence of tests is unchanged.
-    /// (Written like `closest_single`, with the ray's numbers in locals.)
+    /// `tn_start`; `None`: the root), improving `state`. A packet hands a lane
+    /// over to this when it is the only lane left in a subtree: depth-first order
+    /// visits that whole subtree next either way. A ray traced alone starts here.
     #[inline(always)]
     fn descend_single(
         &self,
@@ -599,20 +669,16 @@ impl Bvh {
         stats: &mut TraversalStats,
         mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
     ) {
-        let (inv, neg, t_min) = (ray.inv, ray.neg, ray.t_min);
-        let [ox, oy, oz] = ray.origin;
+        let ([ix, iy, iz], [ox, oy, oz]) = (ray.inv, ray.origin);
+        let (neg, t_min) = (ray.neg, ray.t_min);
         let (mut best, mut prim_hit, mut hit) = (state.best, state.prim, state.hit);
         let entry = |node: &Node, best: f32| -> Option<f32> {
             let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
-            let (nx, fx) = (nx * inv.x, fx * inv.x);
-            let (ny, fy) = (ny * inv.y, fy * inv.y);
-            let (nz, fz) = (nz * inv.z, fz * inv.z);
-            let tn = fmax(fmax(nx - ox, ny - oy), fmax(nz - oz, t_min));
-            let tf = fmin(fmin(fx - ox, fy - oy), fz - oz) * ROBUST;
+            let tn = fmax(fmax(nx * ix - ox, ny * iy - oy), fmax(nz * iz - oz, t_min));
+            let tf = fmin(fmin(fx * ix - ox, fy * iy - oy), fz * iz - oz) * ROBUST;
             (tn <= tf && tn <= best * CULL_SLACK).then_some(tn)
         };
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
-        // From a packet's hand-over: a node already entered; alone: the root.
         let start = match start {
             Some(s) => s,
             None => {
@@ -671,39 +737,20 @@ impl Bvh {
         stats.prim_tests += prims;
     }
 
-    /// `occlusion` for one segment, without lane bookkeeping.
-    #[inline(always)]
-    fn occlusion_single(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        stats: &mut TraversalStats,
-        test: impl FnMut(u32) -> AnyHit,
-    ) {
-        let inv = safe_inverse(dir);
-        let segment = SingleSegment {
-            inv: [inv.x, inv.y, inv.z],
-            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
-            origin: [origin.x * inv.x, origin.y * inv.y, origin.z * inv.z],
-            t_max,
-        };
-        self.descend_occlusion(None, &segment, stats, test);
-    }
-
-    /// One segment's any-hit descent of the subtree at `start`; returns whether
-    /// `test` said stop. A shadow packet hands a lane over to this when it is the
-    /// only live lane in a subtree.
+    /// One segment's (`t_min < t < t_max` of `ray`) any-hit descent of the subtree
+    /// at `start` (`None`: the root); returns whether `test` said stop. A shadow
+    /// packet hands a lane over to this when it is the only live lane in a subtree.
     #[inline(always)]
     fn descend_occlusion(
         &self,
         start: Option<u32>,
-        segment: &SingleSegment,
+        ray: &SingleRay,
+        t_max: f32,
         stats: &mut TraversalStats,
         mut test: impl FnMut(u32) -> AnyHit,
     ) -> bool {
-        let ([ix, iy, iz], [ox, oy, oz]) = (segment.inv, segment.origin);
-        let (neg, t_max) = (segment.neg, segment.t_max);
+        let ([ix, iy, iz], [ox, oy, oz]) = (ray.inv, ray.origin);
+        let neg = ray.neg;
         let enters = |node: &Node| -> bool {
             let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
             let tn = fmax(fmax(nx * ix - ox, ny * iy - oy), fmax(nz * iz - oz, 0.0));
@@ -712,7 +759,6 @@ impl Bvh {
         };
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
         let mut stopped = false;
-        // From a packet's hand-over: a node already entered; alone: the root.
         let start = match start {
             Some(s) => s,
             None => {
@@ -818,29 +864,44 @@ mod tests {
                 Vec3::new(0.3, 0.0, 0.0),
                 Vec3::new(1.7, 0.1, 0.0),
             ];
+            // The third lane's direction differs: lanes need not be parallel.
+            let dirs = [dir, dir, (dir + Vec3::new(0.05, -0.02, 0.0)).normalize()];
             let packet = Packet {
                 origins,
-                dir,
+                dirs,
                 t_min: 0.0,
                 t_max: [f32::INFINITY; 3],
                 mask: 0b111,
             };
-            let hits = bvh.closest(&packet, &mut stats, |p, l, tmax| {
-                sph[p as usize].intersect(&Ray::new(origins[l], dir), 0.0, tmax)
+            let hits = bvh.closest(&packet, &mut stats, |p: u32, l: usize, tmax: f32| {
+                sph[p as usize].intersect(&Ray::new(origins[l], dirs[l]), 0.0, tmax)
             });
-            for (l, &o) in origins.iter().enumerate() {
+            // And as a pair (the stereo case, both children tested at once).
+            let pair = Packet {
+                origins: [origins[0], origins[2]],
+                dirs: [dirs[0], dirs[2]],
+                t_min: 0.0,
+                t_max: [f32::INFINITY; 2],
+                mask: 0b11,
+            };
+            let pair_hits = bvh.closest(&pair, &mut stats, |p: u32, l: usize, tmax: f32| {
+                sph[p as usize].intersect(&Ray::new(pair.origins[l], pair.dirs[l]), 0.0, tmax)
+            });
+            assert_eq!(pair_hits.prim, [hits.prim[0], hits.prim[2]]);
+            assert_eq!(pair_hits.hit, [hits.hit[0], hits.hit[2]]);
+            for (l, (&o, &dir)) in origins.iter().zip(&dirs).enumerate() {
                 let expect = brute(&sph, &Ray::new(o, dir));
                 let got = hits.has_hit(l).then(|| (hits.prim[l], hits.hit[l].t));
                 assert_eq!(got, expect, "lane {l}");
                 // Alone, as a packet of one, the lane gets the same answer.
                 let single = Packet {
                     origins: [o],
-                    dir,
+                    dirs: [dir],
                     t_min: 0.0,
                     t_max: [f32::INFINITY],
                     mask: 1,
                 };
-                let h1 = bvh.closest(&single, &mut stats, |p, _, tmax| {
+                let h1 = bvh.closest(&single, &mut stats, |p: u32, _: usize, tmax: f32| {
                     sph[p as usize].intersect(&Ray::new(o, dir), 0.0, tmax)
                 });
                 assert_eq!(h1.prim[0], hits.prim[l]);
@@ -857,13 +918,13 @@ mod tests {
         let bvh = build(&boxes, &BuildOptions::default());
         let packet = Packet {
             origins: [Vec3::ZERO; 2],
-            dir: Vec3::Z,
+            dirs: [Vec3::Z; 2],
             t_min: 0.0,
             t_max: [f32::INFINITY; 2],
             mask: 0b01,
         };
         let mut stats = TraversalStats::default();
-        let hits = bvh.closest(&packet, &mut stats, |p, l, tmax| {
+        let hits = bvh.closest(&packet, &mut stats, |p: u32, l: usize, tmax: f32| {
             assert_eq!(l, 0);
             sph[p as usize].intersect(&Ray::new(Vec3::ZERO, Vec3::Z), 0.0, tmax)
         });
@@ -900,7 +961,7 @@ mod tests {
                     mask: 0b11,
                 };
                 let mut found = [Vec::new(), Vec::new()];
-                bvh.occlusion(&packet, &mut stats, |p, l| {
+                bvh.occlusion(&packet, &mut stats, &mut |p: u32, l: usize| {
                     if sph[p as usize]
                         .intersect(&Ray::new(origins[l], dirs[l]), 0.0, t_max)
                         .is_some()

@@ -19,11 +19,12 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::bvh::Packet;
+use crate::bvh::{Packet, PacketHits};
 use crate::camera::Camera;
 use crate::image::Image;
-use crate::math::Color;
+use crate::math::{Color, Vec3};
 use crate::rig::Rig;
+use crate::shapes::SurfaceHit;
 use crate::stats::TraceCounts;
 use crate::world::World;
 
@@ -190,7 +191,7 @@ fn render_independent(
                     let column = (i as i32 + view.shift) as f32 + grid.offset;
                     let packet = Packet {
                         origins: [origin],
-                        dir: camera.direction(column, row),
+                        dirs: [camera.direction(column, row)],
                         t_min: camera.hither,
                         t_max: [f32::INFINITY],
                         mask: 1,
@@ -211,8 +212,20 @@ fn render_independent(
     (grids, counts)
 }
 
-/// Twin objects: one packet per camera column and row, one lane per view that
-/// has this column in its image.
+/// Twin objects, in two passes per row of samples:
+///
+/// 1. **Eye rays**: one packet per camera column, one lane per view that has
+///    this column in its image — the paper's one eye ray through the twin
+///    objects, returning the nearest hit of every view.
+/// 2. **Shading**: each sample of view 0 that hit something is grouped with the
+///    sample of every other view that sees the same surface point (its hit
+///    projected into that view, rounded to the nearest sample of the same row:
+///    the rig's views differ along rows only), and the group is shaded as one
+///    packet. Their shadow rays start from nearly one point toward one light and
+///    their reflected rays from nearly one point, so the packet's lanes stay
+///    together down the hierarchy. Every lane's rays are its own view's (the
+///    grouping only decides which rays share a descent), so the images equal
+///    the independent renders bit for bit. Samples left out are shaded alone.
 fn render_twin<const K: usize>(
     world: &World,
     camera: &Camera,
@@ -230,6 +243,12 @@ fn render_twin<const K: usize>(
         origins[v] = camera.eye_at(view.offset);
         view_of_lane[v] = v;
     }
+    let width = grid.width;
+    let none = SurfaceHit {
+        t: f32::INFINITY,
+        u: 0.0,
+        v: 0.0,
+    };
     let total = grid.height as u64;
     let done = AtomicU64::new(0);
     let rows: Vec<(Vec<Vec<Color>>, TraceCounts)> = (0..grid.height)
@@ -237,12 +256,17 @@ fn render_twin<const K: usize>(
         .map(|j| {
             let mut tracer = Tracer::new(world, opts.trace);
             let row = j as f32 + grid.offset;
-            let mut out = vec![vec![Color::ZERO; grid.width]; n];
-            for c in lo..=hi {
+            // Pass 1: the nearest hit of every view's sample, one descent per column.
+            let dirs: Vec<Vec3> = (lo..=hi)
+                .map(|c| camera.direction(c as f32 + grid.offset, row))
+                .collect();
+            let dir_of = |v: usize, i: usize| dirs[(i as i32 + shifts[v] - lo) as usize];
+            let mut hits = vec![vec![(PacketHits::<K>::NO_HIT, none); width]; n];
+            for (c, &dir) in (lo..=hi).zip(&dirs) {
                 let mut mask = 0u32;
                 for (v, &s) in shifts.iter().enumerate() {
                     let i = c - s;
-                    if i >= 0 && (i as usize) < grid.width {
+                    if i >= 0 && (i as usize) < width {
                         mask |= 1 << v;
                     }
                 }
@@ -251,16 +275,75 @@ fn render_twin<const K: usize>(
                 }
                 let packet = Packet {
                     origins,
-                    dir: camera.direction(c as f32 + grid.offset, row),
+                    dirs: [dir; K],
                     t_min: camera.hither,
                     t_max: [f32::INFINITY; K],
                     mask,
                 };
-                let colors = tracer.trace_eye(&packet, &view_of_lane);
+                let h = tracer.eye_hits(&packet, &view_of_lane);
                 for (v, &s) in shifts.iter().enumerate() {
                     if mask & (1 << v) != 0 {
-                        out[v][(c - s) as usize] = colors[v];
+                        hits[v][(c - s) as usize] = (h.prim[v], h.hit[v]);
                     }
+                }
+            }
+            // Pass 2: group the samples that see one point, shade each group at once.
+            let mut out = vec![vec![Color::ZERO; width]; n];
+            let mut shaded = vec![vec![false; width]; n];
+            let mut shade = |tracer: &mut Tracer, group: &[Option<usize>; K]| {
+                let mut packet = Packet {
+                    origins,
+                    dirs: [Vec3::Z; K],
+                    t_min: camera.hither,
+                    t_max: [f32::INFINITY; K],
+                    mask: 0,
+                };
+                let mut lane_hits = PacketHits {
+                    prim: [PacketHits::<K>::NO_HIT; K],
+                    hit: [none; K],
+                };
+                for (v, sample) in group.iter().enumerate() {
+                    if let Some(i) = *sample {
+                        packet.mask |= 1 << v;
+                        packet.dirs[v] = dir_of(v, i);
+                        (lane_hits.prim[v], lane_hits.hit[v]) = hits[v][i];
+                    }
+                }
+                let colors = tracer.shade_eye(&packet, &lane_hits);
+                for (v, sample) in group.iter().enumerate() {
+                    if let Some(i) = *sample {
+                        out[v][i] = colors[v];
+                    }
+                }
+            };
+            for i in 0..width {
+                let mut group = [None; K];
+                group[0] = Some(i);
+                let (prim, hit) = hits[0][i];
+                if prim != PacketHits::<K>::NO_HIT {
+                    let point = origins[0] + dir_of(0, i) * hit.t;
+                    for (v, view) in rig.views.iter().enumerate().skip(1) {
+                        let Some((column, _)) = camera.project(point, view.offset) else {
+                            continue;
+                        };
+                        let k = (column - grid.offset as f64).round() - shifts[v] as f64;
+                        if k >= 0.0 && k < width as f64 {
+                            let k = k as usize;
+                            if !shaded[v][k] && hits[v][k].0 != PacketHits::<K>::NO_HIT {
+                                shaded[v][k] = true;
+                                group[v] = Some(k);
+                            }
+                        }
+                    }
+                }
+                shade(&mut tracer, &group);
+            }
+            // Samples of the other views that no sample of view 0 claimed.
+            for (v, claimed) in shaded.iter().enumerate().skip(1) {
+                for (i, _) in claimed.iter().enumerate().filter(|(_, &c)| !c) {
+                    let mut group = [None; K];
+                    group[v] = Some(i);
+                    shade(&mut tracer, &group);
                 }
             }
             progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);

@@ -7,12 +7,13 @@
 //! recursively; lanes that differ are traced apart. Each lane's numbers are its
 //! own throughout, so every lane gets exactly what its view's reference render gets.
 
-use crate::bvh::{Packet, PacketHits, SegmentPacket, TraversalStats};
+use crate::bvh::{NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats};
 use crate::math::{reflect, refract, Color, Ray, Vec3};
 use crate::scene::Material;
 use crate::shading::{
     ambient, blocks, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint,
 };
+use crate::shapes::{Shape, SurfaceHit};
 use crate::stats::TraceCounts;
 use crate::world::World;
 
@@ -80,6 +81,17 @@ impl<'a> Tracer<'a> {
         packet: &Packet<K>,
         views: &[usize; K],
     ) -> [Color; K] {
+        let hits = self.eye_hits(packet, views);
+        self.shade(packet, &hits, 1, [1.0; K])
+    }
+
+    /// The nearest hit of every lane of an eye-ray packet (one descent for all
+    /// views); lane `l` belongs to view `views[l]`.
+    pub fn eye_hits<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        views: &[usize; K],
+    ) -> PacketHits<K> {
         let hits = self.closest(packet);
         self.counts.eye_traversals += 1;
         let mut lanes = packet.mask;
@@ -94,19 +106,25 @@ impl<'a> Tracer<'a> {
                 }
             }
         }
-        self.shade(packet, &hits, 1, [1.0; K])
+        hits
+    }
+
+    /// Shades eye rays whose hits are known (`eye_hits`), the lanes together.
+    pub fn shade_eye<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        hits: &PacketHits<K>,
+    ) -> [Color; K] {
+        self.shade(packet, hits, 1, [1.0; K])
     }
 
     fn closest<const K: usize>(&mut self, packet: &Packet<K>) -> PacketHits<K> {
         self.counts.closest_traversals += 1;
-        let shapes = &self.world.scene.shapes;
-        let (origins, dir) = (&packet.origins, packet.dir);
-        let t_min = packet.t_min;
-        self.world
-            .bvh
-            .closest(packet, &mut self.traversal, |prim, lane, t_max| {
-                shapes[prim as usize].intersect(&Ray::new(origins[lane], dir), t_min, t_max)
-            })
+        let test = NearestShape {
+            shapes: &self.world.scene.shapes,
+            packet,
+        };
+        self.world.bvh.closest(packet, &mut self.traversal, test)
     }
 
     /// Traces a secondary packet at `level`.
@@ -132,7 +150,6 @@ impl<'a> Tracer<'a> {
         let mut out = [scene.background; K];
         let mut reflected: [Option<Spawn>; K] = [None; K];
         let mut refracted: [Option<Spawn>; K] = [None; K];
-        let d = packet.dir;
         let spawn_more = level < self.settings.max_depth;
         let default_material = Material::default();
         let mut points: [SurfacePoint; K] = std::array::from_fn(|_| SurfacePoint {
@@ -151,6 +168,7 @@ impl<'a> Tracer<'a> {
             }
             let prim = hits.prim[l] as usize;
             let hit = &hits.hit[l];
+            let d = packet.dirs[l];
             let shape = &scene.shapes[prim];
             let material = &scene.materials[scene.shape_material[prim] as usize];
             let point = packet.origins[l] + d * hit.t;
@@ -249,28 +267,6 @@ impl<'a> Tracer<'a> {
                 let traced = seg.mask;
                 let (found, blocker) = if traced == 0 {
                     ([1.0; K], [None; K])
-                } else if K > 1 && !same_primitive(hits, traced) {
-                    // Each lane's shadow ray alone: from points on different
-                    // primitives the views' shadow rays part ways early, and the
-                    // single-ray descent measured faster than the packet there
-                    // (docs/benchmarks.md). From one primitive they go as a packet.
-                    let mut t = [1.0; K];
-                    let mut b = [None; K];
-                    let mut lanes = traced;
-                    while lanes != 0 {
-                        let l = lanes.trailing_zeros() as usize;
-                        lanes &= lanes - 1;
-                        let single = SegmentPacket {
-                            origins: [seg.origins[l]],
-                            dirs: [seg.dirs[l]],
-                            t_max: [seg.t_max[l]],
-                            mask: 1,
-                        };
-                        let (t1, b1) = shadow_packet(world, &single, &mut self.traversal);
-                        t[l] = t1[0];
-                        b[l] = b1[0];
-                    }
-                    (t, b)
                 } else {
                     shadow_packet(world, &seg, &mut self.traversal)
                 };
@@ -291,7 +287,13 @@ impl<'a> Tracer<'a> {
                     let l = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;
                     if through[l] > 0.0 {
-                        out[l] += light_contribution(&points[l], d, seg.dirs[l], color, through[l]);
+                        out[l] += light_contribution(
+                            &points[l],
+                            packet.dirs[l],
+                            seg.dirs[l],
+                            color,
+                            through[l],
+                        );
                     }
                 }
             }
@@ -317,76 +319,78 @@ impl<'a> Tracer<'a> {
         self.settings.spd || weight >= self.settings.min_weight
     }
 
-    /// Traces every lane's spawned ray, lanes with bit-equal directions as one packet.
+    /// Traces every lane's spawned ray, all lanes as one packet: each lane's ray
+    /// is its own (it sees only its view's world), the descent is shared.
     fn trace_spawned<const K: usize>(
         &mut self,
         spawns: &[Option<Spawn>; K],
         level: u32,
         weights: &[f32; K],
     ) -> [Color; K] {
-        let mut out = [Color::ZERO; K];
-        let mut pending: u32 = 0;
+        let mut packet = Packet {
+            origins: [Vec3::ZERO; K],
+            dirs: [Vec3::Z; K],
+            t_min: 0.0,
+            t_max: [f32::INFINITY; K],
+            mask: 0,
+        };
+        let mut child_weights = [0.0; K];
         for (l, s) in spawns.iter().enumerate() {
-            if s.is_some() {
-                pending |= 1 << l;
+            if let Some(s) = s {
+                packet.mask |= 1 << l;
+                packet.origins[l] = s.origin;
+                packet.dirs[l] = s.dir;
+                child_weights[l] = weights[l] * s.coefficient;
             }
         }
-        while pending != 0 {
-            let first = pending.trailing_zeros() as usize;
-            let Some(lead) = spawns[first] else { break };
-            let key = lead.dir.to_array().map(f32::to_bits);
-            let mut packet = Packet {
-                origins: [Vec3::ZERO; K],
-                dir: lead.dir,
+        let lanes = packet.mask.count_ones() as u64;
+        if lanes == 0 {
+            return [Color::ZERO; K];
+        }
+        if lanes > 1 {
+            self.counts.shared_secondary += 1;
+            self.counts.shared_secondary_rays += lanes;
+        }
+        if lanes == 1 && K > 1 {
+            // One lane: trace it as a plain ray, with no idle lanes to carry.
+            let l = packet.mask.trailing_zeros() as usize;
+            let single = Packet {
+                origins: [packet.origins[l]],
+                dirs: [packet.dirs[l]],
                 t_min: 0.0,
-                t_max: [f32::INFINITY; K],
-                mask: 0,
+                t_max: [f32::INFINITY],
+                mask: 1,
             };
-            let mut child_weights = [0.0; K];
-            let mut lanes = pending;
-            while lanes != 0 {
-                let l = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                if let Some(s) = spawns[l] {
-                    if s.dir.to_array().map(f32::to_bits) == key {
-                        packet.mask |= 1 << l;
-                        packet.origins[l] = s.origin;
-                        child_weights[l] = weights[l] * s.coefficient;
-                    }
-                }
-            }
-            pending &= !packet.mask;
-            let shared = packet.mask.count_ones() as u64;
-            if shared > 1 {
-                self.counts.shared_secondary += 1;
-                self.counts.shared_secondary_rays += shared;
-            }
-            if shared == 1 || K == 1 {
-                // One lane: trace it as a plain ray, with no idle lanes to carry.
-                let l = packet.mask.trailing_zeros() as usize;
-                let single = Packet {
-                    origins: [packet.origins[l]],
-                    dir: packet.dir,
-                    t_min: 0.0,
-                    t_max: [f32::INFINITY],
-                    mask: 1,
-                };
-                out[l] = self.trace::<1>(&single, level, [child_weights[l]])[0];
-                continue;
-            }
-            let c = self.trace(&packet, level, child_weights);
-            for l in 0..K {
-                if packet.mask & (1 << l) != 0 {
-                    out[l] = c[l];
-                }
-            }
+            let mut out = [Color::ZERO; K];
+            out[l] = self.trace::<1>(&single, level, [child_weights[l]])[0];
+            return out;
         }
-        out
+        self.trace(&packet, level, child_weights)
     }
 }
 
-/// Whether every lane in `mask` hit the same primitive.
-fn same_primitive<const K: usize>(hits: &PacketHits<K>, mask: u32) -> bool {
-    let first = hits.prim[mask.trailing_zeros() as usize];
-    (0..K).all(|l| mask & (1 << l) == 0 || hits.prim[l] == first)
+/// A packet's rays against the scene's shapes.
+struct NearestShape<'a, const K: usize> {
+    shapes: &'a [Shape],
+    packet: &'a Packet<K>,
+}
+
+impl<const K: usize> NearestShape<'_, K> {
+    #[inline(always)]
+    fn ray(&self, lane: usize) -> Ray {
+        Ray::new(self.packet.origins[lane], self.packet.dirs[lane])
+    }
+}
+
+impl<const K: usize> NearestTest for NearestShape<'_, K> {
+    #[inline(always)]
+    fn test(&mut self, prim: u32, lane: usize, t_max: f32) -> Option<SurfaceHit> {
+        self.shapes[prim as usize].intersect(&self.ray(lane), self.packet.t_min, t_max)
+    }
+
+    #[inline(always)]
+    fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
+        let rays = [self.ray(0), self.ray(1 % K)];
+        self.shapes[prim as usize].intersect_pair(&rays, self.packet.t_min, t_max)
+    }
 }

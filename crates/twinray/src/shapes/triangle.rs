@@ -1,5 +1,6 @@
 use super::SurfaceHit;
 use crate::math::{Aabb, Ray, Vec3};
+use wide::f32x4;
 
 /// Where a triangle's shading normal comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -56,6 +57,60 @@ impl Triangle {
         } else {
             None
         }
+    }
+
+    /// `intersect` for two rays at once, in the lanes of one SSE register: the
+    /// same IEEE operations in the same order as `intersect` (glam's `dot` and
+    /// `cross` written out), so each lane's answer is bit for bit the single one.
+    #[inline(always)]
+    pub fn intersect_pair(
+        &self,
+        rays: &[Ray; 2],
+        t_min: f32,
+        t_max: [f32; 2],
+    ) -> [Option<SurfaceHit>; 2] {
+        let lanes = |f: fn(&Ray) -> f32| f32x4::from([f(&rays[0]), f(&rays[1]), 0.0, 0.0]);
+        let (dx, dy, dz) = (lanes(|r| r.dir.x), lanes(|r| r.dir.y), lanes(|r| r.dir.z));
+        let (ox, oy, oz) = (
+            lanes(|r| r.origin.x),
+            lanes(|r| r.origin.y),
+            lanes(|r| r.origin.z),
+        );
+        let sp = |v: Vec3| (f32x4::splat(v.x), f32x4::splat(v.y), f32x4::splat(v.z));
+        let ((e1x, e1y, e1z), (e2x, e2y, e2z), (v0x, v0y, v0z)) =
+            (sp(self.e1), sp(self.e2), sp(self.v0));
+        // p = dir x e2
+        let px = dy * e2z - e2y * dz;
+        let py = dz * e2x - e2z * dx;
+        let pz = dx * e2y - e2x * dy;
+        let det = e1x * px + e1y * py + e1z * pz;
+        let inv = f32x4::ONE / det;
+        let (sx, sy, sz) = (ox - v0x, oy - v0y, oz - v0z);
+        let u = (sx * px + sy * py + sz * pz) * inv;
+        // q = s x e1
+        let qx = sy * e1z - e1y * sz;
+        let qy = sz * e1x - e1z * sx;
+        let qz = sx * e1y - e1x * sy;
+        let v = (dx * qx + dy * qy + dz * qz) * inv;
+        let t = (e2x * qx + e2y * qy + e2z * qz) * inv;
+        let zero = f32x4::ZERO;
+        let one = f32x4::ONE;
+        // The scalar tests, lane by lane (NaN fails `contains` and the t range,
+        // passes the v test, as there).
+        let keep = !det.simd_eq(zero).to_bitmask()
+            & (u.simd_ge(zero) & u.simd_le(one)).to_bitmask()
+            & !(v.simd_lt(zero) | (u + v).simd_gt(one)).to_bitmask()
+            & (t.simd_gt(f32x4::splat(t_min))
+                & t.simd_lt(f32x4::from([t_max[0], t_max[1], 0.0, 0.0])))
+            .to_bitmask();
+        let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
+        std::array::from_fn(|l| {
+            (keep & (1 << l) != 0).then_some(SurfaceHit {
+                t: t[l],
+                u: u[l],
+                v: v[l],
+            })
+        })
     }
 
     pub fn bounds(&self) -> Aabb {
