@@ -256,35 +256,25 @@ fn render_twin<const K: usize>(
         .map(|j| {
             let mut tracer = Tracer::new(world, opts.trace);
             let row = j as f32 + grid.offset;
-            // Pass 1: the nearest hit of every view's sample, one descent per column.
+            // Pass 1: the nearest hit of every view's sample, one descent for the
+            // views' rays through the same sample position.
             let dirs: Vec<Vec3> = (lo..=hi)
                 .map(|c| camera.direction(c as f32 + grid.offset, row))
                 .collect();
             let dir_of = |v: usize, i: usize| dirs[(i as i32 + shifts[v] - lo) as usize];
             let mut hits = vec![vec![(PacketHits::<K>::NO_HIT, none); width]; n];
-            for (c, &dir) in (lo..=hi).zip(&dirs) {
-                let mut mask = 0u32;
-                for (v, &s) in shifts.iter().enumerate() {
-                    let i = c - s;
-                    if i >= 0 && (i as usize) < width {
-                        mask |= 1 << v;
-                    }
-                }
-                if mask == 0 {
-                    continue; // a gap between views' images (shifts wider than the image)
-                }
+            let all = if n == 32 { u32::MAX } else { (1u32 << n) - 1 };
+            for i in 0..width {
                 let packet = Packet {
                     origins,
-                    dirs: [dir; K],
+                    dirs: std::array::from_fn(|v| if v < n { dir_of(v, i) } else { Vec3::Z }),
                     t_min: camera.hither,
                     t_max: [f32::INFINITY; K],
-                    mask,
+                    mask: all,
                 };
                 let h = tracer.eye_hits(&packet, &view_of_lane);
-                for (v, &s) in shifts.iter().enumerate() {
-                    if mask & (1 << v) != 0 {
-                        hits[v][(c - s) as usize] = (h.prim[v], h.hit[v]);
-                    }
+                for (v, view_hits) in hits.iter_mut().enumerate() {
+                    view_hits[i] = (h.prim[v], h.hit[v]);
                 }
             }
             // Pass 2: group the samples that see one point, shade each group at once.

@@ -298,18 +298,23 @@ impl<'a> Tracer<'a> {
                 }
             }
         }
-        let r = self.trace_spawned(&reflected, level + 1, &weights);
-        for l in 0..K {
-            if let Some(s) = reflected[l] {
-                self.counts.rays.reflected += 1;
-                out[l] += r[l] * s.coefficient;
-            }
+        if !spawn_more {
+            return out;
         }
-        let t = self.trace_spawned(&refracted, level + 1, &weights);
-        for l in 0..K {
-            if let Some(s) = refracted[l] {
-                self.counts.rays.refracted += 1;
-                out[l] += t[l] * s.coefficient;
+        for (spawns, count) in [(&reflected, 0), (&refracted, 1)] {
+            if spawns.iter().all(Option::is_none) {
+                continue;
+            }
+            let c = self.trace_spawned(spawns, level + 1, &weights);
+            for l in 0..K {
+                if let Some(s) = spawns[l] {
+                    if count == 0 {
+                        self.counts.rays.reflected += 1;
+                    } else {
+                        self.counts.rays.refracted += 1;
+                    }
+                    out[l] += c[l] * s.coefficient;
+                }
             }
         }
         out
