@@ -51,6 +51,8 @@ struct Row {
     traversals_per_eye_ray: f64,
     shared_secondary_rays: u64,
     secondary_rays: u64,
+    grouped_samples: u64,
+    eye_hits: u64,
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
@@ -65,8 +67,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         b.build()?
     };
     let mut rows = Vec::new();
-    println!("| scene | size | interaxial | independent (s) | twin (s) | twin / independent | exact | eye traversals per eye ray | shared secondary rays |");
-    println!("|---|---:|---:|---:|---:|---:|:---:|---:|---:|");
+    println!("| scene | size | interaxial | independent (s) | twin (s) | twin / independent | exact | eye traversals per eye ray | shared secondary rays | hit samples grouped |");
+    println!("|---|---:|---:|---:|---:|---:|:---:|---:|---:|---:|");
     for path in &args.scenes {
         let scene = load_scene(path, &LoadOptions::default())?;
         let name = path
@@ -77,7 +79,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             for &b in &args.interaxial {
                 let row = pool.install(|| measure(&scene, &name, size, b, &args))?;
                 println!(
-                    "| {} | {}² | {} | {:.3} | {:.3} | {:.3} | {} | {:.3} | {} of {} |",
+                    "| {} | {}² | {} | {:.3} | {:.3} | {:.3} | {} | {:.3} | {} of {} | {:.0} % |",
                     row.scene,
                     row.size,
                     row.interaxial,
@@ -87,7 +89,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
                     if row.exact { "yes" } else { "**no**" },
                     row.traversals_per_eye_ray,
                     row.shared_secondary_rays,
-                    row.secondary_rays
+                    row.secondary_rays,
+                    100.0 * row.grouped_samples as f64 / row.eye_hits.max(1) as f64
                 );
                 rows.push(row);
             }
@@ -165,5 +168,7 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
         traversals_per_eye_ray: c.eye_traversals as f64 / c.rays.eye.max(1) as f64,
         shared_secondary_rays: c.shared_secondary_rays,
         secondary_rays: c.rays.reflected + c.rays.refracted,
+        grouped_samples: c.grouped_samples,
+        eye_hits: c.rays.eye_hit,
     })
 }

@@ -27,6 +27,9 @@ pub struct TraceCounts {
     pub shared_secondary: u64,
     /// Views' secondary rays served by those shared descents.
     pub shared_secondary_rays: u64,
+    /// Samples shaded in one packet with the samples of other views that see
+    /// the same surface point (twin method).
+    pub grouped_samples: u64,
     /// Hits per view (index = view), for stereo and multi-view renders.
     #[serde(skip)]
     pub per_view_hits: [u64; 32],
@@ -46,6 +49,7 @@ impl TraceCounts {
         self.eye_traversals += o.eye_traversals;
         self.shared_secondary += o.shared_secondary;
         self.shared_secondary_rays += o.shared_secondary_rays;
+        self.grouped_samples += o.grouped_samples;
         for (a, b) in self.per_view_hits.iter_mut().zip(o.per_view_hits.iter()) {
             *a += b;
         }
@@ -97,6 +101,8 @@ pub struct Report {
     pub traversals_per_eye_ray: f64,
     pub shared_secondary: u64,
     pub shared_secondary_rays: u64,
+    /// Samples shaded together with other views' samples of the same point.
+    pub grouped_samples: u64,
     pub hits_per_view: Vec<u64>,
     pub nodes_visited: u64,
     pub box_tests: u64,
@@ -121,6 +127,7 @@ impl Report {
         };
         self.shared_secondary = c.shared_secondary;
         self.shared_secondary_rays = c.shared_secondary_rays;
+        self.grouped_samples = c.grouped_samples;
         self.hits_per_view = c.per_view_hits[..views.min(32)].to_vec();
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;

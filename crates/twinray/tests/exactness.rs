@@ -146,9 +146,10 @@ fn multi_view_twin_equals_independent() {
 }
 
 #[test]
-fn flat_surfaces_share_their_secondary_rays() {
-    // The floor and the mirror wall are parallel to the interocular line: the
-    // views' reflected rays there are parallel and must be traced as one.
+fn views_samples_of_one_point_are_shaded_together() {
+    // Nearly every sample that hits the scene is seen by both eyes here: the
+    // samples of one point are grouped, and their reflected rays (floor, mirror
+    // wall, spheres) traced as one packet.
     let world = world("example.nff");
     let cam = camera(&world, 96, 72);
     let rig = Rig::stereo(&cam, 0.3, None);
@@ -163,6 +164,12 @@ fn flat_surfaces_share_their_secondary_rays() {
         twin.counts.shared_secondary_rays,
         2 * twin.counts.shared_secondary
     );
+    let hits = twin.counts.rays.eye_hit;
+    assert!(
+        twin.counts.grouped_samples * 10 > hits * 8,
+        "{} of {hits} hit samples grouped",
+        twin.counts.grouped_samples
+    );
     let reference = run(
         &world,
         &cam,
@@ -170,4 +177,5 @@ fn flat_surfaces_share_their_secondary_rays() {
         &options(Method::Independent, Sampling::Centers),
     );
     assert_eq!(reference.counts.shared_secondary, 0);
+    assert_eq!(reference.counts.grouped_samples, 0);
 }

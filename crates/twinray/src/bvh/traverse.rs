@@ -487,8 +487,10 @@ impl Bvh {
             if mask == 0 {
                 continue;
             }
-            if mask.count_ones() == 1 {
-                // One lane left in this subtree: finish it as a plain ray.
+            if mask.count_ones() == 1 && K != 2 {
+                // One lane left in this subtree: finish it as a plain ray. (Not for
+                // a pair: its test of both children in one register measured
+                // faster than the single-ray descent, docs/benchmarks.md.)
                 let l = mask.trailing_zeros() as usize;
                 let mut state = LaneHit {
                     best: best[l],
@@ -601,8 +603,9 @@ impl Bvh {
             if mask == 0 {
                 continue;
             }
-            if mask.count_ones() == 1 {
-                // One live lane left in this subtree: finish it as a plain segment.
+            if mask.count_ones() == 1 && K != 2 {
+                // One live lane left in this subtree: finish it as a plain segment
+                // (a pair keeps it, as in `closest`).
                 let l = mask.trailing_zeros() as usize;
                 let ray = segments.single(l);
                 if self.descend_occlusion(Some(index), &ray, t_max[l], stats, |p| test.test(p, l)) {

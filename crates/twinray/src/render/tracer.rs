@@ -115,6 +115,10 @@ impl<'a> Tracer<'a> {
         packet: &Packet<K>,
         hits: &PacketHits<K>,
     ) -> [Color; K] {
+        let lanes = packet.mask.count_ones() as u64;
+        if lanes > 1 {
+            self.counts.grouped_samples += lanes;
+        }
         self.shade(packet, hits, 1, [1.0; K])
     }
 
