@@ -280,7 +280,20 @@ fn render_twin<const K: usize>(
             // Pass 2: group the samples that see one point, shade each group at once.
             let mut out = vec![vec![Color::ZERO; width]; n];
             let mut shaded = vec![vec![false; width]; n];
+            let background = world.scene.background;
             let mut shade = |tracer: &mut Tracer, group: &[Option<usize>; K]| {
+                // A sample that hit nothing is the background (what shading it gives).
+                let missed = |(v, s): (usize, &Option<usize>)| {
+                    s.is_none_or(|i| hits[v][i].0 == PacketHits::<K>::NO_HIT)
+                };
+                if group.iter().enumerate().all(missed) {
+                    for (v, sample) in group.iter().enumerate() {
+                        if let Some(i) = *sample {
+                            out[v][i] = background;
+                        }
+                    }
+                    return;
+                }
                 let mut packet = Packet {
                     origins,
                     dirs: [Vec3::Z; K],
