@@ -1,10 +1,10 @@
 //! The bounding-volume hierarchy: a binned-SAH build (`build.rs`) and the
 //! traversals the renderer needs (`traverse.rs`): nearest hit for a packet of
-//! rays that share a direction (one lane per view: the paper's twin objects,
-//! realised as N parallel rays traced as one), and any-hit for shadow rays.
+//! rays (one lane per view: the paper's twin objects, realised as the views'
+//! rays traced as one), and any-hit for packets of shadow rays.
 //!
 //! The hierarchy knows nothing of shapes: it holds boxes and a permutation of
-//! primitive indices, and calls closures to test primitives.
+//! primitive indices, and asks a `NearestTest` or `AnyHitTest` to test primitives.
 
 mod build;
 mod traverse;

@@ -2,10 +2,11 @@
 //!
 //! * `Method::Independent` — the paper's "traditional algorithm" and the
 //!   reference: every view is a complete mono render of its own camera.
-//! * `Method::Twin` — the paper's twin objects (sections 2–2.2): one eye ray per
-//!   camera column returns the nearest hit of every view whose image holds
-//!   that column, and flat-surface reflections and refractions of several views
-//!   are traced again as one ray. The images equal the reference bit for bit.
+//! * `Method::Twin` — the paper's twin objects (sections 2–2.2): one descent of
+//!   the hierarchy returns the nearest hit of every view's eye ray through a
+//!   sample; then the views' samples that see one surface point are shaded as
+//!   one packet, whose shadow, reflected and refracted rays share their
+//!   descents. The images equal the reference bit for bit.
 //!
 //! Both methods evaluate a grid of samples per view (pixel centres, or the
 //! pixel corners of the SPD procedure) with the same ray arithmetic.

@@ -1,11 +1,12 @@
-//! The Whitted tracer over packets of rays that share a direction.
+//! The Whitted tracer over packets of rays, one lane per view.
 //!
 //! A packet of one lane is an ordinary ray: the reference renders use that.
-//! The twin method puts one lane per view in the eye-ray packet; after a hit,
-//! lanes whose reflected (or refracted) directions are bit-for-bit equal — the
-//! views' hits on twins of one flat surface — are traced again as one packet,
-//! recursively; lanes that differ are traced apart. Each lane's numbers are its
-//! own throughout, so every lane gets exactly what its view's reference render gets.
+//! The twin method gives the tracer the views' samples of one surface point as
+//! one packet (see `render`): their shadow rays toward each light go as one
+//! packet, and their reflected (and refracted) rays too, recursively — each
+//! lane's ray is its own view's, the descent of the hierarchy is shared. Each
+//! lane's numbers are its own throughout, so every lane gets exactly what its
+//! view's reference render gets.
 
 use crate::bvh::{NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats};
 use crate::math::{reflect, refract, Color, Ray, Vec3};
