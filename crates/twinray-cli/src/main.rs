@@ -448,6 +448,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
                 build_s,
                 render_s: result.seconds,
                 write_s,
+                ..Timings::default()
             },
             scene: SceneFacts {
                 primitives: world.scene.shapes.len(),

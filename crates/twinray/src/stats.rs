@@ -30,6 +30,10 @@ pub struct TraceCounts {
     /// Samples shaded in one packet with the samples of other views that see
     /// the same surface point (twin method).
     pub grouped_samples: u64,
+    /// CPU time of the twin method's two passes, summed over threads (ns): eye
+    /// rays (nearest hits of all views), then shading (everything else).
+    pub eye_pass_ns: u64,
+    pub shading_pass_ns: u64,
     /// Hits per view (index = view), for stereo and multi-view renders.
     #[serde(skip)]
     pub per_view_hits: [u64; 32],
@@ -50,6 +54,8 @@ impl TraceCounts {
         self.shared_secondary += o.shared_secondary;
         self.shared_secondary_rays += o.shared_secondary_rays;
         self.grouped_samples += o.grouped_samples;
+        self.eye_pass_ns += o.eye_pass_ns;
+        self.shading_pass_ns += o.shading_pass_ns;
         for (a, b) in self.per_view_hits.iter_mut().zip(o.per_view_hits.iter()) {
             *a += b;
         }
@@ -71,6 +77,12 @@ pub struct Timings {
     pub build_s: f64,
     pub render_s: f64,
     pub write_s: f64,
+    /// Twin method: CPU seconds (all threads) of the eye-ray pass and of the
+    /// shading pass (shadow, reflected and refracted rays and their shading).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eye_pass_cpu_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shading_pass_cpu_s: Option<f64>,
 }
 
 #[derive(Clone, Debug, Default, Serialize)]
@@ -128,6 +140,10 @@ impl Report {
         self.shared_secondary = c.shared_secondary;
         self.shared_secondary_rays = c.shared_secondary_rays;
         self.grouped_samples = c.grouped_samples;
+        if c.eye_pass_ns > 0 {
+            self.time.eye_pass_cpu_s = Some(c.eye_pass_ns as f64 * 1e-9);
+            self.time.shading_pass_cpu_s = Some(c.shading_pass_ns as f64 * 1e-9);
+        }
         self.hits_per_view = c.per_view_hits[..views.min(32)].to_vec();
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;

@@ -53,12 +53,15 @@ fn check_scene(name: &str, width: u32, height: u32, interaxials: &[f32], samplin
                     format!("{name} b={b} convergence={convergence:?} view {v} {sampling:?}");
                 assert_same_pixels(&reference.images[v], &twin.images[v], &what);
             }
-            // Same rays traced; no more descents for the eye rays (fewer where the views overlap).
+            // Same rays traced; one eye-ray descent per sample for both views.
             assert_eq!(
                 reference.counts.rays, twin.counts.rays,
                 "{name} b={b}: ray counts"
             );
-            assert!(twin.counts.eye_traversals <= reference.counts.eye_traversals);
+            assert_eq!(
+                2 * twin.counts.eye_traversals,
+                reference.counts.eye_traversals
+            );
         }
     }
 }
@@ -136,11 +139,11 @@ fn multi_view_twin_equals_independent() {
                 &format!("{count} views, view {v}"),
             );
         }
-        // One descent serves every view whose image holds the column.
-        let per_ray = twin.counts.eye_traversals as f64 / twin.counts.rays.eye as f64;
-        assert!(
-            per_ray < 1.0 / count as f64 + 0.2,
-            "{count} views: {per_ray} traversals per eye ray"
+        // One descent serves the eye rays of every view through a sample.
+        assert_eq!(
+            twin.counts.eye_traversals * count as u64,
+            twin.counts.rays.eye,
+            "{count} views: one eye-ray descent per sample"
         );
     }
 }

@@ -257,6 +257,7 @@ fn render_twin<const K: usize>(
         .map(|j| {
             let mut tracer = Tracer::new(world, opts.trace);
             let row = j as f32 + grid.offset;
+            let start = Instant::now();
             // Pass 1: the nearest hit of every view's sample, one descent for the
             // views' rays through the same sample position.
             let dirs: Vec<Vec3> = (lo..=hi)
@@ -278,6 +279,7 @@ fn render_twin<const K: usize>(
                     view_hits[i] = (h.prim[v], h.hit[v]);
                 }
             }
+            let eye_pass = start.elapsed();
             // Pass 2: group the samples that see one point, shade each group at once.
             let mut out = vec![vec![Color::ZERO; width]; n];
             let mut shaded = vec![vec![false; width]; n];
@@ -350,6 +352,8 @@ fn render_twin<const K: usize>(
                     shade(&mut tracer, &group);
                 }
             }
+            tracer.counts.eye_pass_ns += eye_pass.as_nanos() as u64;
+            tracer.counts.shading_pass_ns += (start.elapsed() - eye_pass).as_nanos() as u64;
             progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
             (out, tracer.finish())
         })
