@@ -17,6 +17,7 @@
 use super::{Bvh, Node};
 use crate::math::Vec3;
 use crate::shapes::SurfaceHit;
+use arrayvec::ArrayVec;
 use wide::f32x4;
 
 /// Rays `origins[l] + t * dirs[l]`, `t_min < t < t_max[l]`, one per active
@@ -465,19 +466,15 @@ impl Bvh {
         let rays = Lanes::<K>::new(&packet.origins, &packet.dirs, packet.mask, packet.t_min);
         let neg = rays.neg;
 
-        let mut stack: [(u32, u32, [f32; K]); STACK] = [(0, 0, [0.0; K]); STACK];
-        let mut top = 0usize;
+        let mut stack = ArrayVec::<(u32, u32, [f32; K]), STACK>::new();
         stats.box_tests += packet.mask.count_ones() as u64;
         let (root_mask, tn_root) = rays.enter(&self.nodes[0], packet.mask, &best);
         if root_mask == 0 {
             return out;
         }
-        stack[0] = (0, root_mask, tn_root);
-        top += 1;
+        stack.push((0, root_mask, tn_root));
 
-        while top > 0 {
-            top -= 1;
-            let (index, mut mask, tnear) = stack[top];
+        while let Some((index, mut mask, tnear)) = stack.pop() {
             // A lane whose nearest hit is now closer than this box skips it.
             for (l, tn) in tnear.iter().enumerate() {
                 if mask & (1 << l) != 0 && *tn > best[l] * CULL_SLACK {
@@ -547,13 +544,11 @@ impl Bvh {
             stats.box_tests += 2 * mask.count_ones() as u64;
             let ((m_near, tn_near), (m_far, tn_far)) =
                 rays.enter_children(&self.nodes[near], &self.nodes[far], mask, &best);
-            if m_far != 0 && top < STACK {
-                stack[top] = (far as u32, m_far, tn_far);
-                top += 1;
+            if m_far != 0 {
+                let _ = stack.try_push((far as u32, m_far, tn_far));
             }
-            if m_near != 0 && top < STACK {
-                stack[top] = (near as u32, m_near, tn_near);
-                top += 1;
+            if m_near != 0 {
+                let _ = stack.try_push((near as u32, m_near, tn_near));
             }
         }
         out
@@ -593,12 +588,9 @@ impl Bvh {
         if root_mask == 0 {
             return;
         }
-        let mut stack = [(0u32, 0u32); STACK];
-        stack[0] = (0, root_mask);
-        let mut top = 1usize;
-        while top > 0 {
-            top -= 1;
-            let (index, m) = stack[top];
+        let mut stack = ArrayVec::<(u32, u32), STACK>::new();
+        stack.push((0, root_mask));
+        while let Some((index, m)) = stack.pop() {
             let mask = m & live;
             if mask == 0 {
                 continue;
@@ -648,13 +640,11 @@ impl Bvh {
             stats.box_tests += 2 * mask.count_ones() as u64;
             let (m_near, m_far) =
                 segments.enters_children(&self.nodes[near], &self.nodes[far], mask, t_max);
-            if m_far != 0 && top < STACK {
-                stack[top] = (far as u32, m_far);
-                top += 1;
+            if m_far != 0 {
+                let _ = stack.try_push((far as u32, m_far));
             }
-            if m_near != 0 && top < STACK {
-                stack[top] = (near as u32, m_near);
-                top += 1;
+            if m_near != 0 {
+                let _ = stack.try_push((near as u32, m_near));
             }
         }
     }
@@ -692,12 +682,9 @@ impl Bvh {
                 }
             }
         };
-        let mut stack = [(0u32, 0f32); STACK];
-        stack[0] = start;
-        let mut top = 1usize;
-        while top > 0 {
-            top -= 1;
-            let (index, tnear) = stack[top];
+        let mut stack = ArrayVec::<(u32, f32), STACK>::new();
+        stack.push(start);
+        while let Some((index, tnear)) = stack.pop() {
             if tnear > best * CULL_SLACK {
                 continue;
             }
@@ -722,16 +709,10 @@ impl Bvh {
             boxes += 2;
             let t_near = entry(&self.nodes[near], best);
             if let Some(tn) = entry(&self.nodes[far], best) {
-                if top < STACK {
-                    stack[top] = (far as u32, tn);
-                    top += 1;
-                }
+                let _ = stack.try_push((far as u32, tn));
             }
             if let Some(tn) = t_near {
-                if top < STACK {
-                    stack[top] = (near as u32, tn);
-                    top += 1;
-                }
+                let _ = stack.try_push((near as u32, tn));
             }
         }
         (state.best, state.prim, state.hit) = (best, prim_hit, hit);
@@ -772,13 +753,11 @@ impl Bvh {
                 0
             }
         };
-        let mut stack = [0u32; STACK];
-        stack[0] = start;
-        let mut top = 1usize;
-        'descent: while top > 0 {
-            top -= 1;
+        let mut stack = ArrayVec::<u32, STACK>::new();
+        stack.push(start);
+        'descent: while let Some(index) = stack.pop() {
             nodes += 1;
-            let node = &self.nodes[stack[top] as usize];
+            let node = &self.nodes[index as usize];
             if node.is_leaf() {
                 let first = node.first as usize;
                 for &prim in &self.order[first..first + node.count() as usize] {
@@ -794,13 +773,11 @@ impl Bvh {
             let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
             boxes += 2;
             let near_in = enters(&self.nodes[near]);
-            if enters(&self.nodes[far]) && top < STACK {
-                stack[top] = far as u32;
-                top += 1;
+            if enters(&self.nodes[far]) {
+                let _ = stack.try_push(far as u32);
             }
-            if near_in && top < STACK {
-                stack[top] = near as u32;
-                top += 1;
+            if near_in {
+                let _ = stack.try_push(near as u32);
             }
         }
         stats.nodes += nodes;
