@@ -24,7 +24,7 @@ use crate::bvh::{Packet, PacketHits};
 use crate::camera::Camera;
 use crate::image::Image;
 use crate::math::{Color, Vec3};
-use crate::rig::Rig;
+use crate::rig::{Rig, View};
 use crate::shapes::SurfaceHit;
 use crate::stats::TraceCounts;
 use crate::world::World;
@@ -213,11 +213,19 @@ fn render_independent(
     (grids, counts)
 }
 
+/// The sample of `view`'s row nearest to where `point` projects in it, if any.
+fn nearest_sample(camera: &Camera, grid: &Grid, view: &View, point: Vec3) -> Option<usize> {
+    let (column, _) = camera.project(point, view.offset)?;
+    // View v's sample k looks along camera column k + shift_v + grid offset.
+    let k = (column - grid.offset as f64).round() - view.shift as f64;
+    (k >= 0.0 && k < grid.width as f64).then_some(k as usize)
+}
+
 /// Twin objects, in two passes per row of samples:
 ///
-/// 1. **Eye rays**: one packet per camera column, one lane per view that has
-///    this column in its image — the paper's one eye ray through the twin
-///    objects, returning the nearest hit of every view.
+/// 1. **Eye rays**: one packet per sample position `x`, lane `v` holding view
+///    `v`'s ray through it (camera column `x + shift_v`) — the paper's one eye
+///    ray through the twin objects, returning the nearest hit of every view.
 /// 2. **Shading**: each sample of view 0 that hit something is grouped with the
 ///    sample of every other view that sees the same surface point (its hit
 ///    projected into that view, rounded to the nearest sample of the same row:
@@ -329,16 +337,12 @@ fn render_twin<const K: usize>(
                 if prim != PacketHits::<K>::NO_HIT {
                     let point = origins[0] + dir_of(0, i) * hit.t;
                     for (v, view) in rig.views.iter().enumerate().skip(1) {
-                        let Some((column, _)) = camera.project(point, view.offset) else {
+                        let Some(k) = nearest_sample(camera, grid, view, point) else {
                             continue;
                         };
-                        let k = (column - grid.offset as f64).round() - shifts[v] as f64;
-                        if k >= 0.0 && k < width as f64 {
-                            let k = k as usize;
-                            if !shaded[v][k] && hits[v][k].0 != PacketHits::<K>::NO_HIT {
-                                shaded[v][k] = true;
-                                group[v] = Some(k);
-                            }
+                        if !shaded[v][k] && hits[v][k].0 != PacketHits::<K>::NO_HIT {
+                            shaded[v][k] = true;
+                            group[v] = Some(k);
                         }
                     }
                 }
