@@ -260,19 +260,29 @@ fn render_twin<const K: usize>(
     };
     let total = grid.height as u64;
     let done = AtomicU64::new(0);
+    // A row's hits and bookkeeping, kept per worker thread from row to row.
+    struct RowScratch<const K: usize> {
+        dirs: Vec<Vec3>,
+        hits: Vec<Vec<(u32, SurfaceHit)>>,
+        shaded: Vec<Vec<bool>>,
+    }
+    let scratch = || RowScratch::<K> {
+        dirs: Vec::with_capacity((hi - lo + 1) as usize),
+        hits: vec![vec![(PacketHits::<K>::NO_HIT, none); width]; n],
+        shaded: vec![vec![false; width]; n],
+    };
     let rows: Vec<(Vec<Vec<Color>>, TraceCounts)> = (0..grid.height)
         .into_par_iter()
-        .map(|j| {
+        .map_init(scratch, |scratch, j| {
             let mut tracer = Tracer::new(world, opts.trace);
             let row = j as f32 + grid.offset;
             let start = Instant::now();
             // Pass 1: the nearest hit of every view's sample, one descent for the
             // views' rays through the same sample position.
-            let dirs: Vec<Vec3> = (lo..=hi)
-                .map(|c| camera.direction(c as f32 + grid.offset, row))
-                .collect();
+            let RowScratch { dirs, hits, shaded } = scratch;
+            dirs.clear();
+            dirs.extend((lo..=hi).map(|c| camera.direction(c as f32 + grid.offset, row)));
             let dir_of = |v: usize, i: usize| dirs[(i as i32 + shifts[v] - lo) as usize];
-            let mut hits = vec![vec![(PacketHits::<K>::NO_HIT, none); width]; n];
             let all = if n == 32 { u32::MAX } else { (1u32 << n) - 1 };
             for i in 0..width {
                 let packet = Packet {
@@ -290,7 +300,9 @@ fn render_twin<const K: usize>(
             let eye_pass = start.elapsed();
             // Pass 2: group the samples that see one point, shade each group at once.
             let mut out = vec![vec![Color::ZERO; width]; n];
-            let mut shaded = vec![vec![false; width]; n];
+            for view in shaded.iter_mut() {
+                view.fill(false);
+            }
             let background = world.scene.background;
             let mut shade = |tracer: &mut Tracer, group: &[Option<usize>; K]| {
                 // A sample that hit nothing is the background (what shading it gives).
