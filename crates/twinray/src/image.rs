@@ -11,11 +11,17 @@ pub struct Image {
 }
 
 impl Image {
+    /// A black image.
     pub fn new(width: u32, height: u32) -> Image {
+        Image::filled(width, height, Color::ZERO)
+    }
+
+    /// An image of one colour.
+    pub fn filled(width: u32, height: u32, color: Color) -> Image {
         Image {
             width,
             height,
-            pixels: vec![Color::ZERO; width as usize * height as usize],
+            pixels: vec![color; width as usize * height as usize],
         }
     }
 

@@ -101,17 +101,9 @@ mod tests {
     use super::*;
     use crate::Error;
 
-    fn filled(c: Color) -> Image {
-        Image {
-            width: 4,
-            height: 2,
-            pixels: vec![c; 8],
-        }
-    }
-
     #[test]
     fn identical_images() {
-        let a = filled(Color::new(0.1, 0.2, 0.3));
+        let a = Image::filled(4, 2, Color::new(0.1, 0.2, 0.3));
         let d = compare(&a, &a.clone()).unwrap();
         assert_eq!(d.max_abs, 0.0);
         assert_eq!(d.mean_abs, 0.0);
@@ -122,7 +114,7 @@ mod tests {
 
     #[test]
     fn one_differing_pixel() {
-        let a = filled(Color::ZERO);
+        let a = Image::filled(4, 2, Color::ZERO);
         let mut b = a.clone();
         b.set(3, 1, Color::new(0.0, 0.5, 0.0));
         let d = compare(&a, &b).unwrap();
@@ -137,18 +129,18 @@ mod tests {
 
     #[test]
     fn psnr_of_a_uniform_offset() {
-        let d = compare(&filled(Color::ZERO), &filled(Color::splat(0.1))).unwrap();
+        let d = compare(&Image::filled(4, 2, Color::ZERO), &Image::filled(4, 2, Color::splat(0.1))).unwrap();
         assert!((d.psnr_db - 20.0).abs() < 1e-5, "{}", d.psnr_db);
         assert_eq!(d.differing_pixels, 8);
     }
 
     #[test]
     fn nan_is_a_difference_unless_both_are_nan() {
-        let a = filled(Color::new(f32::NAN, 0.0, f32::INFINITY));
+        let a = Image::filled(4, 2, Color::new(f32::NAN, 0.0, f32::INFINITY));
         let d = compare(&a, &a.clone()).unwrap();
         assert_eq!(d.differing_pixels, 0);
         assert!(d.psnr_db.is_infinite());
-        let b = filled(Color::new(0.0, 0.0, f32::INFINITY));
+        let b = Image::filled(4, 2, Color::new(0.0, 0.0, f32::INFINITY));
         let d = compare(&a, &b).unwrap();
         assert_eq!(d.differing_pixels, 8);
         assert_eq!(d.max_abs, f32::INFINITY);
@@ -156,7 +148,7 @@ mod tests {
 
     #[test]
     fn size_mismatch_is_an_error() {
-        let a = filled(Color::ZERO);
+        let a = Image::filled(4, 2, Color::ZERO);
         let b = Image::new(2, 4);
         assert!(matches!(compare(&a, &b), Err(Error::Invalid(_))));
         assert!(matches!(
@@ -167,8 +159,8 @@ mod tests {
 
     #[test]
     fn difference_image_scales_absolute_differences() {
-        let a = filled(Color::new(0.5, 0.2, 0.0));
-        let b = filled(Color::new(0.25, 0.2, 0.125));
+        let a = Image::filled(4, 2, Color::new(0.5, 0.2, 0.0));
+        let b = Image::filled(4, 2, Color::new(0.25, 0.2, 0.125));
         let d = difference_image(&a, &b, 4.0).unwrap();
         assert_eq!((d.width, d.height), (4, 2));
         assert_eq!(d.get(2, 1), Color::new(1.0, 0.0, 0.5));

@@ -183,14 +183,6 @@ mod tests {
     const RED: Color = Color::new(1.0, 0.0, 0.0);
     const BLUE: Color = Color::new(0.0, 0.0, 1.0);
 
-    fn filled(width: u32, height: u32, c: Color) -> Image {
-        Image {
-            width,
-            height,
-            pixels: vec![c; (width * height) as usize],
-        }
-    }
-
     /// Pixel value encodes its coordinates: (x, y, tag).
     fn coords(width: u32, height: u32, tag: f32) -> Image {
         let mut img = Image::new(width, height);
@@ -204,7 +196,7 @@ mod tests {
 
     #[test]
     fn side_by_side_puts_left_on_the_left() {
-        let out = side_by_side(&filled(4, 3, RED), &filled(4, 3, BLUE), false).unwrap();
+        let out = side_by_side(&Image::filled(4, 3, RED), &Image::filled(4, 3, BLUE), false).unwrap();
         assert_eq!((out.width, out.height), (8, 3));
         for y in 0..3 {
             for x in 0..8 {
@@ -223,13 +215,13 @@ mod tests {
 
     #[test]
     fn cross_puts_right_on_the_left() {
-        let out = cross(&filled(4, 3, RED), &filled(4, 3, BLUE), false).unwrap();
+        let out = cross(&Image::filled(4, 3, RED), &Image::filled(4, 3, BLUE), false).unwrap();
         assert_eq!((out.width, out.height), (8, 3));
         assert_eq!(out.get(0, 0), BLUE);
         assert_eq!(out.get(3, 2), BLUE);
         assert_eq!(out.get(4, 0), RED);
         assert_eq!(out.get(7, 2), RED);
-        let sq = cross(&filled(4, 3, RED), &filled(4, 3, BLUE), true).unwrap();
+        let sq = cross(&Image::filled(4, 3, RED), &Image::filled(4, 3, BLUE), true).unwrap();
         assert_eq!((sq.width, sq.height), (4, 3));
         assert_eq!(sq.get(0, 0), BLUE);
         assert_eq!(sq.get(3, 0), RED);
@@ -237,7 +229,7 @@ mod tests {
 
     #[test]
     fn top_bottom_puts_left_on_top() {
-        let out = top_bottom(&filled(4, 3, RED), &filled(4, 3, BLUE), false).unwrap();
+        let out = top_bottom(&Image::filled(4, 3, RED), &Image::filled(4, 3, BLUE), false).unwrap();
         assert_eq!((out.width, out.height), (4, 6));
         for y in 0..6 {
             for x in 0..4 {
@@ -290,17 +282,17 @@ mod tests {
 
     #[test]
     fn squeezing_a_single_column_is_an_error() {
-        let l = filled(1, 4, RED);
+        let l = Image::filled(1, 4, RED);
         assert!(matches!(side_by_side(&l, &l, true), Err(Error::Invalid(_))));
         assert!(side_by_side(&l, &l, false).is_ok());
-        let l = filled(4, 1, RED);
+        let l = Image::filled(4, 1, RED);
         assert!(matches!(top_bottom(&l, &l, true), Err(Error::Invalid(_))));
     }
 
     #[test]
     fn mismatched_or_broken_eyes_are_errors() {
-        let a = filled(4, 3, RED);
-        let b = filled(3, 4, BLUE);
+        let a = Image::filled(4, 3, RED);
+        let b = Image::filled(3, 4, BLUE);
         assert!(matches!(
             side_by_side(&a, &b, false),
             Err(Error::Invalid(_))
@@ -331,7 +323,7 @@ mod tests {
 
     #[test]
     fn interlace_rows() {
-        let out = interlace(&filled(3, 4, RED), &filled(3, 4, BLUE), InterlaceMode::Rows).unwrap();
+        let out = interlace(&Image::filled(3, 4, RED), &Image::filled(3, 4, BLUE), InterlaceMode::Rows).unwrap();
         assert_eq!((out.width, out.height), (3, 4));
         for y in 0..4 {
             for x in 0..3 {
@@ -343,8 +335,8 @@ mod tests {
     #[test]
     fn interlace_columns() {
         let out = interlace(
-            &filled(3, 4, RED),
-            &filled(3, 4, BLUE),
+            &Image::filled(3, 4, RED),
+            &Image::filled(3, 4, BLUE),
             InterlaceMode::Columns,
         )
         .unwrap();
@@ -359,8 +351,8 @@ mod tests {
     #[test]
     fn interlace_checker() {
         let out = interlace(
-            &filled(3, 3, RED),
-            &filled(3, 3, BLUE),
+            &Image::filled(3, 3, RED),
+            &Image::filled(3, 3, BLUE),
             InterlaceMode::Checker,
         )
         .unwrap();

@@ -279,14 +279,6 @@ mod tests {
     use super::*;
     use crate::math::Color;
 
-    fn filled(c: Color) -> Image {
-        Image {
-            width: 4,
-            height: 2,
-            pixels: vec![c; 8],
-        }
-    }
-
     const RED: Color = Color::new(1.0, 0.0, 0.0);
     const BLUE: Color = Color::new(0.0, 0.0, 1.0);
 
@@ -316,8 +308,8 @@ mod tests {
         let written = write_stereo(
             &out,
             Layout::Separate,
-            &filled(RED),
-            &filled(BLUE),
+            &Image::filled(4, 2, RED),
+            &Image::filled(4, 2, BLUE),
             &StereoOptions::default(),
         )
         .unwrap();
@@ -325,8 +317,8 @@ mod tests {
             written,
             vec![dir.path().join("pair_L.png"), dir.path().join("pair_R.png")]
         );
-        assert_eq!(read_image(&written[0]).unwrap(), filled(RED));
-        assert_eq!(read_image(&written[1]).unwrap(), filled(BLUE));
+        assert_eq!(read_image(&written[0]).unwrap(), Image::filled(4, 2, RED));
+        assert_eq!(read_image(&written[1]).unwrap(), Image::filled(4, 2, BLUE));
         assert!(!out.exists());
     }
 
@@ -341,7 +333,7 @@ mod tests {
                 _ => "pfm",
             };
             let out = dir.path().join(format!("{}.{ext}", layout.name()));
-            let written = write_stereo(&out, layout, &filled(RED), &filled(BLUE), &opts).unwrap();
+            let written = write_stereo(&out, layout, &Image::filled(4, 2, RED), &Image::filled(4, 2, BLUE), &opts).unwrap();
             for p in &written {
                 assert!(p.exists(), "{layout}: {}", p.display());
             }
@@ -351,14 +343,14 @@ mod tests {
         assert_eq!(sbs.get(0, 0), RED);
         assert_eq!(sbs.get(7, 1), BLUE);
         let mv = read_image(&dir.path().join("multiview-exr.exr")).unwrap();
-        assert_eq!(mv, filled(RED));
+        assert_eq!(mv, Image::filled(4, 2, RED));
     }
 
     #[test]
     fn write_stereo_checks_names_and_sizes_before_writing() {
         let dir = tempfile::tempdir().unwrap();
         let opts = StereoOptions::default();
-        let (l, r) = (filled(RED), filled(BLUE));
+        let (l, r) = (Image::filled(4, 2, RED), Image::filled(4, 2, BLUE));
         for (layout, name) in [
             (Layout::Mpo, "pair.png"),
             (Layout::MultiviewExr, "pair.png"),

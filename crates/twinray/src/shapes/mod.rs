@@ -13,6 +13,26 @@ pub use sphere::Sphere;
 pub use triangle::{Triangle, TriangleNormals};
 
 use crate::math::{Aabb, Ray, Vec3};
+use wide::f32x4;
+
+/// Two rays in lanes 0 and 1 of SSE registers, component by component: the
+/// form the pair tests work on.
+#[derive(Clone, Copy, Debug)]
+pub struct RayPair {
+    pub origin: [f32x4; 3],
+    pub dir: [f32x4; 3],
+}
+
+impl RayPair {
+    #[inline(always)]
+    pub fn new(rays: &[Ray; 2]) -> RayPair {
+        let lanes = |f: fn(&Ray) -> f32| f32x4::from([f(&rays[0]), f(&rays[1]), 0.0, 0.0]);
+        RayPair {
+            origin: [lanes(|r| r.origin.x), lanes(|r| r.origin.y), lanes(|r| r.origin.z)],
+            dir: [lanes(|r| r.dir.x), lanes(|r| r.dir.y), lanes(|r| r.dir.z)],
+        }
+    }
+}
 
 /// Where a ray met a primitive: the distance and the surface coordinates the
 /// normal needs (barycentrics for triangles, unused otherwise).
@@ -51,8 +71,8 @@ impl Shape {
         t_max: [f32; 2],
     ) -> [Option<SurfaceHit>; 2] {
         match self {
-            Shape::Sphere(s) => s.intersect_pair(rays, t_min, t_max),
-            Shape::Triangle(t) => t.intersect_pair(rays, t_min, t_max),
+            Shape::Sphere(s) => s.intersect_pair(&RayPair::new(rays), t_min, t_max),
+            Shape::Triangle(t) => t.intersect_pair(&RayPair::new(rays), t_min, t_max),
             Shape::Cone(c) => [
                 c.intersect(&rays[0], t_min, t_max[0]),
                 c.intersect(&rays[1], t_min, t_max[1]),

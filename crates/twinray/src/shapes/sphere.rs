@@ -1,4 +1,4 @@
-use super::SurfaceHit;
+use super::{RayPair, SurfaceHit};
 use crate::math::{Aabb, Ray, Vec3};
 use wide::f32x4;
 
@@ -49,15 +49,14 @@ impl Sphere {
     #[inline(always)]
     pub fn intersect_pair(
         &self,
-        rays: &[Ray; 2],
+        rays: &RayPair,
         t_min: f32,
         t_max: [f32; 2],
     ) -> [Option<SurfaceHit>; 2] {
-        let lanes = |f: fn(&Ray) -> f32| f32x4::from([f(&rays[0]), f(&rays[1]), 0.0, 0.0]);
-        let (dx, dy, dz) = (lanes(|r| r.dir.x), lanes(|r| r.dir.y), lanes(|r| r.dir.z));
-        let ocx = f32x4::splat(self.center.x) - lanes(|r| r.origin.x);
-        let ocy = f32x4::splat(self.center.y) - lanes(|r| r.origin.y);
-        let ocz = f32x4::splat(self.center.z) - lanes(|r| r.origin.z);
+        let ([dx, dy, dz], [ox, oy, oz]) = (rays.dir, rays.origin);
+        let ocx = f32x4::splat(self.center.x) - ox;
+        let ocy = f32x4::splat(self.center.y) - oy;
+        let ocz = f32x4::splat(self.center.z) - oz;
         let tc = ocx * dx + ocy * dy + ocz * dz;
         let (cx, cy, cz) = (ocx - dx * tc, ocy - dy * tc, ocz - dz * tc);
         let d2 = cx * cx + cy * cy + cz * cz;

@@ -1,4 +1,4 @@
-use super::SurfaceHit;
+use super::{RayPair, SurfaceHit};
 use crate::math::{Aabb, Ray, Vec3};
 use wide::f32x4;
 
@@ -65,17 +65,11 @@ impl Triangle {
     #[inline(always)]
     pub fn intersect_pair(
         &self,
-        rays: &[Ray; 2],
+        rays: &RayPair,
         t_min: f32,
         t_max: [f32; 2],
     ) -> [Option<SurfaceHit>; 2] {
-        let lanes = |f: fn(&Ray) -> f32| f32x4::from([f(&rays[0]), f(&rays[1]), 0.0, 0.0]);
-        let (dx, dy, dz) = (lanes(|r| r.dir.x), lanes(|r| r.dir.y), lanes(|r| r.dir.z));
-        let (ox, oy, oz) = (
-            lanes(|r| r.origin.x),
-            lanes(|r| r.origin.y),
-            lanes(|r| r.origin.z),
-        );
+        let ([dx, dy, dz], [ox, oy, oz]) = (rays.dir, rays.origin);
         let sp = |v: Vec3| (f32x4::splat(v.x), f32x4::splat(v.y), f32x4::splat(v.z));
         let ((e1x, e1y, e1z), (e2x, e2y, e2z), (v0x, v0y, v0z)) =
             (sp(self.e1), sp(self.e2), sp(self.v0));
