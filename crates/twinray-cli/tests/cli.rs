@@ -293,16 +293,10 @@ fn write_scene(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
     p
 }
 
-/// Deterministic pseudo-random bytes (Knuth's MMIX LCG).
-fn noise(n: usize, mut seed: u64) -> Vec<u8> {
-    (0..n)
-        .map(|_| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 56) as u8
-        })
-        .collect()
+/// Deterministic pseudo-random bytes.
+fn noise(n: usize, seed: u64) -> Vec<u8> {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    (0..n).map(|_| rng.u8(..)).collect()
 }
 
 // ---------------------------------------------------------------------------

@@ -295,13 +295,8 @@ mod tests {
     use super::*;
 
     fn random_boxes(n: usize, seed: u64) -> Vec<Aabb> {
-        let mut s = seed;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((s >> 40) as f32) / (1u64 << 24) as f32
-        };
+        let mut rng = fastrand::Rng::with_seed(seed);
+        let mut next = || rng.f32();
         (0..n)
             .map(|_| {
                 let c = Vec3::new(next(), next(), next()) * 100.0;

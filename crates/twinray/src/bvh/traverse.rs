@@ -795,13 +795,8 @@ mod tests {
     use crate::shapes::Sphere;
 
     fn spheres(n: usize) -> Vec<Sphere> {
-        let mut s = 7u64;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((s >> 40) as f32) / (1u64 << 24) as f32
-        };
+        let mut rng = fastrand::Rng::with_seed(7);
+        let mut next = || rng.f32();
         (0..n)
             .map(|_| Sphere {
                 center: Vec3::new(
@@ -833,11 +828,9 @@ mod tests {
         let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
         let bvh = build(&boxes, &BuildOptions::default());
         let mut stats = TraversalStats::default();
-        let mut seed = 3u64;
+        let mut rng = fastrand::Rng::with_seed(3);
         for _ in 0..2000 {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
-            let a = (seed >> 33) as f32 / (1u64 << 31) as f32;
-            let b = (seed >> 13 & 0xfffff) as f32 / (1u64 << 20) as f32;
+            let (a, b) = (rng.f32(), rng.f32());
             let dir = Vec3::new(a - 0.5, b - 0.5, 1.0).normalize();
             let origins = [
                 Vec3::new(-0.3, 0.0, 0.0),

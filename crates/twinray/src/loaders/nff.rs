@@ -1181,23 +1181,6 @@ pp 3
         );
     }
 
-    /// A tiny deterministic generator (Knuth's MMIX LCG).
-    struct Lcg(u64);
-
-    impl Lcg {
-        fn next(&mut self) -> u32 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 33) as u32
-        }
-
-        fn below(&mut self, n: usize) -> usize {
-            self.next() as usize % n
-        }
-    }
-
     /// The outcome must be a scene or a one-line parse error with a sane line.
     #[track_caller]
     fn check_no_panic(result: Result<Scene>, text_lines: usize) {
@@ -1232,16 +1215,16 @@ pp 3
     #[test]
     fn random_bytes_do_not_panic() {
         let opts = LoadOptions::default();
-        let mut rng = Lcg(42);
+        let mut rng = fastrand::Rng::with_seed(42);
         let alphabet = b"vblfcsp0123456789.-+e \n\r\t#nai";
         for round in 0..3000 {
-            let len = rng.below(200);
+            let len = rng.usize(..200);
             let bytes: Vec<u8> = (0..len)
                 .map(|_| {
                     if round % 2 == 0 {
-                        rng.next() as u8
+                        rng.u8(..)
                     } else {
-                        alphabet[rng.below(alphabet.len())]
+                        alphabet[rng.usize(..alphabet.len())]
                     }
                 })
                 .collect();
@@ -1299,7 +1282,7 @@ pp 3
             max_vertices: 50,
             ..LoadOptions::default()
         };
-        let mut rng = Lcg(7);
+        let mut rng = fastrand::Rng::with_seed(7);
         let mut oks = 0;
         for round in 0..5000 {
             let mut text = if round % 2 == 0 {
@@ -1307,8 +1290,8 @@ pp 3
             } else {
                 VIEW.to_string()
             };
-            for _ in 0..rng.below(120) {
-                text.push_str(WORDS[rng.below(WORDS.len())]);
+            for _ in 0..rng.usize(..120) {
+                text.push_str(WORDS[rng.usize(..WORDS.len())]);
                 text.push(' ');
             }
             let r = parse_nff(&text, Path::new("t.nff"), &opts);

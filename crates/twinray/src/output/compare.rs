@@ -129,7 +129,11 @@ mod tests {
 
     #[test]
     fn psnr_of_a_uniform_offset() {
-        let d = compare(&Image::filled(4, 2, Color::ZERO), &Image::filled(4, 2, Color::splat(0.1))).unwrap();
+        let d = compare(
+            &Image::filled(4, 2, Color::ZERO),
+            &Image::filled(4, 2, Color::splat(0.1)),
+        )
+        .unwrap();
         assert!((d.psnr_db - 20.0).abs() < 1e-5, "{}", d.psnr_db);
         assert_eq!(d.differing_pixels, 8);
     }

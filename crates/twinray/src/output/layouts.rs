@@ -196,7 +196,8 @@ mod tests {
 
     #[test]
     fn side_by_side_puts_left_on_the_left() {
-        let out = side_by_side(&Image::filled(4, 3, RED), &Image::filled(4, 3, BLUE), false).unwrap();
+        let out =
+            side_by_side(&Image::filled(4, 3, RED), &Image::filled(4, 3, BLUE), false).unwrap();
         assert_eq!((out.width, out.height), (8, 3));
         for y in 0..3 {
             for x in 0..8 {
@@ -323,7 +324,12 @@ mod tests {
 
     #[test]
     fn interlace_rows() {
-        let out = interlace(&Image::filled(3, 4, RED), &Image::filled(3, 4, BLUE), InterlaceMode::Rows).unwrap();
+        let out = interlace(
+            &Image::filled(3, 4, RED),
+            &Image::filled(3, 4, BLUE),
+            InterlaceMode::Rows,
+        )
+        .unwrap();
         assert_eq!((out.width, out.height), (3, 4));
         for y in 0..4 {
             for x in 0..3 {

@@ -333,7 +333,14 @@ mod tests {
                 _ => "pfm",
             };
             let out = dir.path().join(format!("{}.{ext}", layout.name()));
-            let written = write_stereo(&out, layout, &Image::filled(4, 2, RED), &Image::filled(4, 2, BLUE), &opts).unwrap();
+            let written = write_stereo(
+                &out,
+                layout,
+                &Image::filled(4, 2, RED),
+                &Image::filled(4, 2, BLUE),
+                &opts,
+            )
+            .unwrap();
             for p in &written {
                 assert!(p.exists(), "{layout}: {}", p.display());
             }

@@ -28,7 +28,11 @@ impl RayPair {
     pub fn new(rays: &[Ray; 2]) -> RayPair {
         let lanes = |f: fn(&Ray) -> f32| f32x4::from([f(&rays[0]), f(&rays[1]), 0.0, 0.0]);
         RayPair {
-            origin: [lanes(|r| r.origin.x), lanes(|r| r.origin.y), lanes(|r| r.origin.z)],
+            origin: [
+                lanes(|r| r.origin.x),
+                lanes(|r| r.origin.y),
+                lanes(|r| r.origin.z),
+            ],
             dir: [lanes(|r| r.dir.x), lanes(|r| r.dir.y), lanes(|r| r.dir.z)],
         }
     }
@@ -113,21 +117,8 @@ impl Shape {
 mod tests {
     use super::*;
 
-    /// A small deterministic generator (the tests must not depend on a seed source).
-    struct Lcg(u64);
-
-    impl Lcg {
-        fn next(&mut self) -> f32 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((self.0 >> 40) as f32) / (1u64 << 24) as f32
-        }
-
-        fn vec(&mut self, scale: f32) -> Vec3 {
-            Vec3::new(self.next() - 0.5, self.next() - 0.5, self.next() - 0.5) * scale
-        }
+    fn vec(g: &mut fastrand::Rng, scale: f32) -> Vec3 {
+        Vec3::new(g.f32() - 0.5, g.f32() - 0.5, g.f32() - 0.5) * scale
     }
 
     fn bits(h: &Option<SurfaceHit>) -> Option<[u32; 3]> {
@@ -138,20 +129,20 @@ mod tests {
     /// aimed at edges and vertices and rays starting on the surface.
     #[test]
     fn pair_tests_equal_single_tests() {
-        let mut g = Lcg(11);
+        let mut g = fastrand::Rng::with_seed(11);
         let (mut hits, mut cases) = (0, 0);
         for _ in 0..400 {
-            let (a, b, c) = (g.vec(4.0), g.vec(4.0), g.vec(4.0));
+            let (a, b, c) = (vec(&mut g, 4.0), vec(&mut g, 4.0), vec(&mut g, 4.0));
             let face = (b - a).cross(c - a).normalize_or_zero();
             let shapes = [
                 Shape::Sphere(Sphere {
-                    center: g.vec(4.0),
-                    radius: 0.2 + g.next(),
+                    center: vec(&mut g, 4.0),
+                    radius: 0.2 + g.f32(),
                     inside: false,
                 }),
                 Shape::Triangle(Triangle::new(a, b, c, face, TriangleNormals::Flat)),
                 Shape::Cone(
-                    Cone::new(a, 0.5 + g.next(), b, 0.1 * g.next(), false)
+                    Cone::new(a, 0.5 + g.f32(), b, 0.1 * g.f32(), false)
                         .unwrap_or_else(|| panic!("cone")),
                 ),
             ];
@@ -161,13 +152,17 @@ mod tests {
                     let bounds = shape.bounds();
                     let target = match k % 3 {
                         0 => a,
-                        1 => a + (b - a) * g.next(),
-                        _ => bounds.min + (bounds.max - bounds.min) * g.next(),
+                        1 => a + (b - a) * g.f32(),
+                        _ => bounds.min + (bounds.max - bounds.min) * g.f32(),
                     };
-                    let o0 = g.vec(20.0);
-                    let o1 = if k % 2 == 0 { o0 + g.vec(0.2) } else { target };
+                    let o0 = vec(&mut g, 20.0);
+                    let o1 = if k % 2 == 0 {
+                        o0 + vec(&mut g, 0.2)
+                    } else {
+                        target
+                    };
                     let rays = [o0, o1].map(|o| Ray::new(o, (target - o).normalize_or(Vec3::Z)));
-                    let t_max = [f32::INFINITY, 5.0 + 20.0 * g.next()];
+                    let t_max = [f32::INFINITY, 5.0 + 20.0 * g.f32()];
                     let pair = shape.intersect_pair(&rays, 1e-4, t_max);
                     for l in 0..2 {
                         let single = shape.intersect(&rays[l], 1e-4, t_max[l]);
