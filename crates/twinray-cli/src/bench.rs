@@ -12,7 +12,11 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 use twinray::camera::Camera;
 use twinray::loaders::{load_scene, LoadOptions};
-use twinray::render::{self, Method, RenderOptions, Sampling, TraceSettings};
+use twinray::output::compare;
+use twinray::render::{
+    self, Approximations, Method, RenderOptions, ReprojectMode, Reprojection, Sampling,
+    TraceSettings,
+};
 use twinray::rig::Rig;
 use twinray::{Scene, World};
 
@@ -39,20 +43,88 @@ pub struct BenchArgs {
     /// Also write the table as CSV.
     #[arg(long)]
     csv: Option<PathBuf>,
+    /// Configurations of the twin method, comma-separated: none (exact), merge
+    /// (--merge-secondary), reproject (safe), paper (--reproject-mode paper),
+    /// fast. Each is timed against two independent renders, and its images
+    /// compared with theirs (PSNR and largest difference, worst view).
+    #[arg(long, value_delimiter = ',', value_enum, default_values_t = [Approx::None])]
+    approx: Vec<Approx>,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Approx {
+    None,
+    Merge,
+    Reproject,
+    Paper,
+    Fast,
+}
+
+impl Approx {
+    fn name(self) -> &'static str {
+        match self {
+            Approx::None => "none",
+            Approx::Merge => "merge",
+            Approx::Reproject => "reproject",
+            Approx::Paper => "paper",
+            Approx::Fast => "fast",
+        }
+    }
+
+    fn options(self) -> Approximations {
+        let reproject = |mode| {
+            Some(Reprojection {
+                mode,
+                threshold: Reprojection::DEFAULT_THRESHOLD,
+            })
+        };
+        match self {
+            Approx::None => Approximations::default(),
+            Approx::Merge => Approximations {
+                merge_secondary: true,
+                ..Approximations::default()
+            },
+            Approx::Reproject => Approximations {
+                reproject: reproject(ReprojectMode::Safe),
+                ..Approximations::default()
+            },
+            Approx::Paper => Approximations {
+                reproject: reproject(ReprojectMode::Paper),
+                ..Approximations::default()
+            },
+            Approx::Fast => Approximations {
+                merge_secondary: true,
+                reproject: reproject(ReprojectMode::Safe),
+            },
+        }
+    }
+}
+
+/// One configuration of one scene, size and interaxial distance.
 struct Row {
     scene: String,
     size: u32,
     interaxial: f32,
+    approx: Approx,
     independent_s: f64,
     twin_s: f64,
-    exact: bool,
+    /// Worst view's PSNR against the independent renders (infinite if equal).
+    psnr_db: f64,
+    /// Largest channel difference over the views.
+    max_abs: f32,
     traversals_per_eye_ray: f64,
     shared_secondary_rays: u64,
     secondary_rays: u64,
     grouped_samples: u64,
     eye_hits: u64,
+    merged_rays: u64,
+    reprojected: u64,
+}
+
+impl Row {
+    fn exact(&self) -> bool {
+        self.psnr_db == f64::INFINITY
+    }
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
@@ -67,8 +139,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         b.build()?
     };
     let mut rows = Vec::new();
-    println!("| scene | size | interaxial | independent (s) | twin (s) | twin / independent | exact | eye traversals per eye ray | shared secondary rays | hit samples grouped |");
-    println!("|---|---:|---:|---:|---:|---:|:---:|---:|---:|---:|");
+    println!("| scene | size | interaxial | approx | independent (s) | twin (s) | twin / independent | PSNR (dB, worst view) | max abs | eye traversals per eye ray | shared secondary rays | hit samples grouped | merged rays | samples reprojected |");
+    println!("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for path in &args.scenes {
         let scene = load_scene(path, &LoadOptions::default())?;
         let name = path
@@ -77,52 +149,63 @@ pub fn run(args: BenchArgs) -> Result<()> {
             .unwrap_or_default();
         for &size in &args.sizes {
             for &b in &args.interaxial {
-                let row = pool.install(|| measure(&scene, &name, size, b, &args))?;
-                println!(
-                    "| {} | {}² | {} | {:.3} | {:.3} | {:.3} | {} | {:.3} | {} of {} | {:.0} % |",
-                    row.scene,
-                    row.size,
-                    row.interaxial,
-                    row.independent_s,
-                    row.twin_s,
-                    row.twin_s / row.independent_s,
-                    if row.exact { "yes" } else { "**no**" },
-                    row.traversals_per_eye_ray,
-                    row.shared_secondary_rays,
-                    row.secondary_rays,
-                    100.0 * row.grouped_samples as f64 / row.eye_hits.max(1) as f64
-                );
-                rows.push(row);
+                for row in pool.install(|| measure(&scene, &name, size, b, &args))? {
+                    println!(
+                        "| {} | {}² | {} | {} | {:.3} | {:.3} | {:.3} | {} | {:.4} | {:.3} | {} of {} | {:.0} % | {} | {} |",
+                        row.scene,
+                        row.size,
+                        row.interaxial,
+                        row.approx.name(),
+                        row.independent_s,
+                        row.twin_s,
+                        row.twin_s / row.independent_s,
+                        if row.exact() { "exact".to_string() } else { format!("{:.1}", row.psnr_db) },
+                        row.max_abs,
+                        row.traversals_per_eye_ray,
+                        row.shared_secondary_rays,
+                        row.secondary_rays,
+                        100.0 * row.grouped_samples as f64 / row.eye_hits.max(1) as f64,
+                        row.merged_rays,
+                        row.reprojected,
+                    );
+                    rows.push(row);
+                }
             }
         }
     }
     if let Some(path) = &args.csv {
         let mut csv = String::from(
-            "scene,size,interaxial,independent_s,twin_s,ratio,exact,traversals_per_eye_ray\n",
+            "scene,size,interaxial,approx,independent_s,twin_s,ratio,exact,psnr_db,max_abs,traversals_per_eye_ray\n",
         );
         for r in &rows {
             let _ = writeln!(
                 csv,
-                "{},{},{},{:.5},{:.5},{:.5},{},{:.5}",
+                "{},{},{},{},{:.5},{:.5},{:.5},{},{:.3},{:.6},{:.5}",
                 r.scene,
                 r.size,
                 r.interaxial,
+                r.approx.name(),
                 r.independent_s,
                 r.twin_s,
                 r.twin_s / r.independent_s,
-                r.exact,
+                r.exact(),
+                r.psnr_db,
+                r.max_abs,
                 r.traversals_per_eye_ray
             );
         }
         twinray::output::write_text(path, &csv)?;
     }
-    if rows.iter().any(|r| !r.exact) {
+    if rows.iter().any(|r| r.approx == Approx::None && !r.exact()) {
         bail!("the twin method's images differ from the independent renders");
     }
     Ok(())
 }
 
-fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Result<Row> {
+/// Times the independent renders and every configuration asked for, in turn
+/// (A B C … A B C …), and compares each configuration's images with the
+/// independent ones.
+fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Result<Vec<Row>> {
     let camera = Camera::new(&scene.viewpoint, size, size);
     let convergence = match args.convergence.as_deref() {
         None => Some((scene.viewpoint.at - scene.viewpoint.from).length() as f64),
@@ -130,45 +213,70 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
         Some(s) => Some(s.parse::<f64>()?),
     };
     let rig = Rig::stereo(&camera, b, convergence);
-    let opts = |method| RenderOptions {
+    let opts = |method, approx: Approx| RenderOptions {
         trace: TraceSettings::default(),
         method,
         sampling: Sampling::Centers,
+        approx: approx.options(),
     };
     // Build + render, as a user would wait for it (the file is already parsed).
-    let timed = |method| -> Result<(f64, render::RenderOutput)> {
+    let timed = |o: RenderOptions| -> Result<(f64, render::RenderOutput)> {
         let start = Instant::now();
         let world = World::new(scene.clone());
-        let out = render::render(&world, &camera, &rig, &opts(method), &|_, _| {})?;
+        let out = render::render(&world, &camera, &rig, &o, &|_, _| {})?;
         Ok((start.elapsed().as_secs_f64(), out))
     };
-    let (mut ti, mut tt) = (Vec::new(), Vec::new());
-    let mut exact = true;
-    let mut twin_counts = None;
+    let mut independent = Vec::new();
+    let mut times = vec![Vec::new(); args.approx.len()];
+    let mut outputs: Vec<Option<render::RenderOutput>> = args.approx.iter().map(|_| None).collect();
+    let mut reference = None;
     for _ in 0..args.runs {
-        let (a, ia) = timed(Method::Independent)?;
-        let (t, it) = timed(Method::Twin)?;
-        exact &= ia.images == it.images;
-        ti.push(a);
-        tt.push(t);
-        twin_counts = Some(it.counts);
+        let (t, out) = timed(opts(Method::Independent, Approx::None))?;
+        independent.push(t);
+        reference = Some(out);
+        for (k, &a) in args.approx.iter().enumerate() {
+            let (t, out) = timed(opts(Method::Twin, a))?;
+            times[k].push(t);
+            outputs[k] = Some(out);
+        }
     }
     let median = |v: &mut Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    let c = twin_counts.unwrap_or_default();
-    Ok(Row {
-        scene: name.to_string(),
-        size,
-        interaxial: b,
-        independent_s: median(&mut ti),
-        twin_s: median(&mut tt),
-        exact,
-        traversals_per_eye_ray: c.eye_traversals as f64 / c.rays.eye.max(1) as f64,
-        shared_secondary_rays: c.shared_secondary_rays,
-        secondary_rays: c.rays.reflected + c.rays.refracted,
-        grouped_samples: c.grouped_samples,
-        eye_hits: c.rays.eye_hit,
-    })
+    let independent_s = median(&mut independent);
+    let Some(reference) = reference else {
+        bail!("no run");
+    };
+    let mut rows = Vec::new();
+    for (k, &approx) in args.approx.iter().enumerate() {
+        let Some(out) = outputs[k].take() else {
+            continue;
+        };
+        let (mut psnr_db, mut max_abs) = (f64::INFINITY, 0.0f32);
+        for (a, b) in reference.images.iter().zip(&out.images) {
+            let d = compare(a, b)?;
+            psnr_db = psnr_db.min(d.psnr_db);
+            max_abs = max_abs.max(d.max_abs);
+        }
+        let c = out.counts;
+        rows.push(Row {
+            scene: name.to_string(),
+            size,
+            interaxial: b,
+            approx,
+            independent_s,
+            twin_s: median(&mut times[k]),
+            psnr_db,
+            max_abs,
+            traversals_per_eye_ray: c.eye_traversals as f64 / c.rays.eye.max(1) as f64,
+            shared_secondary_rays: c.shared_secondary_rays,
+            secondary_rays: c.rays.reflected + c.rays.refracted,
+            grouped_samples: c.grouped_samples,
+            eye_hits: c.rays.eye_hit,
+            merged_rays: c.merged_rays,
+            reprojected: c.reprojected,
+        });
+    }
+    Ok(rows)
 }

@@ -14,9 +14,13 @@ use indicatif::{ProgressBar, ProgressStyle};
 use twinray::camera::Camera;
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::output::{self, AnaglyphMethod, InterlaceMode, Layout, WriteOptions};
-use twinray::render::{self, Method, RenderOptions, Sampling, TraceSettings};
+use twinray::render::{
+    self, Approximations, Method, RenderOptions, ReprojectMode, Reprojection, Sampling,
+    TraceSettings,
+};
 use twinray::rig::Rig;
 use twinray::stats::{Report, SceneFacts, Timings};
+use twinray::world::Cut;
 use twinray::World;
 
 #[derive(Parser)]
@@ -149,6 +153,101 @@ struct RenderArgs {
     anaglyph: AnaglyphArg,
     #[arg(long, value_enum, default_value_t = InterlaceArg::Rows)]
     interlace: InterlaceArg,
+
+    #[command(flatten)]
+    approx: ApproxArgs,
+}
+
+/// The paper's approximations (sections 2.4, 2.5): faster stereo, not exact.
+#[derive(clap::Args, Clone, Debug, Default)]
+#[command(next_help_heading = "Approximations (twin method; the default is exact)")]
+pub struct ApproxArgs {
+    /// Section 2.4: views' reflected/refracted rays from one planar surface
+    /// merged into one ray from the midpoint of their hit points.
+    #[arg(long)]
+    merge_secondary: bool,
+    /// Section 2.5: the other views take view 0's shading where they see the
+    /// same point and its shading tree is diffuse.
+    #[arg(long)]
+    reproject: bool,
+    /// safe: only where the receiving sample's own hit is the same surface point
+    /// (no ghosts, no holes); paper: eq. 2.1 as published (nearest wins, holes traced).
+    #[arg(long, value_enum, default_value_t = ReprojectModeArg::Safe, requires = "reproject")]
+    reproject_mode: ReprojectModeArg,
+    /// Largest specular or transmission coefficient of a surface whose shading
+    /// may be reprojected.
+    #[arg(long, default_value_t = Reprojection::DEFAULT_THRESHOLD, requires = "reproject")]
+    reproject_threshold: f32,
+    /// Section 2.3: objects entirely farther than this depth (scene units, along
+    /// the view direction from the rig's centre) are not twinned: every view
+    /// sees them as the rig's centre does.
+    #[arg(long, conflicts_with = "cut_parallax")]
+    cut_distance: Option<f32>,
+    /// Section 2.3 with the depth chosen so that no cut object's disparity is off
+    /// by more than PX pixels (depth = focal length in pixels x outer views'
+    /// distance / PX).
+    #[arg(long, value_name = "PX")]
+    cut_parallax: Option<f64>,
+    /// Every approximation at its default: --merge-secondary --reproject
+    /// --cut-parallax 0.5.
+    #[arg(long)]
+    fast: bool,
+}
+
+/// --fast's cut: half a pixel of disparity.
+const FAST_CUT_PARALLAX: f64 = 0.5;
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug, Default)]
+pub enum ReprojectModeArg {
+    #[default]
+    Safe,
+    Paper,
+}
+
+impl ApproxArgs {
+    /// The approximations asked for, checked.
+    pub fn approximations(&self) -> Result<Approximations> {
+        let threshold = self.reproject_threshold;
+        if !(threshold.is_finite() && threshold >= 0.0) {
+            bail!("--reproject-threshold must be a coefficient >= 0, got {threshold}");
+        }
+        let reproject = (self.reproject || self.fast).then_some(Reprojection {
+            mode: match self.reproject_mode {
+                ReprojectModeArg::Safe => ReprojectMode::Safe,
+                ReprojectModeArg::Paper => ReprojectMode::Paper,
+            },
+            threshold,
+        });
+        Ok(Approximations {
+            merge_secondary: self.merge_secondary || self.fast,
+            reproject,
+        })
+    }
+
+    /// Where to cut the object tree, if asked (needs the rig: the parallax
+    /// bound depends on the views' spacing).
+    pub fn cut(&self, camera: &Camera, rig: &Rig) -> Result<Option<Cut>> {
+        let parallax = self.cut_parallax.or(self.fast.then_some(FAST_CUT_PARALLAX));
+        let depth = match (self.cut_distance, parallax) {
+            (Some(d), _) if !(d.is_finite() && d > 0.0) => {
+                bail!("--cut-distance must be a distance > 0, got {d}")
+            }
+            (Some(d), _) => d as f64,
+            (None, Some(px)) if !(px.is_finite() && px > 0.0) => {
+                bail!("--cut-parallax must be a number of pixels > 0, got {px}")
+            }
+            (None, Some(px)) => match rig.cut_depth_for_parallax(camera, px) {
+                Some(d) => d,
+                None => return Ok(None),
+            },
+            (None, None) => return Ok(None),
+        };
+        Ok(Some(Cut {
+            eye: camera.eye,
+            forward: camera.forward,
+            depth: depth as f32,
+        }))
+    }
 }
 
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
@@ -381,7 +480,13 @@ fn run_render(args: RenderArgs) -> Result<()> {
         } else {
             Sampling::Centers
         },
+        approx: args.approx.approximations()?,
     };
+    let cut = args.approx.cut(&camera, &rig)?;
+    let approximate = !opts.approx.is_exact() || cut.is_some();
+    if approximate && (plan.count == 1 || opts.method == Method::Independent) {
+        bail!("the approximations (--fast, --merge-secondary, --reproject, --cut-*) need --stereo or --views and the twin method");
+    }
 
     let pool = {
         let mut b = rayon::ThreadPoolBuilder::new();
@@ -391,7 +496,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
         b.build().context("cannot start worker threads")?
     };
     let t_build = Instant::now();
-    let world = pool.install(|| World::new(scene));
+    let world = pool.install(|| World::with_cut(scene, cut));
     let build_s = t_build.elapsed().as_secs_f64();
     if args.verbose {
         eprintln!(

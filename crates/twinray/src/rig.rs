@@ -85,6 +85,32 @@ impl Rig {
         }
     }
 
+    /// The depth beyond which an object may be cut from the twinning (the
+    /// paper's section 2.3) with its disparity off by at most `pixels`.
+    ///
+    /// A cut object is seen by every view as the rig's centre sees it: its
+    /// image in view `v` is where the centre's image puts it, `f·o_v/z` pixels
+    /// from where it belongs (`f` the focal length in pixels, `o_v` the view's
+    /// offset, `z` the depth; the whole-pixel convergence shifts move cut and
+    /// uncut objects alike). Between the two outermost views the disparity is
+    /// off by `f·(o_max − o_min)/z`, at most `pixels` from depth
+    /// `f·(o_max − o_min)/pixels` on. `None` for a single view or no spacing
+    /// (nothing to cut from).
+    pub fn cut_depth_for_parallax(&self, camera: &Camera, pixels: f64) -> Option<f64> {
+        let lo = self
+            .views
+            .iter()
+            .map(|v| v.offset)
+            .fold(f32::INFINITY, f32::min);
+        let hi = self
+            .views
+            .iter()
+            .map(|v| v.offset)
+            .fold(f32::NEG_INFINITY, f32::max);
+        let span = (hi - lo) as f64;
+        (span > 0.0 && pixels > 0.0).then(|| camera.focal_pixels() * span / pixels)
+    }
+
     /// The range of camera columns that some view's image (or sample grid) of
     /// `width` columns needs.
     pub fn column_range(&self, width: u32) -> (i32, i32) {

@@ -27,6 +27,7 @@ pub fn offset_point(p: Vec3, n: Vec3, t: f32) -> Vec3 {
 }
 
 /// What the tracer knows of a hit when it shades it.
+#[derive(Clone, Copy, Debug)]
 pub struct SurfacePoint<'a> {
     pub point: Vec3,
     /// Unit shading normal turned to face the incoming ray.
@@ -101,10 +102,26 @@ pub fn shadow_packet<const K: usize>(
         blocker: [None; K],
     };
     world.bvh.occlusion(segments, stats, &mut test);
-    (
-        std::array::from_fn(|l| test.through[l].value()),
-        test.blocker,
-    )
+    let (mut through, mut blocker) = (test.through, test.blocker);
+    if let Some(far) = &world.far {
+        // Objects beyond the cut (section 2.3) shadow where they are; lanes
+        // already in full shadow need not look further.
+        let mut rest = *segments;
+        for (l, t) in through.iter().enumerate() {
+            if t.value() == 0.0 {
+                rest.mask &= !(1 << l);
+            }
+        }
+        let mut test = ShadowTest {
+            world,
+            segments: &rest,
+            through,
+            blocker,
+        };
+        far.occlusion(&rest, stats, &mut test);
+        (through, blocker) = (test.through, test.blocker);
+    }
+    (std::array::from_fn(|l| through[l].value()), blocker)
 }
 
 /// What the shadow rays of a packet met so far.

@@ -30,6 +30,17 @@ pub struct TraceCounts {
     /// Samples shaded in one packet with the samples of other views that see
     /// the same surface point (twin method).
     pub grouped_samples: u64,
+    /// Approximations (the paper's sections 2.4, 2.5): secondary rays served by
+    /// a merged ray of another view; samples given another view's shading
+    /// (`reprojected`), refused it (`reproject_rejected`: another surface point,
+    /// or a shading tree not diffuse enough), and traced because no reprojected
+    /// value reached them (`hole_samples`, the paper mode).
+    pub merged_rays: u64,
+    /// Samples whose nearest hit lies beyond the cut (section 2.3).
+    pub samples_cut: u64,
+    pub reprojected: u64,
+    pub reproject_rejected: u64,
+    pub hole_samples: u64,
     /// CPU time of the twin method's two passes, summed over threads (ns): eye
     /// rays (nearest hits of all views), then shading (everything else).
     pub eye_pass_ns: u64,
@@ -54,6 +65,11 @@ impl TraceCounts {
         self.shared_secondary += o.shared_secondary;
         self.shared_secondary_rays += o.shared_secondary_rays;
         self.grouped_samples += o.grouped_samples;
+        self.merged_rays += o.merged_rays;
+        self.samples_cut += o.samples_cut;
+        self.reprojected += o.reprojected;
+        self.reproject_rejected += o.reproject_rejected;
+        self.hole_samples += o.hole_samples;
         self.eye_pass_ns += o.eye_pass_ns;
         self.shading_pass_ns += o.shading_pass_ns;
         for (a, b) in self.per_view_hits.iter_mut().zip(o.per_view_hits.iter()) {
@@ -115,6 +131,13 @@ pub struct Report {
     pub shared_secondary_rays: u64,
     /// Samples shaded together with other views' samples of the same point.
     pub grouped_samples: u64,
+    /// Approximations: secondary rays served by a merged ray; samples given
+    /// view 0's shading, refused it, or traced as holes (paper mode).
+    pub merged_rays: u64,
+    pub samples_cut: u64,
+    pub reprojected_samples: u64,
+    pub reproject_rejected: u64,
+    pub hole_samples: u64,
     pub hits_per_view: Vec<u64>,
     pub nodes_visited: u64,
     pub box_tests: u64,
@@ -140,6 +163,11 @@ impl Report {
         self.shared_secondary = c.shared_secondary;
         self.shared_secondary_rays = c.shared_secondary_rays;
         self.grouped_samples = c.grouped_samples;
+        self.merged_rays = c.merged_rays;
+        self.samples_cut = c.samples_cut;
+        self.reprojected_samples = c.reprojected;
+        self.reproject_rejected = c.reproject_rejected;
+        self.hole_samples = c.hole_samples;
         if c.eye_pass_ns > 0 {
             self.time.eye_pass_cpu_s = Some(c.eye_pass_ns as f64 * 1e-9);
             self.time.shading_pass_cpu_s = Some(c.shading_pass_ns as f64 * 1e-9);

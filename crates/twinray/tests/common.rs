@@ -38,6 +38,7 @@ pub fn options(method: Method, sampling: Sampling) -> RenderOptions {
         },
         method,
         sampling,
+        ..RenderOptions::default()
     }
 }
 

@@ -8,14 +8,18 @@
 //!   one packet, whose shadow, reflected and refracted rays share their
 //!   descents. The images equal the reference bit for bit.
 //!
+//! The paper's approximations (sections 2.4, 2.5) are options of the twin
+//! method (`Approximations`); without them its images are exact.
+//!
 //! Both methods evaluate a grid of samples per view (pixel centres, or the
 //! pixel corners of the SPD procedure) with the same ray arithmetic.
 
+mod grouping;
 mod independent;
 mod tracer;
 mod twin;
 
-pub use tracer::{TraceSettings, Tracer};
+pub use tracer::{Donor, TraceSettings, Tracer};
 
 use std::time::Instant;
 
@@ -54,11 +58,58 @@ pub enum Sampling {
     Corners,
 }
 
+/// How the paper's reprojection (section 2.5) decides that a view's sample may
+/// take another view's shading.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReprojectMode {
+    /// Only where the receiving sample's own nearest hit (from the eye pass)
+    /// is the same surface point, within a pixel's footprint: no ghost, no hole.
+    /// It takes the light visibility and secondary colour; its ambient,
+    /// diffuse and highlight terms are its own.
+    Safe,
+    /// Eq. 2.1 as published: view 0's colour goes where its hit projects in
+    /// the other views, the nearest wins, samples that receive nothing are traced.
+    Paper,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reprojection {
+    pub mode: ReprojectMode,
+    /// Largest specular (`ks`) or transmission (`t`) coefficient a surface of
+    /// a shading tree may have for its shading to be reprojected.
+    pub threshold: f32,
+}
+
+impl Reprojection {
+    /// The default threshold: surfaces whose mirror and transmission weights
+    /// are at most this are treated as diffuse (see docs/stereo.md for the
+    /// error it gives on the SPD scenes).
+    pub const DEFAULT_THRESHOLD: f32 = 0.25;
+}
+
+/// The paper's speed-for-quality trade-offs (twin method only). The default,
+/// none, gives exact images.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Approximations {
+    /// Section 2.4: the views' reflected (refracted) rays from one planar
+    /// surface merged into one ray from the midpoint.
+    pub merge_secondary: bool,
+    /// Section 2.5: shading reprojected from view 0 to the other views.
+    pub reproject: Option<Reprojection>,
+}
+
+impl Approximations {
+    pub fn is_exact(&self) -> bool {
+        *self == Approximations::default()
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
     pub trace: TraceSettings,
     pub method: Method,
     pub sampling: Sampling,
+    pub approx: Approximations,
 }
 
 impl Default for RenderOptions {
@@ -67,6 +118,7 @@ impl Default for RenderOptions {
             trace: TraceSettings::default(),
             method: Method::Independent,
             sampling: Sampling::Centers,
+            approx: Approximations::default(),
         }
     }
 }
@@ -94,6 +146,26 @@ pub fn render(
         return Err(crate::Error::Invalid(format!(
             "{views} views: twinray renders 1 to {MAX_VIEWS} views at once"
         )));
+    }
+    if opts.method == Method::Independent && !opts.approx.is_exact() {
+        return Err(crate::Error::Invalid(
+            "the approximations (merged secondary rays, reprojection) need the twin method".into(),
+        ));
+    }
+    if let Some(r) = opts.approx.reproject {
+        if !(r.threshold >= 0.0 && r.threshold.is_finite()) {
+            return Err(crate::Error::Invalid(format!(
+                "reprojection threshold {}: a coefficient >= 0 is needed",
+                r.threshold
+            )));
+        }
+    }
+    if world.far.is_some()
+        && matches!(opts.approx.reproject, Some(r) if r.mode == ReprojectMode::Paper)
+    {
+        return Err(crate::Error::Invalid(
+            "the paper's reprojection mode does not combine with a cut of the object tree".into(),
+        ));
     }
     let start = Instant::now();
     let grid = Grid::for_camera(camera, opts.sampling);

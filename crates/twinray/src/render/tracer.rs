@@ -8,9 +8,8 @@
 //! lane's numbers are its own throughout, so every lane gets exactly what its
 //! view's reference render gets.
 
-use crate::bvh::{NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats};
+use crate::bvh::{Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats};
 use crate::math::{reflect, refract, Color, Ray, Vec3};
-use crate::scene::Material;
 use crate::shading::{
     ambient, blocks, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint,
 };
@@ -49,6 +48,38 @@ pub struct Tracer<'a> {
     /// Per light and lane, the opaque primitive that last blocked a shadow ray
     /// toward the light (index `light * MAX_VIEWS + lane`).
     shadow_cache: Vec<Option<u32>>,
+    /// The paper's section 2.4 (approximate): lanes whose hits lie on one planar
+    /// surface trace one reflected (refracted) ray for all, from the midpoint.
+    pub merge_secondary: bool,
+    /// The largest specular or transmission coefficient of the surfaces shaded
+    /// since it was last reset: whether a shading tree was diffuse (section 2.5).
+    tree_coefficient: f32,
+}
+
+/// What shading's first stage found at a packet's hits.
+struct Surfaces<'a, const K: usize> {
+    points: [Option<SurfacePoint<'a>>; K],
+    prims: [u32; K],
+    /// Ambient term of lanes with a hit, the background for the others.
+    ambient: [Color; K],
+    /// Lanes with a hit whose material takes light.
+    lit: u32,
+    reflected: [Option<Spawn>; K],
+    refracted: [Option<Spawn>; K],
+}
+
+/// A surface point's shading, kept so that other views' samples that see the
+/// same point can take it (the paper's section 2.5): what reached it from each
+/// light, and the weighted colour of its reflected and refracted rays.
+#[derive(Clone, Debug, Default)]
+pub struct Donor {
+    pub color: Color,
+    /// Transmittance toward each light (0 where the surface faces away).
+    pub through: Vec<f32>,
+    /// Sum of coefficient × colour of the secondary rays.
+    pub secondary: Color,
+    /// Largest specular or transmission coefficient over the shading tree.
+    pub tree_coefficient: f32,
 }
 
 /// A secondary ray one lane wants traced, and its weight in the lane's colour.
@@ -67,6 +98,8 @@ impl<'a> Tracer<'a> {
             counts: TraceCounts::default(),
             traversal: TraversalStats::default(),
             shadow_cache: vec![None; world.scene.lights.len() * super::MAX_VIEWS],
+            merge_secondary: false,
+            tree_coefficient: 0.0,
         }
     }
 
@@ -94,6 +127,17 @@ impl<'a> Tracer<'a> {
         views: &[usize; K],
     ) -> PacketHits<K> {
         let hits = self.closest(packet);
+        self.count_eye_hits(packet, &hits, views);
+        hits
+    }
+
+    /// Eye rays and their hits, per view.
+    pub fn count_eye_hits<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        hits: &PacketHits<K>,
+        views: &[usize; K],
+    ) {
         self.counts.eye_traversals += 1;
         let mut lanes = packet.mask;
         while lanes != 0 {
@@ -107,7 +151,6 @@ impl<'a> Tracer<'a> {
                 }
             }
         }
-        hits
     }
 
     /// Shades eye rays whose hits are known (`eye_hits`), the lanes together.
@@ -123,13 +166,96 @@ impl<'a> Tracer<'a> {
         self.shade(packet, hits, 1, [1.0; K])
     }
 
+    /// Shades one eye ray's known hit (lane 0 of `packet`) and keeps what other
+    /// views may reuse of it (`Donor`), in `donor` (its buffers are reused).
+    pub fn shade_donor(&mut self, packet: &Packet<1>, hits: &PacketHits<1>, donor: &mut Donor) {
+        donor.through.clear();
+        donor.through.resize(self.world.scene.lights.len(), 0.0);
+        donor.secondary = Color::ZERO;
+        self.tree_coefficient = 0.0;
+        let surfaces = self.surfaces(packet, hits, 1, [1.0]);
+        let mut out = surfaces.ambient;
+        self.direct_light(packet, &surfaces, &mut out, Some(&mut donor.through));
+        if 1 < self.settings.max_depth {
+            self.secondary(&surfaces, 1, &[1.0], &mut out, Some(&mut donor.secondary));
+        }
+        donor.color = out[0];
+        donor.tree_coefficient = self.tree_coefficient;
+    }
+
+    /// The colour of an eye ray's own hit (lane 0), its lights' visibility and
+    /// secondary colour taken from `donor`, a nearby point of the same surface
+    /// seen by another view: the ambient, diffuse and highlight terms are this
+    /// ray's own (the highlight depends on the view), no ray is traced.
+    pub fn shade_from_donor(
+        &mut self,
+        packet: &Packet<1>,
+        hits: &PacketHits<1>,
+        donor: &Donor,
+    ) -> Color {
+        let s = self.surfaces(packet, hits, self.settings.max_depth, [1.0]);
+        let mut out = s.ambient[0];
+        let Some(sp) = &s.points[0] else { return out };
+        if s.lit & 1 == 0 {
+            return out + donor.secondary;
+        }
+        let scene = &self.world.scene;
+        for (i, light) in scene.lights.iter().enumerate() {
+            let through = donor.through.get(i).copied().unwrap_or(0.0);
+            if through <= 0.0 {
+                continue;
+            }
+            if let Some((dir, _)) = toward_light(sp, light.position) {
+                out += light_contribution(sp, packet.dirs[0], dir, scene.light_color(i), through);
+            }
+        }
+        out + donor.secondary
+    }
+
+    /// The nearest hit of every lane, in the whole scene.
     fn closest<const K: usize>(&mut self, packet: &Packet<K>) -> PacketHits<K> {
+        let world = self.world;
+        let mut hits = self.closest_in(&world.bvh, packet);
+        if let Some(far) = &world.far {
+            // Beyond the cut (section 2.3): only what is nearer than the near hit.
+            let mut nearer = *packet;
+            for l in 0..K {
+                nearer.t_max[l] = nearer.t_max[l].min(hits.hit[l].t);
+            }
+            let far_hits = self.closest_in(far, &nearer);
+            for l in 0..K {
+                if far_hits.has_hit(l) {
+                    hits.prim[l] = far_hits.prim[l];
+                    hits.hit[l] = far_hits.hit[l];
+                }
+            }
+        }
+        hits
+    }
+
+    fn closest_in<const K: usize>(&mut self, bvh: &Bvh, packet: &Packet<K>) -> PacketHits<K> {
         self.counts.closest_traversals += 1;
         let test = NearestShape {
             shapes: &self.world.scene.shapes,
             packet,
         };
-        self.world.bvh.closest(packet, &mut self.traversal, test)
+        bvh.closest(packet, &mut self.traversal, test)
+    }
+
+    /// With a cut (section 2.3), the eye pass's two parts: the nearest hits
+    /// among the objects nearer than the cut (`near`), or beyond it (`!near`).
+    /// Counted by the caller (`count_eye_hits`) once it has combined them.
+    pub fn eye_hits_split<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        near: bool,
+    ) -> PacketHits<K> {
+        let world = self.world;
+        match (&world.far, near) {
+            (Some(far), false) => self.closest_in(far, packet),
+            (Some(_), true) => self.closest_in(&world.bvh, packet),
+            (None, _) => self.closest(packet),
+        }
     }
 
     /// Traces a secondary packet at `level`.
@@ -143,6 +269,10 @@ impl<'a> Tracer<'a> {
         self.shade(packet, &hits, level, weights)
     }
 
+    /// Whitted shading of a packet's hits, in three stages: the surfaces hit
+    /// (points, normals, ambient term, the rays they spawn), direct light
+    /// (shadow rays toward each light, the lanes as one packet), and the
+    /// secondary rays (reflected, then refracted, the lanes as one packet).
     fn shade<const K: usize>(
         &mut self,
         packet: &Packet<K>,
@@ -150,20 +280,35 @@ impl<'a> Tracer<'a> {
         level: u32,
         weights: [f32; K],
     ) -> [Color; K] {
+        let surfaces = self.surfaces(packet, hits, level, weights);
+        let mut out = surfaces.ambient;
+        self.direct_light(packet, &surfaces, &mut out, None);
+        if level < self.settings.max_depth {
+            self.secondary(&surfaces, level, &weights, &mut out, None);
+        }
+        out
+    }
+
+    /// Stage 1: what each lane hit, its ambient term, and the reflected and
+    /// refracted rays it wants traced.
+    fn surfaces<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        hits: &PacketHits<K>,
+        level: u32,
+        weights: [f32; K],
+    ) -> Surfaces<'a, K> {
         let world = self.world;
         let scene = &world.scene;
-        let mut out = [scene.background; K];
-        let mut reflected: [Option<Spawn>; K] = [None; K];
-        let mut refracted: [Option<Spawn>; K] = [None; K];
+        let mut s = Surfaces {
+            points: [None; K],
+            prims: [PacketHits::<K>::NO_HIT; K],
+            ambient: [scene.background; K],
+            lit: 0,
+            reflected: [None; K],
+            refracted: [None; K],
+        };
         let spawn_more = level < self.settings.max_depth;
-        let default_material = Material::default();
-        let mut points: [SurfacePoint; K] = std::array::from_fn(|_| SurfacePoint {
-            point: Vec3::ZERO,
-            normal: Vec3::Z,
-            t: 0.0,
-            material: &default_material,
-        });
-        let mut lit = 0u32; // lanes with a hit whose material takes light
         let mut lanes = packet.mask;
         while lanes != 0 {
             let l = lanes.trailing_zeros() as usize;
@@ -176,18 +321,21 @@ impl<'a> Tracer<'a> {
             let d = packet.dirs[l];
             let shape = &scene.shapes[prim];
             let material = &scene.materials[scene.shape_material[prim] as usize];
+            self.tree_coefficient = self.tree_coefficient.max(material.ks.max(material.t));
             let point = packet.origins[l] + d * hit.t;
             let normal = shape.normal(point, hit, &scene.patch_normals);
             let facing = if normal.dot(d) < 0.0 { normal } else { -normal };
-            points[l] = SurfacePoint {
+            let sp = SurfacePoint {
                 point,
                 normal: facing,
                 t: hit.t,
                 material,
             };
-            out[l] = ambient(&points[l]);
+            s.ambient[l] = ambient(&sp);
+            s.prims[l] = prim as u32;
+            s.points[l] = Some(sp);
             if material.kd > 0.0 || material.ks > 0.0 {
-                lit |= 1 << l;
+                s.lit |= 1 << l;
             }
             if !spawn_more {
                 continue;
@@ -205,7 +353,7 @@ impl<'a> Tracer<'a> {
                 match refract(d, facing, eta) {
                     Some(dir) => {
                         if self.wanted(weights[l] * material.t) {
-                            refracted[l] = Some(Spawn {
+                            s.refracted[l] = Some(Spawn {
                                 origin: offset_point(point, -facing, hit.t),
                                 dir,
                                 coefficient: material.t,
@@ -217,112 +365,154 @@ impl<'a> Tracer<'a> {
             }
             let spd_forces = self.settings.spd && (material.ks > 0.0 || material.t > 0.0);
             if (mirror > 0.0 && self.wanted(weights[l] * mirror)) || spd_forces {
-                reflected[l] = Some(Spawn {
+                s.reflected[l] = Some(Spawn {
                     origin: offset_point(point, facing, hit.t),
                     dir: reflect(d, facing),
                     coefficient: mirror,
                 });
             }
         }
-        // Direct light: the lanes' shadow rays toward each light go as one packet.
-        if lit != 0 {
-            for (i, light) in scene.lights.iter().enumerate() {
-                let mut seg = SegmentPacket {
-                    origins: [Vec3::ZERO; K],
-                    dirs: [Vec3::Z; K],
-                    t_max: [0.0; K],
-                    mask: 0,
-                };
-                let mut lanes = lit;
-                while lanes != 0 {
-                    let l = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    if let Some((dir, dist)) = toward_light(&points[l], light.position) {
-                        seg.origins[l] =
-                            offset_point(points[l].point, points[l].normal, points[l].t);
-                        seg.dirs[l] = dir;
-                        seg.t_max[l] = dist;
-                        seg.mask |= 1 << l;
-                    }
+        s
+    }
+
+    /// Stage 2: diffuse and highlight from every light not in shadow. The lanes'
+    /// shadow rays toward a light go as one packet. With `record`, lane 0's
+    /// transmittance toward each light is written there (0 where no shadow ray
+    /// was cast), for the reprojection of its shading to other views.
+    fn direct_light<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        s: &Surfaces<'a, K>,
+        out: &mut [Color; K],
+        mut record: Option<&mut [f32]>,
+    ) {
+        if s.lit == 0 {
+            return;
+        }
+        let world = self.world;
+        let scene = &world.scene;
+        for (i, light) in scene.lights.iter().enumerate() {
+            let mut seg = SegmentPacket {
+                origins: [Vec3::ZERO; K],
+                dirs: [Vec3::Z; K],
+                t_max: [0.0; K],
+                mask: 0,
+            };
+            let mut lanes = s.lit;
+            while lanes != 0 {
+                let l = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let Some(sp) = &s.points[l] else { continue };
+                if let Some((dir, dist)) = toward_light(sp, light.position) {
+                    seg.origins[l] = offset_point(sp.point, sp.normal, sp.t);
+                    seg.dirs[l] = dir;
+                    seg.t_max[l] = dist;
+                    seg.mask |= 1 << l;
                 }
-                if seg.mask == 0 {
-                    continue;
+            }
+            if seg.mask == 0 {
+                continue;
+            }
+            let through = self.light_transmittance(i, &mut seg);
+            if let Some(r) = record.as_deref_mut() {
+                r[i] = if seg.mask & 1 != 0 { through[0] } else { 0.0 };
+            }
+            let color = scene.light_color(i);
+            let mut lanes = seg.mask;
+            while lanes != 0 {
+                let l = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                if let (Some(sp), true) = (&s.points[l], through[l] > 0.0) {
+                    out[l] +=
+                        light_contribution(sp, packet.dirs[l], seg.dirs[l], color, through[l]);
                 }
-                self.counts.rays.shadow += seg.mask.count_ones() as u64;
-                let with_shadow_ray = seg.mask;
-                // Shadow cache: the opaque object that last shadowed this light is
-                // tried first; lanes it blocks need no traversal.
-                let mut through = [1.0f32; K];
-                let mut lanes = seg.mask;
-                while lanes != 0 {
-                    let l = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    let cached = self
-                        .shadow_cache
-                        .get(i * super::MAX_VIEWS + l)
-                        .copied()
-                        .flatten();
-                    if let Some(prim) = cached {
-                        if blocks(world, prim, seg.origins[l], seg.dirs[l], seg.t_max[l]) {
-                            through[l] = 0.0;
-                            seg.mask &= !(1 << l);
-                        }
-                    }
+            }
+        }
+    }
+
+    /// What of light `i` reaches the start of each lane's shadow segment: the
+    /// shadow cache's opaque object first, then one packet traversal for the rest.
+    fn light_transmittance<const K: usize>(
+        &mut self,
+        i: usize,
+        seg: &mut SegmentPacket<K>,
+    ) -> [f32; K] {
+        let world = self.world;
+        self.counts.rays.shadow += seg.mask.count_ones() as u64;
+        let with_shadow_ray = seg.mask;
+        let mut through = [1.0f32; K];
+        let mut lanes = seg.mask;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let cached = self
+                .shadow_cache
+                .get(i * super::MAX_VIEWS + l)
+                .copied()
+                .flatten();
+            if let Some(prim) = cached {
+                if blocks(world, prim, seg.origins[l], seg.dirs[l], seg.t_max[l]) {
+                    through[l] = 0.0;
+                    seg.mask &= !(1 << l);
                 }
-                let traced = seg.mask;
-                let (found, blocker) = if traced == 0 {
-                    ([1.0; K], [None; K])
-                } else {
-                    shadow_packet(world, &seg, &mut self.traversal)
-                };
-                let mut lanes = traced;
-                while lanes != 0 {
-                    let l = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    through[l] = found[l];
-                    if let Some(b) = blocker[l] {
-                        if let Some(slot) = self.shadow_cache.get_mut(i * super::MAX_VIEWS + l) {
-                            *slot = Some(b);
-                        }
-                    }
-                }
-                let color = scene.light_color(i);
-                let mut lanes = with_shadow_ray;
-                while lanes != 0 {
-                    let l = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    if through[l] > 0.0 {
-                        out[l] += light_contribution(
-                            &points[l],
-                            packet.dirs[l],
-                            seg.dirs[l],
-                            color,
-                            through[l],
-                        );
+            }
+        }
+        let traced = seg.mask;
+        if traced != 0 {
+            let (found, blocker) = shadow_packet(world, seg, &mut self.traversal);
+            let mut lanes = traced;
+            while lanes != 0 {
+                let l = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                through[l] = found[l];
+                if let Some(b) = blocker[l] {
+                    if let Some(slot) = self.shadow_cache.get_mut(i * super::MAX_VIEWS + l) {
+                        *slot = Some(b);
                     }
                 }
             }
         }
-        if !spawn_more {
-            return out;
-        }
-        for (spawns, count) in [(&reflected, 0), (&refracted, 1)] {
+        seg.mask = with_shadow_ray;
+        through
+    }
+
+    /// Stage 3: the reflected, then the refracted rays, each kind as one packet,
+    /// weighted into the lanes' colours. With `record`, lane 0's sum of
+    /// weighted secondary colours is written there.
+    fn secondary<const K: usize>(
+        &mut self,
+        s: &Surfaces<'a, K>,
+        level: u32,
+        weights: &[f32; K],
+        out: &mut [Color; K],
+        mut record: Option<&mut Color>,
+    ) {
+        for (spawns, reflected) in [(&s.reflected, true), (&s.refracted, false)] {
             if spawns.iter().all(Option::is_none) {
                 continue;
             }
-            let c = self.trace_spawned(spawns, level + 1, &weights);
+            let c = if self.merge_secondary {
+                self.trace_spawned_merged(s, spawns, level + 1, weights)
+            } else {
+                self.trace_spawned(spawns, level + 1, weights)
+            };
             for l in 0..K {
-                if let Some(s) = spawns[l] {
-                    if count == 0 {
+                if let Some(sp) = spawns[l] {
+                    if reflected {
                         self.counts.rays.reflected += 1;
                     } else {
                         self.counts.rays.refracted += 1;
                     }
-                    out[l] += c[l] * s.coefficient;
+                    let add = c[l] * sp.coefficient;
+                    out[l] += add;
+                    if l == 0 {
+                        if let Some(r) = record.as_deref_mut() {
+                            *r += add;
+                        }
+                    }
                 }
             }
         }
-        out
     }
 
     fn wanted(&self, weight: f32) -> bool {
@@ -376,6 +566,85 @@ impl<'a> Tracer<'a> {
             return out;
         }
         self.trace(&packet, level, child_weights)
+    }
+
+    /// The paper's section 2.4 (approximate): lanes whose hits lie on one planar
+    /// surface (of one material) trace one ray for all of them, from the
+    /// midpoint of their origins along their mean direction (the paper's two
+    /// parallel rays, one ray between them); its colour goes to each of them.
+    /// The other lanes trace their own rays, as one packet.
+    fn trace_spawned_merged<const K: usize>(
+        &mut self,
+        s: &Surfaces<'a, K>,
+        spawns: &[Option<Spawn>; K],
+        level: u32,
+        weights: &[f32; K],
+    ) -> [Color; K] {
+        let mut rest = *spawns;
+        let mut out = [Color::ZERO; K];
+        let mut lanes = spawns
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.is_some())
+            .fold(0u32, |m, (l, _)| m | 1 << l);
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let mut members = 1u32 << l;
+            let mut others = lanes;
+            while others != 0 {
+                let m = others.trailing_zeros() as usize;
+                others &= others - 1;
+                if self.world.coplanar(s.prims[l], s.prims[m]) {
+                    members |= 1 << m;
+                }
+            }
+            if members.count_ones() < 2 {
+                continue;
+            }
+            lanes &= !members;
+            let (mut origin, mut dir, mut weight) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
+            let mut each = members;
+            while each != 0 {
+                let m = each.trailing_zeros() as usize;
+                each &= each - 1;
+                if let Some(sp) = spawns[m] {
+                    origin += sp.origin;
+                    dir += sp.dir;
+                    weight = weight.max(weights[m] * sp.coefficient);
+                }
+            }
+            let dir = dir.normalize_or_zero();
+            if dir == Vec3::ZERO {
+                continue; // opposite directions: nothing to merge, trace them apart
+            }
+            let count = members.count_ones();
+            let single = Packet {
+                origins: [origin / count as f32],
+                dirs: [dir],
+                t_min: 0.0,
+                t_max: [f32::INFINITY],
+                mask: 1,
+            };
+            let c = self.trace::<1>(&single, level, [weight])[0];
+            self.counts.merged_rays += (count - 1) as u64;
+            let mut each = members;
+            while each != 0 {
+                let m = each.trailing_zeros() as usize;
+                each &= each - 1;
+                out[m] = c;
+                rest[m] = None;
+            }
+        }
+        if rest.iter().any(Option::is_some) {
+            let c = self.trace_spawned(&rest, level, weights);
+            for l in 0..K {
+                if rest[l].is_some() {
+                    out[l] = c[l];
+                }
+            }
+        }
+        out
     }
 }
 

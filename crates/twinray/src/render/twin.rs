@@ -1,43 +1,530 @@
-//! The twin-object method (the paper's sections 2–2.2): one descent of the
-//! hierarchy for every view's eye ray through a sample, then the views' samples
-//! of one surface point shaded as one packet. See `render` below and
-//! docs/stereo.md.
+//! The twin-object method (the paper's sections 2–2.2, and its approximations
+//! of sections 2.4–2.5 on request), row by row in named stages:
+//!
+//! 1. **Eye pass** (`eye_pass`): one packet per sample position `x`, lane `v`
+//!    holding view `v`'s ray through it (camera column `x + shift_v`) — the
+//!    paper's one eye ray through the twin objects, returning the nearest hit
+//!    of every view.
+//! 2. **Grouping** (`grouping::group_row`): each sample of view 0 that hit
+//!    something is grouped with the sample of every other view that sees the
+//!    same surface point (its hit projected into that view, rounded to the
+//!    nearest sample of the same row: the rig's views differ along rows only).
+//! 3. **Shading of groups** (`shade_groups`): a group is shaded as one packet.
+//!    Their shadow rays start from nearly one point toward one light and their
+//!    reflected rays from nearly one point, so the packet's lanes stay together
+//!    down the hierarchy. Every lane's rays are its own view's (the grouping
+//!    only decides which rays share a descent), so the images equal the
+//!    independent renders bit for bit.
+//! 4. **Sharing** (approximate, only when asked): `--merge-secondary` (section
+//!    2.4) inside the tracer; reprojection (section 2.5) here, in `safe` mode
+//!    (`share_groups`: a group's other samples take view 0's light visibility
+//!    and secondary colour when they see the same surface point and its shading
+//!    tree is diffuse) or as the paper published it (`reproject_forward`).
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::{Grid, Job, Samples, Tracer};
+use super::grouping::{group_row, nearest_sample, Group};
+use super::tracer::Donor;
+use super::{Grid, Job, ReprojectMode, Reprojection, Samples, Tracer};
 use crate::bvh::{Packet, PacketHits};
 use crate::camera::Camera;
 use crate::math::{Color, Vec3};
-use crate::rig::View;
+use crate::rig::Rig;
 use crate::shapes::SurfaceHit;
 use crate::stats::TraceCounts;
+use crate::world::World;
 
-/// The sample of `view`'s row nearest to where `point` projects in it, if any.
-fn nearest_sample(camera: &Camera, grid: &Grid, view: &View, point: Vec3) -> Option<usize> {
-    let (column, _) = camera.project(point, view.offset)?;
-    // View v's sample k looks along camera column k + shift_v + grid offset.
-    let k = (column - grid.offset as f64).round() - view.shift as f64;
-    (k >= 0.0 && k < grid.width as f64).then_some(k as usize)
+const NONE: SurfaceHit = SurfaceHit {
+    t: f32::INFINITY,
+    u: 0.0,
+    v: 0.0,
+};
+
+/// What every row of a render shares: the rig's eyes and camera columns.
+struct RowSetup<'a, const K: usize> {
+    world: &'a World,
+    camera: &'a Camera,
+    rig: &'a Rig,
+    grid: &'a Grid,
+    views: usize,
+    origins: [Vec3; K],
+    shifts: Vec<i32>,
+    /// Lowest camera column any view's sample looks along.
+    first_column: i32,
 }
 
-/// Twin objects, in two passes per row of samples:
-///
-/// 1. **Eye rays**: one packet per sample position `x`, lane `v` holding view
-///    `v`'s ray through it (camera column `x + shift_v`) — the paper's one eye
-///    ray through the twin objects, returning the nearest hit of every view.
-/// 2. **Shading**: each sample of view 0 that hit something is grouped with the
-///    sample of every other view that sees the same surface point (its hit
-///    projected into that view, rounded to the nearest sample of the same row:
-///    the rig's views differ along rows only), and the group is shaded as one
-///    packet. Their shadow rays start from nearly one point toward one light and
-///    their reflected rays from nearly one point, so the packet's lanes stay
-///    together down the hierarchy. Every lane's rays are its own view's (the
-///    grouping only decides which rays share a descent), so the images equal
-///    the independent renders bit for bit. Samples left out are shaded alone.
+/// Paper-mode reprojection: the depth of the nearest point of view 0 that
+/// landed on a sample, and its colour if its shading tree is diffuse.
+type Received = (f32, Option<Color>);
+
+/// A row's eye rays and hits, kept per worker thread from row to row.
+struct RowScratch<const K: usize> {
+    /// Ray directions of the row, by camera column from `first_column`.
+    dirs: Vec<Vec3>,
+    /// `hits[v][i]`: the nearest hit of view `v`'s sample `i`.
+    hits: Vec<Vec<(u32, SurfaceHit)>>,
+    /// `points[v][i]`: where it is (`None` also for hits beyond a cut).
+    points: Vec<Vec<Option<Vec3>>>,
+    /// With a cut: `far[v][i]`, whether the hit lies beyond it; per camera
+    /// column, the nearest hit beyond it of the centre's ray, and its colour.
+    far: Vec<Vec<bool>>,
+    far_hits: Vec<(u32, SurfaceHit)>,
+    far_colors: Vec<Option<Color>>,
+    claimed: Vec<Vec<bool>>,
+    groups: Vec<Group<K>>,
+    donor: Donor,
+    kept: KeptShading,
+    /// Paper-mode reprojection: per view and sample, the depth of the nearest
+    /// point of view 0 projected there so far, and its colour if it gives it.
+    received: Vec<Vec<Option<Received>>>,
+}
+
+impl<const K: usize> RowSetup<'_, K> {
+    fn dir(&self, dirs: &[Vec3], view: usize, sample: usize) -> Vec3 {
+        dirs[self.column(view, sample)]
+    }
+
+    fn has_hit(s: &RowScratch<K>, view: usize, sample: usize) -> bool {
+        s.hits[view][sample].0 != PacketHits::<K>::NO_HIT
+    }
+
+    /// Stage 1: the nearest hit of every view's sample of row `row`, one
+    /// descent for the views' rays through the same sample position. With a
+    /// cut (section 2.3), the objects beyond it are tested once per camera
+    /// column, by the ray of the rig's centre: every view sees them as the
+    /// centre does (their parallax is that of objects at infinity).
+    fn eye_pass(&self, tracer: &mut Tracer, row: usize, s: &mut RowScratch<K>) {
+        let (camera, grid, n) = (self.camera, self.grid, self.views);
+        let y = row as f32 + grid.offset;
+        let (lo, hi) = self.rig.column_range(grid.width as u32);
+        s.dirs.clear();
+        s.dirs
+            .extend((lo..=hi).map(|c| camera.direction(c as f32 + grid.offset, y)));
+        let cut = self.world.far.is_some();
+        s.far_hits.clear();
+        if cut {
+            for &dir in &s.dirs {
+                let centre = Packet {
+                    origins: [camera.eye],
+                    dirs: [dir],
+                    t_min: camera.hither,
+                    t_max: [f32::INFINITY],
+                    mask: 1,
+                };
+                let h = tracer.eye_hits_split(&centre, false);
+                s.far_hits.push((h.prim[0], h.hit[0]));
+            }
+        }
+        let all = if n == 32 { u32::MAX } else { (1u32 << n) - 1 };
+        let view_of_lane: [usize; K] = std::array::from_fn(|l| l);
+        for i in 0..grid.width {
+            let mut packet = Packet {
+                origins: self.origins,
+                dirs: std::array::from_fn(|v| {
+                    if v < n {
+                        self.dir(&s.dirs, v, i)
+                    } else {
+                        Vec3::Z
+                    }
+                }),
+                t_min: camera.hither,
+                t_max: [f32::INFINITY; K],
+                mask: all,
+            };
+            let h = if cut {
+                for v in 0..n {
+                    packet.t_max[v] = s.far_hits[self.column(v, i)].1.t;
+                }
+                let mut h = tracer.eye_hits_split(&packet, true);
+                for v in 0..n {
+                    s.far[v][i] = false;
+                    let (prim, hit) = s.far_hits[self.column(v, i)];
+                    if !h.has_hit(v) && prim != PacketHits::<K>::NO_HIT {
+                        (h.prim[v], h.hit[v]) = (prim, hit);
+                        s.far[v][i] = true;
+                    }
+                }
+                tracer.count_eye_hits(&packet, &h, &view_of_lane);
+                h
+            } else {
+                tracer.eye_hits(&packet, &view_of_lane)
+            };
+            for v in 0..n {
+                s.hits[v][i] = (h.prim[v], h.hit[v]);
+                s.points[v][i] = (h.has_hit(v) && !(cut && s.far[v][i]))
+                    .then(|| self.origins[v] + packet.dirs[v] * h.hit[v].t);
+            }
+        }
+    }
+
+    /// Camera column (from `first_column`) that view `view`'s sample `i` looks along.
+    fn column(&self, view: usize, i: usize) -> usize {
+        (i as i32 + self.shifts[view] - self.first_column) as usize
+    }
+
+    /// With a cut: the samples whose nearest hit lies beyond it take the shading
+    /// of the rig centre's ray along their camera column, computed once per
+    /// column for all views (the paper's "one lane, one shading").
+    fn shade_cut(&self, tracer: &mut Tracer, s: &mut RowScratch<K>, out: &mut [Vec<Color>]) {
+        if self.world.far.is_none() {
+            return;
+        }
+        s.far_colors.clear();
+        s.far_colors.resize(s.dirs.len(), None);
+        for (v, view_out) in out.iter_mut().enumerate().take(self.views) {
+            for (i, sample_out) in view_out.iter_mut().enumerate() {
+                if !s.far[v][i] {
+                    continue;
+                }
+                let c = self.column(v, i);
+                let color = match s.far_colors[c] {
+                    Some(color) => color,
+                    None => {
+                        let (prim, hit) = s.far_hits[c];
+                        let centre = Packet {
+                            origins: [self.camera.eye],
+                            dirs: [s.dirs[c]],
+                            t_min: self.camera.hither,
+                            t_max: [f32::INFINITY],
+                            mask: 1,
+                        };
+                        let hits = PacketHits {
+                            prim: [prim],
+                            hit: [hit],
+                        };
+                        let color = tracer.shade_eye(&centre, &hits)[0];
+                        s.far_colors[c] = Some(color);
+                        color
+                    }
+                };
+                *sample_out = color;
+                tracer.counts.samples_cut += 1;
+            }
+        }
+    }
+
+    /// Stage 2: the groups of samples that see one point.
+    fn group(&self, s: &mut RowScratch<K>) {
+        let (camera, grid, rig) = (self.camera, self.grid, self.rig);
+        group_row(
+            &s.points,
+            |v, p| nearest_sample(camera, grid, &rig.views[v], p),
+            &mut s.claimed,
+            &mut s.groups,
+        );
+    }
+
+    /// The eye rays of a group's samples as one packet, with their known hits.
+    fn group_packet(&self, s: &RowScratch<K>, group: &Group<K>) -> (Packet<K>, PacketHits<K>) {
+        let mut packet = Packet {
+            origins: self.origins,
+            dirs: [Vec3::Z; K],
+            t_min: self.camera.hither,
+            t_max: [f32::INFINITY; K],
+            mask: 0,
+        };
+        let mut hits = PacketHits {
+            prim: [PacketHits::<K>::NO_HIT; K],
+            hit: [NONE; K],
+        };
+        for (v, sample) in group.iter().enumerate() {
+            if let Some(i) = *sample {
+                packet.mask |= 1 << v;
+                packet.dirs[v] = self.dir(&s.dirs, v, i);
+                (hits.prim[v], hits.hit[v]) = s.hits[v][i];
+            }
+        }
+        (packet, hits)
+    }
+
+    /// One view's sample as a packet of one lane, with its known hit.
+    fn sample_packet(
+        &self,
+        s: &RowScratch<K>,
+        view: usize,
+        i: usize,
+    ) -> (Packet<1>, PacketHits<1>) {
+        let (prim, hit) = s.hits[view][i];
+        (
+            Packet {
+                origins: [self.origins[view]],
+                dirs: [self.dir(&s.dirs, view, i)],
+                t_min: self.camera.hither,
+                t_max: [f32::INFINITY],
+                mask: 1,
+            },
+            PacketHits {
+                prim: [prim],
+                hit: [hit],
+            },
+        )
+    }
+
+    /// Shades the lanes of `group` as one packet into `out` (exact). A group
+    /// whose samples hit nothing takes the background without a shading call.
+    fn shade_group(
+        &self,
+        tracer: &mut Tracer,
+        s: &RowScratch<K>,
+        group: &Group<K>,
+        out: &mut [Vec<Color>],
+    ) {
+        // Samples whose hit lies beyond a cut are shaded already (`shade_cut`).
+        let mut group = *group;
+        for (v, sample) in group.iter_mut().enumerate() {
+            if sample.is_some_and(|i| s.far[v][i]) {
+                *sample = None;
+            }
+        }
+        let group = &group;
+        let missed = group
+            .iter()
+            .enumerate()
+            .all(|(v, sample)| sample.is_none_or(|i| !Self::has_hit(s, v, i)));
+        if missed {
+            for (v, sample) in group.iter().enumerate() {
+                if let Some(i) = *sample {
+                    out[v][i] = self.world.scene.background;
+                }
+            }
+            return;
+        }
+        let (packet, hits) = self.group_packet(s, group);
+        let colors = tracer.shade_eye(&packet, &hits);
+        for (v, sample) in group.iter().enumerate() {
+            if let Some(i) = *sample {
+                out[v][i] = colors[v];
+            }
+        }
+    }
+
+    /// Stage 3: every group shaded as one packet (exact).
+    fn shade_groups(&self, tracer: &mut Tracer, s: &RowScratch<K>, out: &mut [Vec<Color>]) {
+        for group in &s.groups {
+            self.shade_group(tracer, s, group, out);
+        }
+    }
+
+    /// Whether view `v`'s sample `k` sees the surface point that view 0's
+    /// sample `i` sees: the same primitive (or one plane of one material) and
+    /// within one pixel's footprint on the surface.
+    fn same_point(&self, s: &RowScratch<K>, i: usize, v: usize, k: usize) -> bool {
+        let ((prim0, _), (prim, hit)) = (s.hits[0][i], s.hits[v][k]);
+        let (Some(p0), Some(p)) = (s.points[0][i], s.points[v][k]) else {
+            return false;
+        };
+        if prim != prim0 && !self.world.coplanar(prim0, prim) {
+            return false;
+        }
+        let d = self.dir(&s.dirs, v, k);
+        let shape = &self.world.scene.shapes[prim as usize];
+        let cos = shape.geometric_normal(p).dot(d).abs().max(0.05);
+        let footprint = self.camera.pixel_size * hit.t / cos;
+        (p - p0).length() <= footprint
+    }
+
+    /// Whether a sample's material may give its shading to other views.
+    fn diffuse_hit(&self, s: &RowScratch<K>, view: usize, i: usize, threshold: f32) -> bool {
+        Self::has_hit(s, view, i) && {
+            let m = self.world.material_of(s.hits[view][i].0);
+            m.ks <= threshold && m.t <= threshold
+        }
+    }
+
+    /// Stage 4, safe reprojection (section 2.5 with the eye pass's own hits as
+    /// the visibility test), in two steps over the row:
+    ///
+    /// 1. View 0's sample of each group whose hit is diffuse (`threshold`) is
+    ///    shaded alone and its light visibility and secondary colour kept; the
+    ///    other groups are shaded as packets, exactly.
+    /// 2. Each other sample of such a group takes them — and computes its own
+    ///    ambient, diffuse and highlight terms — if it sees the same surface
+    ///    point, every surface of the donor's shading tree is diffuse, and the
+    ///    donor's neighbours in the row saw the lights as it did (no shadow
+    ///    edge within a pixel). The samples refused are shaded exactly.
+    fn share_groups(
+        &self,
+        tracer: &mut Tracer,
+        s: &mut RowScratch<K>,
+        threshold: f32,
+        out: &mut [Vec<Color>],
+    ) {
+        let lights = self.world.scene.lights.len();
+        let mut donor = std::mem::take(&mut s.donor);
+        let mut kept = std::mem::take(&mut s.kept);
+        kept.reset(self.grid.width, lights);
+        for group in &s.groups {
+            let others = group.iter().skip(1).any(Option::is_some);
+            match group[0] {
+                Some(i) if others && self.diffuse_hit(s, 0, i, threshold) => {
+                    let (packet, hits) = self.sample_packet(s, 0, i);
+                    tracer.shade_donor(&packet, &hits, &mut donor);
+                    out[0][i] = donor.color;
+                    kept.keep(i, &donor, threshold);
+                }
+                _ => self.shade_group(tracer, s, group, out),
+            }
+        }
+        for group in &s.groups {
+            let Some(i) = group[0] else { continue };
+            if !kept.donor[i] {
+                continue; // shaded as a whole group in step 1
+            }
+            let coherent = kept.diffuse[i] && kept.coherent(i);
+            let mut rest: Group<K> = [None; K];
+            for (v, sample) in group.iter().enumerate().skip(1) {
+                let Some(k) = *sample else { continue };
+                if coherent && self.same_point(s, i, v, k) {
+                    let (packet, hits) = self.sample_packet(s, v, k);
+                    donor.through.clear();
+                    donor.through.extend_from_slice(kept.through(i));
+                    donor.secondary = kept.secondary[i];
+                    out[v][k] = tracer.shade_from_donor(&packet, &hits, &donor);
+                    tracer.counts.reprojected += 1;
+                } else {
+                    rest[v] = Some(k);
+                    tracer.counts.reproject_rejected += 1;
+                }
+            }
+            if rest.iter().any(Option::is_some) {
+                self.shade_group(tracer, s, &rest, out);
+            }
+        }
+        s.donor = donor;
+        s.kept = kept;
+    }
+
+    /// Stage 4, the paper's reprojection as published (eq. 2.1), without the
+    /// other views' eye rays: view 0 is traced alone; each of its hits is
+    /// projected into every other view, where the nearest point that lands on
+    /// a sample wins it; a winner whose shading tree is diffuse (coefficients
+    /// at most `threshold`) gives that sample its colour. Samples that receive
+    /// nothing, or whose winner is not diffuse, are traced (holes). Nothing
+    /// checks that the other view sees the point: a surface hidden from it by
+    /// something view 0 did not see still shows (a ghost).
+    fn reproject_forward(
+        &self,
+        tracer: &mut Tracer,
+        row: usize,
+        s: &mut RowScratch<K>,
+        threshold: f32,
+        out: &mut [Vec<Color>],
+    ) {
+        let n = self.views;
+        let mut donor = std::mem::take(&mut s.donor);
+        for r in s.received.iter_mut() {
+            r.fill(None);
+        }
+        // View 0's eye rays, one at a time (a mono render of view 0).
+        let y = row as f32 + self.grid.offset;
+        let (lo, hi) = self.rig.column_range(self.grid.width as u32);
+        s.dirs.clear();
+        s.dirs
+            .extend((lo..=hi).map(|c| self.camera.direction(c as f32 + self.grid.offset, y)));
+        for (i, sample_out) in out[0].iter_mut().enumerate() {
+            let (packet, _) = self.sample_packet(s, 0, i);
+            let hits = tracer.eye_hits(&packet, &[0]);
+            s.hits[0][i] = (hits.prim[0], hits.hit[0]);
+            if !hits.has_hit(0) {
+                *sample_out = self.world.scene.background;
+                continue;
+            }
+            let diffuse = self.diffuse_hit(s, 0, i, threshold);
+            let color = if diffuse {
+                tracer.shade_donor(&packet, &hits, &mut donor);
+                donor.color
+            } else {
+                tracer.shade_eye(&packet, &hits)[0]
+            };
+            *sample_out = color;
+            let gives = diffuse && donor.tree_coefficient <= threshold;
+            let point = packet.origins[0] + packet.dirs[0] * hits.hit[0].t;
+            for v in 1..n {
+                let view = &self.rig.views[v];
+                let Some(k) = nearest_sample(self.camera, self.grid, view, point) else {
+                    continue;
+                };
+                let depth = self.camera.depth_of(point, view.offset);
+                if s.received[v][k].is_none_or(|(d, _)| depth < d) {
+                    s.received[v][k] = Some((depth, gives.then_some(color)));
+                }
+            }
+        }
+        // The other views: received colours, and eye rays for the holes.
+        for (v, view_out) in out.iter_mut().enumerate().take(n).skip(1) {
+            for (k, sample_out) in view_out.iter_mut().enumerate() {
+                if let Some((_, Some(color))) = s.received[v][k] {
+                    *sample_out = color;
+                    tracer.counts.reprojected += 1;
+                    continue;
+                }
+                let (packet, _) = self.sample_packet(s, v, k);
+                let hits = tracer.eye_hits(&packet, &[v]);
+                *sample_out = if hits.has_hit(0) {
+                    tracer.shade_eye(&packet, &hits)[0]
+                } else {
+                    self.world.scene.background
+                };
+                tracer.counts.hole_samples += 1;
+            }
+        }
+        s.donor = donor;
+    }
+}
+
+/// Per sample of view 0 in a row, what a donor kept for the other views
+/// (safe reprojection).
+#[derive(Default)]
+struct KeptShading {
+    lights: usize,
+    /// Shaded alone as a donor in step 1.
+    donor: Vec<bool>,
+    /// A donor whose whole shading tree is diffuse.
+    diffuse: Vec<bool>,
+    /// Transmittance toward each light, `lights` per sample.
+    through: Vec<f32>,
+    secondary: Vec<Color>,
+}
+
+impl KeptShading {
+    fn reset(&mut self, width: usize, lights: usize) {
+        self.lights = lights;
+        self.donor.clear();
+        self.donor.resize(width, false);
+        self.diffuse.clear();
+        self.diffuse.resize(width, false);
+        self.through.clear();
+        self.through.resize(width * lights, 0.0);
+        self.secondary.clear();
+        self.secondary.resize(width, Color::ZERO);
+    }
+
+    fn keep(&mut self, i: usize, donor: &Donor, threshold: f32) {
+        self.donor[i] = true;
+        self.diffuse[i] = donor.tree_coefficient <= threshold;
+        self.through[i * self.lights..(i + 1) * self.lights].copy_from_slice(&donor.through);
+        self.secondary[i] = donor.secondary;
+    }
+
+    fn through(&self, i: usize) -> &[f32] {
+        &self.through[i * self.lights..(i + 1) * self.lights]
+    }
+
+    /// Whether the row neighbours of sample `i` were donors that saw every
+    /// light exactly as it did: no shadow edge passes within a pixel of it.
+    fn coherent(&self, i: usize) -> bool {
+        let width = self.diffuse.len();
+        [i.wrapping_sub(1), i + 1]
+            .into_iter()
+            .filter(|&j| j < width)
+            .all(|j| self.diffuse[j] && self.through(j) == self.through(i))
+    }
+}
+
+/// Renders every view of the job's rig by the twin method (see the module).
 pub(super) fn render<const K: usize>(job: &Job) -> Samples {
     let Job {
         world,
@@ -48,129 +535,66 @@ pub(super) fn render<const K: usize>(job: &Job) -> Samples {
         progress,
     } = *job;
     let n = rig.views.len();
-    let shifts: Vec<i32> = rig.views.iter().map(|v| v.shift).collect();
-    let (lo, hi) = rig.column_range(grid.width as u32);
     let mut origins = [camera.eye; K];
-    let mut view_of_lane = [0usize; K];
     for (v, view) in rig.views.iter().enumerate() {
         origins[v] = camera.eye_at(view.offset);
-        view_of_lane[v] = v;
     }
-    let width = grid.width;
-    let none = SurfaceHit {
-        t: f32::INFINITY,
-        u: 0.0,
-        v: 0.0,
+    let (lo, hi) = rig.column_range(grid.width as u32);
+    let setup = RowSetup::<K> {
+        world,
+        camera,
+        rig,
+        grid,
+        views: n,
+        origins,
+        shifts: rig.views.iter().map(|v| v.shift).collect(),
+        first_column: lo,
     };
+    let width = grid.width;
     let total = grid.height as u64;
     let done = AtomicU64::new(0);
-    // A row's hits and bookkeeping, kept per worker thread from row to row.
-    struct RowScratch<const K: usize> {
-        dirs: Vec<Vec3>,
-        hits: Vec<Vec<(u32, SurfaceHit)>>,
-        shaded: Vec<Vec<bool>>,
-    }
     let scratch = || RowScratch::<K> {
         dirs: Vec::with_capacity((hi - lo + 1) as usize),
-        hits: vec![vec![(PacketHits::<K>::NO_HIT, none); width]; n],
-        shaded: vec![vec![false; width]; n],
+        hits: vec![vec![(PacketHits::<K>::NO_HIT, NONE); width]; n],
+        points: vec![vec![None; width]; n],
+        far: vec![vec![false; width]; n],
+        far_hits: Vec::new(),
+        far_colors: Vec::new(),
+        claimed: vec![vec![false; width]; n],
+        groups: Vec::with_capacity(width * n),
+        donor: Donor::default(),
+        kept: KeptShading::default(),
+        received: vec![vec![None; width]; n],
     };
     let rows: Vec<(Vec<Vec<Color>>, TraceCounts)> = (0..grid.height)
         .into_par_iter()
-        .map_init(scratch, |scratch, j| {
+        .map_init(scratch, |s, j| {
             let mut tracer = Tracer::new(world, opts.trace);
-            let row = j as f32 + grid.offset;
+            tracer.merge_secondary = opts.approx.merge_secondary;
             let start = Instant::now();
-            // Pass 1: the nearest hit of every view's sample, one descent for the
-            // views' rays through the same sample position.
-            let RowScratch { dirs, hits, shaded } = scratch;
-            dirs.clear();
-            dirs.extend((lo..=hi).map(|c| camera.direction(c as f32 + grid.offset, row)));
-            let dir_of = |v: usize, i: usize| dirs[(i as i32 + shifts[v] - lo) as usize];
-            let all = if n == 32 { u32::MAX } else { (1u32 << n) - 1 };
-            for i in 0..width {
-                let packet = Packet {
-                    origins,
-                    dirs: std::array::from_fn(|v| if v < n { dir_of(v, i) } else { Vec3::Z }),
-                    t_min: camera.hither,
-                    t_max: [f32::INFINITY; K],
-                    mask: all,
-                };
-                let h = tracer.eye_hits(&packet, &view_of_lane);
-                for (v, view_hits) in hits.iter_mut().enumerate() {
-                    view_hits[i] = (h.prim[v], h.hit[v]);
-                }
+            let paper = matches!(opts.approx.reproject, Some(r) if r.mode == ReprojectMode::Paper);
+            if !paper {
+                setup.eye_pass(&mut tracer, j, s);
             }
             let eye_pass = start.elapsed();
-            // Pass 2: group the samples that see one point, shade each group at once.
             let mut out = vec![vec![Color::ZERO; width]; n];
-            for view in shaded.iter_mut() {
-                view.fill(false);
-            }
-            let background = world.scene.background;
-            let mut shade = |tracer: &mut Tracer, group: &[Option<usize>; K]| {
-                // A sample that hit nothing is the background (what shading it gives).
-                let missed = |(v, s): (usize, &Option<usize>)| {
-                    s.is_none_or(|i| hits[v][i].0 == PacketHits::<K>::NO_HIT)
-                };
-                if group.iter().enumerate().all(missed) {
-                    for (v, sample) in group.iter().enumerate() {
-                        if let Some(i) = *sample {
-                            out[v][i] = background;
-                        }
-                    }
-                    return;
+            setup.shade_cut(&mut tracer, s, &mut out);
+            match opts.approx.reproject {
+                None => {
+                    setup.group(s);
+                    setup.shade_groups(&mut tracer, s, &mut out);
                 }
-                let mut packet = Packet {
-                    origins,
-                    dirs: [Vec3::Z; K],
-                    t_min: camera.hither,
-                    t_max: [f32::INFINITY; K],
-                    mask: 0,
-                };
-                let mut lane_hits = PacketHits {
-                    prim: [PacketHits::<K>::NO_HIT; K],
-                    hit: [none; K],
-                };
-                for (v, sample) in group.iter().enumerate() {
-                    if let Some(i) = *sample {
-                        packet.mask |= 1 << v;
-                        packet.dirs[v] = dir_of(v, i);
-                        (lane_hits.prim[v], lane_hits.hit[v]) = hits[v][i];
-                    }
+                Some(Reprojection {
+                    mode: ReprojectMode::Safe,
+                    threshold,
+                }) => {
+                    setup.group(s);
+                    setup.share_groups(&mut tracer, s, threshold, &mut out);
                 }
-                let colors = tracer.shade_eye(&packet, &lane_hits);
-                for (v, sample) in group.iter().enumerate() {
-                    if let Some(i) = *sample {
-                        out[v][i] = colors[v];
-                    }
-                }
-            };
-            for i in 0..width {
-                let mut group = [None; K];
-                group[0] = Some(i);
-                let (prim, hit) = hits[0][i];
-                if prim != PacketHits::<K>::NO_HIT {
-                    let point = origins[0] + dir_of(0, i) * hit.t;
-                    for (v, view) in rig.views.iter().enumerate().skip(1) {
-                        let Some(k) = nearest_sample(camera, grid, view, point) else {
-                            continue;
-                        };
-                        if !shaded[v][k] && hits[v][k].0 != PacketHits::<K>::NO_HIT {
-                            shaded[v][k] = true;
-                            group[v] = Some(k);
-                        }
-                    }
-                }
-                shade(&mut tracer, &group);
-            }
-            // Samples of the other views that no sample of view 0 claimed.
-            for (v, claimed) in shaded.iter().enumerate().skip(1) {
-                for (i, _) in claimed.iter().enumerate().filter(|(_, &c)| !c) {
-                    let mut group = [None; K];
-                    group[v] = Some(i);
-                    shade(&mut tracer, &group);
-                }
+                Some(Reprojection {
+                    mode: ReprojectMode::Paper,
+                    threshold,
+                }) => setup.reproject_forward(&mut tracer, j, s, threshold, &mut out),
             }
             tracer.counts.eye_pass_ns += eye_pass.as_nanos() as u64;
             tracer.counts.shading_pass_ns += (start.elapsed() - eye_pass).as_nanos() as u64;
@@ -187,4 +611,81 @@ pub(super) fn render<const K: usize>(job: &Job) -> Samples {
         counts.add(&c);
     }
     (grids, counts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::loaders::{load_scene, LoadOptions};
+    use crate::render::{RenderOptions, Sampling};
+
+    /// Under a strongly converged rig (image shifts of many pixels), the
+    /// samples the grouping puts together see the same surface point: the
+    /// projection into the other view, shift included, is right. A wrong sign
+    /// on the shift still groups samples that hit something, only of points
+    /// far apart (its cost shows only in node visits).
+    #[test]
+    fn grouped_samples_see_the_same_point_under_a_converged_rig() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
+        let scene = load_scene(&path, &LoadOptions::default()).expect("shipped scene");
+        let distance = (scene.viewpoint.at - scene.viewpoint.from).length() as f64;
+        let world = World::new(scene);
+        let camera = Camera::new(&world.scene.viewpoint, 96, 72);
+        let rig = Rig::stereo(&camera, 0.3, Some(distance * 0.4));
+        assert!(
+            rig.views[0].shift - rig.views[1].shift >= 4,
+            "{:?}",
+            rig.views
+        );
+        let grid = Grid::for_camera(&camera, Sampling::Centers);
+        let (lo, _) = rig.column_range(grid.width as u32);
+        let mut origins = [camera.eye; 2];
+        for (v, view) in rig.views.iter().enumerate() {
+            origins[v] = camera.eye_at(view.offset);
+        }
+        let setup = RowSetup::<2> {
+            world: &world,
+            camera: &camera,
+            rig: &rig,
+            grid: &grid,
+            views: 2,
+            origins,
+            shifts: rig.views.iter().map(|v| v.shift).collect(),
+            first_column: lo,
+        };
+        let width = grid.width;
+        let mut s = RowScratch::<2> {
+            dirs: Vec::new(),
+            hits: vec![vec![(PacketHits::<2>::NO_HIT, NONE); width]; 2],
+            points: vec![vec![None; width]; 2],
+            far: vec![vec![false; width]; 2],
+            far_hits: Vec::new(),
+            far_colors: Vec::new(),
+            claimed: vec![vec![false; width]; 2],
+            groups: Vec::new(),
+            donor: Donor::default(),
+            kept: KeptShading::default(),
+            received: vec![vec![None; width]; 2],
+        };
+        let mut tracer = Tracer::new(&world, RenderOptions::default().trace);
+        let (mut pairs, mut same) = (0, 0);
+        for row in 0..grid.height {
+            setup.eye_pass(&mut tracer, row, &mut s);
+            setup.group(&mut s);
+            for group in &s.groups {
+                if let [Some(i), Some(k)] = *group {
+                    pairs += 1;
+                    if setup.same_point(&s, i, 1, k) {
+                        same += 1;
+                    }
+                }
+            }
+        }
+        assert!(pairs > width * grid.height / 2, "{pairs} pairs");
+        assert!(
+            same * 100 >= pairs * 95,
+            "{same} of {pairs} pairs see one point"
+        );
+    }
 }
