@@ -18,6 +18,7 @@ use twinray::render::{
     TraceSettings,
 };
 use twinray::rig::Rig;
+use twinray::world::Cut;
 use twinray::{Scene, World};
 
 #[derive(clap::Args)]
@@ -43,17 +44,21 @@ pub struct BenchArgs {
     /// Also write the table as CSV.
     #[arg(long)]
     csv: Option<PathBuf>,
-    /// Configurations of the twin method, comma-separated: none (exact), merge
-    /// (--merge-secondary), reproject (safe), paper (--reproject-mode paper),
-    /// fast. Each is timed against two independent renders, and its images
+    /// Configurations of the twin method, comma-separated: none (exact), cut
+    /// (--cut-parallax, see below), merge (--merge-secondary), reproject (safe),
+    /// paper (--reproject-mode paper), fast (cut, merge and reproject). Each is timed against two independent renders, and its images
     /// compared with theirs (PSNR and largest difference, worst view).
     #[arg(long, value_delimiter = ',', value_enum, default_values_t = [Approx::None])]
     approx: Vec<Approx>,
+    /// Disparity error in pixels allowed to cut objects (configurations cut and fast).
+    #[arg(long, default_value_t = 0.5)]
+    cut_parallax: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Approx {
     None,
+    Cut,
     Merge,
     Reproject,
     Paper,
@@ -64,6 +69,7 @@ impl Approx {
     fn name(self) -> &'static str {
         match self {
             Approx::None => "none",
+            Approx::Cut => "cut",
             Approx::Merge => "merge",
             Approx::Reproject => "reproject",
             Approx::Paper => "paper",
@@ -79,7 +85,7 @@ impl Approx {
             })
         };
         match self {
-            Approx::None => Approximations::default(),
+            Approx::None | Approx::Cut => Approximations::default(),
             Approx::Merge => Approximations {
                 merge_secondary: true,
                 ..Approximations::default()
@@ -130,6 +136,9 @@ impl Row {
 pub fn run(args: BenchArgs) -> Result<()> {
     if args.runs == 0 {
         bail!("--runs must be at least 1");
+    }
+    if !(args.cut_parallax.is_finite() && args.cut_parallax > 0.0) {
+        bail!("--cut-parallax must be a number of pixels > 0");
     }
     let pool = {
         let mut b = rayon::ThreadPoolBuilder::new();
@@ -219,10 +228,15 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
         sampling: Sampling::Centers,
         approx: approx.options(),
     };
+    let cut_depth = rig.cut_depth_for_parallax(&camera, args.cut_parallax);
     // Build + render, as a user would wait for it (the file is already parsed).
-    let timed = |o: RenderOptions| -> Result<(f64, render::RenderOutput)> {
+    let timed = |o: RenderOptions, a: Approx| -> Result<(f64, render::RenderOutput)> {
+        let cut = match (a, cut_depth) {
+            (Approx::Cut | Approx::Fast, Some(d)) => Some(Cut::at_depth(&camera, d as f32)),
+            _ => None,
+        };
         let start = Instant::now();
-        let world = World::new(scene.clone());
+        let world = World::with_cut(scene.clone(), cut);
         let out = render::render(&world, &camera, &rig, &o, &|_, _| {})?;
         Ok((start.elapsed().as_secs_f64(), out))
     };
@@ -231,11 +245,11 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
     let mut outputs: Vec<Option<render::RenderOutput>> = args.approx.iter().map(|_| None).collect();
     let mut reference = None;
     for _ in 0..args.runs {
-        let (t, out) = timed(opts(Method::Independent, Approx::None))?;
+        let (t, out) = timed(opts(Method::Independent, Approx::None), Approx::None)?;
         independent.push(t);
         reference = Some(out);
         for (k, &a) in args.approx.iter().enumerate() {
-            let (t, out) = timed(opts(Method::Twin, a))?;
+            let (t, out) = timed(opts(Method::Twin, a), a)?;
             times[k].push(t);
             outputs[k] = Some(out);
         }

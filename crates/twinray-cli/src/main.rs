@@ -242,11 +242,7 @@ impl ApproxArgs {
             },
             (None, None) => return Ok(None),
         };
-        Ok(Some(Cut {
-            eye: camera.eye,
-            forward: camera.forward,
-            depth: depth as f32,
-        }))
+        Ok(Some(Cut::at_depth(camera, depth as f32)))
     }
 }
 
@@ -508,6 +504,14 @@ fn run_render(args: RenderArgs) -> Result<()> {
             build_s
         );
         describe_rig(&rig, &camera, &plan);
+        if let Some(c) = cut {
+            eprintln!(
+                "cut (section 2.3): {} of {} primitives beyond depth {:.3}",
+                world.cut_primitives(),
+                world.scene.shapes.len(),
+                c.depth
+            );
+        }
     }
 
     let bar = if args.quiet || !std::io::stderr().is_terminal() {
@@ -545,6 +549,13 @@ fn run_render(args: RenderArgs) -> Result<()> {
             result.counts.rays.eye,
             result.counts.eye_traversals as f64 / result.counts.rays.eye.max(1) as f64
         );
+        if approximate {
+            let c = &result.counts;
+            eprintln!(
+                "approximations: samples cut {}, secondary rays merged {}, samples reprojected {}, refused {}, traced as holes {}",
+                c.samples_cut, c.merged_rays, c.reprojected, c.reproject_rejected, c.hole_samples
+            );
+        }
     }
     if let Some(path) = &args.stats {
         let mut report = Report {
@@ -576,6 +587,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
             ..Report::default()
         };
         report.fill_counts(&result.counts, rig.views.len());
+        report.cut_depth = cut.map(|c| c.depth);
+        report.cut_primitives = world.cut_primitives();
         if plan.count > 1 {
             report.interaxial = Some(plan.interaxial);
             report.convergence = plan.convergence;

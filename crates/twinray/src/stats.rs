@@ -142,6 +142,10 @@ pub struct Report {
     pub nodes_visited: u64,
     pub box_tests: u64,
     pub primitive_tests: u64,
+    /// Section 2.3: the depth of the cut and the primitives beyond it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cut_depth: Option<f32>,
+    pub cut_primitives: usize,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interaxial: Option<f32>,
     #[serde(skip_serializing_if = "Option::is_none")]

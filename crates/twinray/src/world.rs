@@ -32,6 +32,15 @@ pub struct Cut {
 }
 
 impl Cut {
+    /// A cut at `depth` in front of the camera's eye (the rig's centre).
+    pub fn at_depth(camera: &crate::camera::Camera, depth: f32) -> Cut {
+        Cut {
+            eye: camera.eye,
+            forward: camera.forward,
+            depth,
+        }
+    }
+
     /// Whether all of box `b` lies at a depth of at least `self.depth`.
     pub fn beyond(&self, b: &Aabb) -> bool {
         if b.is_empty() {

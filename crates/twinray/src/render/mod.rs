@@ -84,7 +84,7 @@ impl Reprojection {
     /// The default threshold: surfaces whose mirror and transmission weights
     /// are at most this are treated as diffuse (see docs/stereo.md for the
     /// error it gives on the SPD scenes).
-    pub const DEFAULT_THRESHOLD: f32 = 0.25;
+    pub const DEFAULT_THRESHOLD: f32 = 0.1;
 }
 
 /// The paper's speed-for-quality trade-offs (twin method only). The default,
