@@ -337,9 +337,10 @@ impl<const K: usize> RowSetup<'_, K> {
     /// Stage 4, safe reprojection (section 2.5 with the eye pass's own hits as
     /// the visibility test), in two steps over the row:
     ///
-    /// 1. View 0's sample of each group whose hit is diffuse (`threshold`) is
-    ///    shaded alone and its light visibility and secondary colour kept; the
-    ///    other groups are shaded as packets, exactly.
+    /// 1. View 0's sample of each group whose hit is diffuse (`threshold`) and
+    ///    seen by another sample of the group is shaded alone, and its light
+    ///    visibility and secondary colour kept; the other groups are shaded as
+    ///    packets, exactly.
     /// 2. Each other sample of such a group takes them — and computes its own
     ///    ambient, diffuse and highlight terms — if it sees the same surface
     ///    point, every surface of the donor's shading tree is diffuse, and the
@@ -357,9 +358,17 @@ impl<const K: usize> RowSetup<'_, K> {
         let mut kept = std::mem::take(&mut s.kept);
         kept.reset(self.grid.width, lights);
         for group in &s.groups {
-            let others = group.iter().skip(1).any(Option::is_some);
+            // A group none of whose other samples sees view 0's point keeps its
+            // shared descents: it is shaded as one packet.
+            let takers = |i: usize| {
+                group
+                    .iter()
+                    .enumerate()
+                    .skip(1)
+                    .any(|(v, k)| k.is_some_and(|k| self.same_point(s, i, v, k)))
+            };
             match group[0] {
-                Some(i) if others && self.diffuse_hit(s, 0, i, threshold) => {
+                Some(i) if self.diffuse_hit(s, 0, i, threshold) && takers(i) => {
                     let (packet, hits) = self.sample_packet(s, 0, i);
                     tracer.shade_donor(&packet, &hits, &mut donor);
                     out[0][i] = donor.color;
