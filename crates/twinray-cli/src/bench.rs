@@ -129,7 +129,7 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
         Some("inf") => None,
         Some(s) => Some(s.parse::<f64>()?),
     };
-    let rig = Rig::stereo(&camera, b, convergence);
+    let rig = Rig::stereo(&camera, b, convergence)?;
     let opts = |method| RenderOptions {
         trace: TraceSettings::default(),
         method,
