@@ -19,6 +19,35 @@ pub struct Material {
 }
 
 impl Material {
+    /// The material with every value in the range the shading model is defined
+    /// for, and what was changed (for a warning): `kd`, `ks` and `t` in 0..=1,
+    /// `shine` >= 0, colour components >= 0, `ior` > 0 (else 1). Out of range,
+    /// they gave infinite pixels (a negative Phong exponent) or light from
+    /// nowhere (`kd` -1: ambient 2).
+    pub fn clamped(mut self) -> (Material, Vec<String>) {
+        let mut changed = Vec::new();
+        for (name, value, lo, hi) in [
+            ("Kd", &mut self.kd, 0.0, 1.0),
+            ("Ks", &mut self.ks, 0.0, 1.0),
+            ("T", &mut self.t, 0.0, 1.0),
+            ("Shine", &mut self.shine, 0.0, f32::MAX),
+            ("red", &mut self.color.x, 0.0, f32::MAX),
+            ("green", &mut self.color.y, 0.0, f32::MAX),
+            ("blue", &mut self.color.z, 0.0, f32::MAX),
+        ] {
+            let fixed = value.clamp(lo, hi);
+            if fixed != *value {
+                changed.push(format!("{name} {value} clamped to {fixed}"));
+                *value = fixed;
+            }
+        }
+        if self.ior <= 0.0 {
+            changed.push(format!("index of refraction {} replaced by 1", self.ior));
+            self.ior = 1.0;
+        }
+        (self, changed)
+    }
+
     /// Ambient coefficient: what `kd`, `ks` and `t` leave of one, the convention of
     /// the SPD's own POV-Ray exporter (balls' floor: 1 - 0.8 = 0.2; glass: 0).
     pub fn ambient(&self) -> f32 {
@@ -119,6 +148,10 @@ impl Scene {
                 .push(format!("{where_}: sphere of radius 0 skipped"));
             return;
         }
+        if !within_range(&[center, Vec3::splat(radius)]) {
+            self.warnings.push(out_of_range("sphere", where_));
+            return;
+        }
         self.push(Shape::Sphere(Sphere {
             center,
             radius: radius.abs(),
@@ -134,6 +167,10 @@ impl Scene {
         apex_radius: f32,
         where_: &str,
     ) {
+        if !within_range(&[base, apex, Vec3::new(base_radius, apex_radius, 0.0)]) {
+            self.warnings.push(out_of_range("cone", where_));
+            return;
+        }
         let inside = base_radius < 0.0 || apex_radius < 0.0;
         match Cone::new(base, base_radius, apex, apex_radius, inside) {
             Some(c) => self.push(Shape::Cone(c)),
@@ -159,6 +196,10 @@ impl Scene {
         normals: Option<&[Vec3]>,
         where_: &str,
     ) {
+        if !within_range(vertices) {
+            self.warnings.push(out_of_range("polygon", where_));
+            return;
+        }
         let face_normal = newell_normal(vertices);
         let Some(face_normal) = face_normal else {
             self.warnings
@@ -219,6 +260,21 @@ impl Scene {
             .color
             .unwrap_or_else(|| Color::splat(1.0 / n.sqrt()))
     }
+}
+
+/// Largest coordinate or radius a shape may have: intersection tests square
+/// distances in single precision, which overflows past about 1.8e19 (a sphere
+/// of radius 2e19 vanished).
+pub const MAX_COORDINATE: f32 = 1e18;
+
+fn within_range(points: &[Vec3]) -> bool {
+    points
+        .iter()
+        .all(|p| p.abs().max_element() <= MAX_COORDINATE)
+}
+
+fn out_of_range(what: &str, where_: &str) -> String {
+    format!("{where_}: {what} skipped: a coordinate or radius beyond {MAX_COORDINATE:e}")
 }
 
 /// Unit normal of a polygon by Newell's method (robust for non-convex and
@@ -331,6 +387,36 @@ mod tests {
         }
         s.finish();
         assert_eq!(s.lights[0].color, Some(Color::splat(0.5)));
+    }
+
+    #[test]
+    fn huge_shapes_are_skipped_with_a_warning() {
+        // The attack: a sphere of radius 2e19 silently vanished (its squared
+        // radius overflows).
+        let mut s = Scene::new();
+        s.add_sphere(Vec3::ZERO, 2e19, "f.nff:2");
+        s.add_sphere(Vec3::ZERO, 1e18, "f.nff:3");
+        s.add_polygon(&[Vec3::ZERO, Vec3::X * 1e19, Vec3::Y], "f.nff:4");
+        assert_eq!(s.shapes.len(), 1);
+        assert_eq!(s.warnings.len(), 2, "{:?}", s.warnings);
+        assert!(s.warnings[0].starts_with("f.nff:2: sphere skipped"));
+    }
+
+    #[test]
+    fn materials_are_clamped_with_what_changed() {
+        // The attack: Shine -1e20 gave infinite pixels, Kd -1 an ambient of 2.
+        let (m, changed) = Material {
+            kd: -1.0,
+            shine: -1e20,
+            ..Material::default()
+        }
+        .clamped();
+        assert_eq!((m.kd, m.shine), (0.0, 0.0));
+        assert_eq!(changed.len(), 2, "{changed:?}");
+        assert!(changed[0].contains("Kd -1 clamped to 0"), "{changed:?}");
+        assert!(m.ambient() <= 1.0);
+        let (same, none) = Material::default().clamped();
+        assert_eq!((same, none.len()), (Material::default(), 0));
     }
 
     #[test]
