@@ -43,7 +43,7 @@ pub use encode::{read_image, stage_image, write_image, ImageFormat, WriteOptions
 pub use layouts::{cross, interlace, separate_paths, side_by_side, top_bottom, InterlaceMode};
 pub use mpo::write_mpo;
 pub use multiview_exr::write_multiview_exr;
-pub use targets::{check_distinct, check_image_target, check_stereo_targets};
+pub use targets::{check_distinct, check_file_target, check_image_target, check_stereo_targets};
 
 use crate::{Error, Image, Result};
 

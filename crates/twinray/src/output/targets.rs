@@ -24,6 +24,12 @@ pub fn check_image_target(path: &Path, width: u64, height: u64) -> Result<()> {
     if format == ImageFormat::Jpeg {
         check_jpeg_size(path, width, height)?;
     }
+    check_file_target(path)
+}
+
+/// Checks that a file of any kind (statistics, a table) can be written to
+/// `path`: the directory exists and what is there may be replaced.
+pub fn check_file_target(path: &Path) -> Result<()> {
     target(path).map(|_| ())
 }
 
@@ -76,7 +82,7 @@ pub fn check_stereo_targets(
                 )));
             }
             check_jpeg_size(out, w, h)?;
-            target(out)?;
+            check_file_target(out)?;
             return Ok(vec![out.to_path_buf()]);
         }
         Layout::MultiviewExr => {
@@ -86,7 +92,7 @@ pub fn check_stereo_targets(
                     out.display()
                 )));
             }
-            target(out)?;
+            check_file_target(out)?;
             return Ok(vec![out.to_path_buf()]);
         }
         // Unsqueezed sizes: an upper bound of the squeezed ones.
