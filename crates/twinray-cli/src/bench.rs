@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use twinray::camera::Camera;
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::output::compare;
@@ -134,16 +134,11 @@ impl Row {
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
-    if args.runs == 0 {
-        bail!("--runs must be at least 1");
-    }
-    if !(args.cut_parallax.is_finite() && args.cut_parallax > 0.0) {
-        bail!("--cut-parallax must be a number of pixels > 0");
-    }
+    check_args(&args)?;
     let pool = {
         let mut b = rayon::ThreadPoolBuilder::new();
         if let Some(n) = args.threads {
-            b = b.num_threads(n.max(1));
+            b = b.num_threads(n);
         }
         b.build()?
     };
@@ -211,6 +206,45 @@ pub fn run(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// Everything that can be refused before the first render: counts, sizes,
+/// distances, and the memory of the largest pair (both methods' images are
+/// kept, so twice a pair).
+fn check_args(args: &BenchArgs) -> Result<()> {
+    if args.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    if !(args.cut_parallax.is_finite() && args.cut_parallax > 0.0) {
+        bail!("--cut-parallax must be a number of pixels > 0");
+    }
+    if let Some(n) = args.threads {
+        twinray::job::check_threads(n).context("--threads")?;
+    }
+    if let Some(&b) = args
+        .interaxial
+        .iter()
+        .find(|b| !(b.is_finite() && **b >= 0.0))
+    {
+        bail!("--interaxial must be finite distances >= 0, got {b}");
+    }
+    if args.sizes.contains(&0) {
+        bail!("--sizes must be at least 1");
+    }
+    if let Some(&size) = args.sizes.iter().max() {
+        let pair = twinray::job::estimate_render_memory(size, size, 2, Sampling::Centers);
+        twinray::job::check_memory(
+            pair.saturating_mul(2),
+            twinray::job::available_memory(),
+            &format!("--sizes {size} (two stereo pairs of {size}x{size})"),
+        )?;
+    }
+    if let Some(csv) = &args.csv {
+        twinray::output::check_file_target(csv)?;
+        let scenes: Vec<&std::path::Path> = args.scenes.iter().map(|p| p.as_path()).collect();
+        twinray::output::check_distinct(std::slice::from_ref(csv), &scenes)?;
+    }
+    Ok(())
+}
+
 /// Times the independent renders and every configuration asked for, in turn
 /// (A B C … A B C …), and compares each configuration's images with the
 /// independent ones.
@@ -221,7 +255,7 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
         Some("inf") => None,
         Some(s) => Some(s.parse::<f64>()?),
     };
-    let rig = Rig::stereo(&camera, b, convergence);
+    let rig = Rig::stereo(&camera, b, convergence)?;
     let opts = |method, approx: Approx| RenderOptions {
         trace: TraceSettings::default(),
         method,

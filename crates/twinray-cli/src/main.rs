@@ -40,16 +40,29 @@ enum Command {
     Render(RenderArgs),
     /// Time stereo pairs: the twin method against two independent renders (the paper's tables 2.1, 2.2).
     BenchStereo(bench::BenchArgs),
-    /// Compare two images: PSNR, largest difference, differing pixels.
-    Compare {
-        a: PathBuf,
-        b: PathBuf,
-        /// Also write |a - b| scaled by --gain to this image.
-        #[arg(long)]
-        diff: Option<PathBuf>,
-        #[arg(long, default_value_t = 10.0)]
-        gain: f32,
-    },
+    /// Compare two images: PSNR, largest difference, differing pixels. Exits 1 when
+    /// they differ beyond --max-diff or --min-psnr.
+    Compare(CompareArgs),
+}
+
+#[derive(clap::Args)]
+struct CompareArgs {
+    /// First input image (.png, .jpg, .exr, .pfm).
+    a: PathBuf,
+    /// Second input image, of the same size.
+    b: PathBuf,
+    /// Also write |a - b| scaled by --gain to this image.
+    #[arg(long)]
+    diff: Option<PathBuf>,
+    /// Brightness of the --diff image: each channel is |a - b| x gain.
+    #[arg(long, default_value_t = 10.0)]
+    gain: f32,
+    /// Fail (exit 1) if any channel differs by more than this.
+    #[arg(long)]
+    max_diff: Option<f32>,
+    /// Fail (exit 1) if the PSNR is below this, in dB.
+    #[arg(long)]
+    min_psnr: Option<f64>,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -90,21 +103,23 @@ enum InterlaceArg {
 struct RenderArgs {
     /// Scene file (.nff).
     scene: PathBuf,
-    /// Output image: .png (8-bit), .exr or .pfm (32-bit float, linear), .mpo.
+    /// Output image: .png or .jpg (8-bit), .exr or .pfm (32-bit float, linear), .mpo
+    /// (--layout mpo). Several views: NAME_L/NAME_R (--layout separate) or NAME_0, NAME_1...
     #[arg(short, long)]
     output: PathBuf,
     /// Image size WxH (default: the scene's resolution).
     #[arg(long, value_parser = parse_size)]
     size: Option<(u32, u32)>,
-    /// Worker threads (default: all cores). The image is the same for any count.
+    /// Worker threads, 1 to 1024 (default: all cores). The image is the same for any count.
     #[arg(long)]
     threads: Option<usize>,
-    /// Deepest ray level (the eye ray is level 1).
+    /// Deepest ray level, 1 to 64 (the eye ray is level 1).
     #[arg(long, default_value_t = 5)]
     max_depth: u32,
-    /// Adaptive cut-off: skip secondary rays whose weight in the pixel is below this (0 = off).
-    #[arg(long, default_value_t = 1.0 / 256.0)]
-    min_weight: f32,
+    /// Adaptive cut-off: skip secondary rays whose weight in the pixel is below this
+    /// (0 = off; default 1/256; not with --spd, which has none).
+    #[arg(long)]
+    min_weight: Option<f32>,
     /// SPD testing procedure: 512x512 by default, (W+1)x(H+1) corner rays averaged,
     /// every reflected/refracted ray spawned, no cut-off.
     #[arg(long)]
@@ -115,10 +130,12 @@ struct RenderArgs {
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
-    /// Print scene facts, the rig and timings on stderr.
+    /// Print scene facts, the rig and timings on stderr (the files written are listed
+    /// at the end unless --quiet).
     #[arg(short, long)]
     verbose: bool,
-    /// Apply the sRGB transfer curve to 8-bit outputs (default: values as computed).
+    /// Apply the sRGB transfer curve to 8-bit outputs, .png .jpg .mpo (default: values as
+    /// computed).
     #[arg(long)]
     srgb: bool,
     /// Largest image side a scene file may ask for.
@@ -149,10 +166,14 @@ struct RenderArgs {
     /// Half-width (sbs, cross) or half-height (tb) frames, as 3D TVs take.
     #[arg(long)]
     squeeze: bool,
-    #[arg(long, value_enum, default_value_t = AnaglyphArg::Dubois)]
-    anaglyph: AnaglyphArg,
-    #[arg(long, value_enum, default_value_t = InterlaceArg::Rows)]
-    interlace: InterlaceArg,
+    /// Colour method of --layout anaglyph (default dubois: red-cyan glasses, least
+    /// ghosting; color and gray: plain red-cyan; green-magenta; yellow-blue).
+    #[arg(long, value_enum)]
+    anaglyph: Option<AnaglyphArg>,
+    /// Pattern of --layout interlace (default rows: line-interleaved 3D monitors;
+    /// columns; checker: DLP 3D displays). Left eye on even rows / columns / x+y.
+    #[arg(long, value_enum)]
+    interlace: Option<InterlaceArg>,
 
     #[command(flatten)]
     approx: ApproxArgs,
@@ -294,15 +315,51 @@ fn parse_args() -> std::result::Result<Cli, ExitCode> {
     }
 }
 
+/// A panic (a bug) as one line in twinray's style, with where it happened,
+/// instead of Rust's multi-line report; temporary files are removed.
+fn install_panic_hook() {
+    std::panic::set_hook(Box::new(|info| {
+        let what = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown cause".into());
+        let at = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        output::remove_temporary_files();
+        eprintln!("twinray: internal error (a bug, please report it): {what}{at}");
+    }));
+}
+
+/// SIGINT, SIGTERM (and SIGHUP): remove the temporary files of an output being
+/// written, then exit as a shell expects of an interrupted program.
+fn install_signal_handler() {
+    let installed = ctrlc::set_handler(|| {
+        output::remove_temporary_files();
+        eprintln!("twinray: interrupted");
+        std::process::exit(130);
+    });
+    if let Err(e) = installed {
+        eprintln!("twinray: warning: cannot handle interruptions ({e}); an interrupted write may leave a .twinray-*.tmp file");
+    }
+}
+
 fn main() -> ExitCode {
     let cli = match parse_args() {
         Ok(cli) => cli,
         Err(code) => return code,
     };
+    install_panic_hook();
+    install_signal_handler();
     let result = match cli.command {
-        Command::Render(args) => run_render(args),
+        Command::Render(args) => {
+            run_render(&args).map(|written| list_written(&written, args.quiet))
+        }
         Command::BenchStereo(args) => bench::run(args),
-        Command::Compare { a, b, diff, gain } => run_compare(&a, &b, diff.as_deref(), gain),
+        Command::Compare(args) => run_compare(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -324,20 +381,44 @@ fn main() -> ExitCode {
     }
 }
 
-fn run_compare(a: &Path, b: &Path, diff: Option<&Path>, gain: f32) -> Result<()> {
-    let ia = output::read_image(a)?;
-    let ib = output::read_image(b)?;
+fn list_written(written: &[PathBuf], quiet: bool) {
+    if !quiet {
+        for path in written {
+            eprintln!("wrote {}", path.display());
+        }
+    }
+}
+
+fn run_compare(args: &CompareArgs) -> Result<()> {
+    if let Some(path) = &args.diff {
+        output::check_distinct(std::slice::from_ref(path), &[&args.a, &args.b])?;
+    }
+    let read = |p: &Path| output::read_image(p).with_context(|| format!("input {}", p.display()));
+    let (ia, ib) = (read(&args.a)?, read(&args.b)?);
     let d = output::compare(&ia, &ib)?;
     println!(
         "psnr_db {:.3}  max_abs {:.6}  mean_abs {:.6}  differing_pixels {}",
         d.psnr_db, d.max_abs, d.mean_abs, d.differing_pixels
     );
-    if let Some(path) = diff {
+    if let Some(path) = &args.diff {
         output::write_image(
             path,
-            &output::difference_image(&ia, &ib, gain)?,
+            &output::difference_image(&ia, &ib, args.gain)?,
             &WriteOptions::default(),
         )?;
+    }
+    if let Some(max) = args.max_diff {
+        if !(d.max_abs <= max) {
+            bail!(
+                "the images differ by up to {:.6}, more than --max-diff {max}",
+                d.max_abs
+            );
+        }
+    }
+    if let Some(min) = args.min_psnr {
+        if !(d.psnr_db >= min) {
+            bail!("PSNR {:.3} dB is below --min-psnr {min}", d.psnr_db);
+        }
     }
     Ok(())
 }
@@ -423,11 +504,125 @@ fn check_layout_format(layout: LayoutArg, out: &Path) -> Result<()> {
     }
 }
 
-fn run_render(args: RenderArgs) -> Result<()> {
-    let t0 = Instant::now();
-    if let Some(0) = args.threads {
-        bail!("--threads must be at least 1");
+/// Flag combinations that would be silently ignored or coerced, and values
+/// the library refuses, found before the scene is read.
+fn check_flags(args: &RenderArgs) -> Result<()> {
+    let several_views = args.stereo || args.views.is_some_and(|n| n > 1);
+    if !several_views {
+        if args.interaxial.is_some() {
+            bail!("--interaxial needs --stereo or --views N (N > 1)");
+        }
+        if args.convergence.is_some() {
+            bail!("--convergence needs --stereo or --views N (N > 1)");
+        }
     }
+    if args.squeeze
+        && !matches!(
+            args.layout,
+            LayoutArg::Sbs | LayoutArg::Cross | LayoutArg::Tb
+        )
+    {
+        bail!("--squeeze applies to --layout sbs, cross or tb only");
+    }
+    if args.anaglyph.is_some() && args.layout != LayoutArg::Anaglyph {
+        bail!("--anaglyph chooses the colours of --layout anaglyph; add it or drop --anaglyph");
+    }
+    if args.interlace.is_some() && args.layout != LayoutArg::Interlace {
+        bail!("--interlace chooses the pattern of --layout interlace; add it or drop --interlace");
+    }
+    if args.spd && args.min_weight.is_some() {
+        bail!("--spd traces every ray (no cut-off): --min-weight does not apply");
+    }
+    if let Some(n) = args.threads {
+        twinray::job::check_threads(n).context("--threads")?;
+    }
+    trace_settings(args).validate().map_err(|e| {
+        let flag = if (1..=render::MAX_DEPTH).contains(&args.max_depth) {
+            "--min-weight"
+        } else {
+            "--max-depth"
+        };
+        anyhow::anyhow!("{flag}: {e}")
+    })?;
+    Ok(())
+}
+
+fn trace_settings(args: &RenderArgs) -> TraceSettings {
+    TraceSettings {
+        max_depth: args.max_depth,
+        min_weight: match (args.spd, args.min_weight) {
+            (true, _) => 0.0,
+            (false, Some(w)) => w,
+            (false, None) => TraceSettings::default().min_weight,
+        },
+        spd: args.spd,
+    }
+}
+
+/// Warnings for options that do nothing here but are harmless.
+fn warn_about_flags(args: &RenderArgs) {
+    let ext = args
+        .output
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let float_output = matches!(ext.as_str(), "exr" | "pfm");
+    if args.srgb && float_output {
+        eprintln!(
+            "twinray: warning: --srgb applies to 8-bit outputs; the .{ext} file stays linear"
+        );
+    }
+}
+
+/// The files this render will write, checked before rendering: formats, size
+/// limits, directories, targets that may be replaced, and no output that is an
+/// input or another output.
+fn plan_outputs(
+    args: &RenderArgs,
+    plan: &ViewPlan,
+    rig: &Rig,
+    (width, height): (u32, u32),
+) -> Result<Vec<PathBuf>> {
+    let out = &args.output;
+    let (w, h) = (u64::from(width), u64::from(height));
+    let mut files = if plan.count == 1 {
+        output::check_image_target(out, w, h)?;
+        vec![out.clone()]
+    } else if args.layout == LayoutArg::Multiview {
+        output::check_stereo_targets(
+            out,
+            Layout::MultiviewExr,
+            width,
+            height,
+            &stereo_options(args, plan, rig),
+        )?
+    } else if plan.count > 2 {
+        let files: Vec<PathBuf> = (0..plan.count).map(|i| numbered(out, i)).collect();
+        for f in &files {
+            output::check_image_target(f, w, h)?;
+        }
+        files
+    } else {
+        output::check_stereo_targets(
+            out,
+            stereo_layout(args),
+            width,
+            height,
+            &stereo_options(args, plan, rig),
+        )?
+    };
+    if let Some(stats) = &args.stats {
+        output::check_file_target(stats)?;
+        files.push(stats.clone());
+    }
+    output::check_distinct(&files, &[&args.scene])?;
+    Ok(files)
+}
+
+fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
+    let t0 = Instant::now();
+    check_flags(args)?;
+    warn_about_flags(args);
     let load_opts = LoadOptions {
         max_resolution: args.max_resolution,
         max_vertices: args.max_vertices,
@@ -450,21 +645,14 @@ fn run_render(args: RenderArgs) -> Result<()> {
     }
     let camera = Camera::new(&scene.viewpoint, width, height);
     let default_convergence = (scene.viewpoint.at - scene.viewpoint.from).length() as f64;
-    let plan = plan_views(&args, default_convergence)?;
+    let plan = plan_views(args, default_convergence)?;
     let rig = if plan.count == 1 {
         Rig::mono()
     } else {
         Rig::multi_view(&camera, plan.count, plan.interaxial, plan.convergence)
+            .context("--interaxial and --convergence")?
     };
-    let trace = TraceSettings {
-        max_depth: args.max_depth.max(1),
-        min_weight: if args.spd {
-            0.0
-        } else {
-            args.min_weight.max(0.0)
-        },
-        spd: args.spd,
-    };
+    let trace = trace_settings(args);
     let opts = RenderOptions {
         trace,
         method: match args.method {
@@ -483,9 +671,17 @@ fn run_render(args: RenderArgs) -> Result<()> {
     if approximate && (plan.count == 1 || opts.method == Method::Independent) {
         bail!("the approximations (--fast, --merge-secondary, --reproject, --cut-*) need --stereo or --views and the twin method");
     }
+    let files = plan_outputs(args, &plan, &rig, (width, height))?;
+    let needed = twinray::job::estimate_render_memory(width, height, plan.count, opts.sampling);
+    twinray::job::check_memory(
+        needed,
+        twinray::job::available_memory(),
+        &format!("rendering {} view(s) of {width}x{height}", plan.count),
+    )?;
 
     let pool = {
-        let mut b = rayon::ThreadPoolBuilder::new();
+        // Worker stacks of 8 MiB (reserved, not used): room beyond the depth cap.
+        let mut b = rayon::ThreadPoolBuilder::new().stack_size(8 << 20);
         if let Some(n) = args.threads {
             b = b.num_threads(n);
         }
@@ -535,7 +731,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     bar.finish_and_clear();
 
     let t_write = Instant::now();
-    write_outputs(&args, &result.images, &plan, &rig)?;
+    let mut written = write_outputs(args, &result.images, &plan, &rig)?;
     let write_s = t_write.elapsed().as_secs_f64();
 
     if args.verbose {
@@ -595,8 +791,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
             report.effective_convergence = rig.effective_convergence;
         }
         output::write_text(path, &report.to_json())?;
+        written.push(path.clone());
     }
-    Ok(())
+    debug_assert_eq!(written.len(), files.len());
+    Ok(written)
 }
 
 fn describe_rig(rig: &Rig, camera: &Camera, plan: &ViewPlan) {
@@ -627,17 +825,27 @@ fn describe_rig(rig: &Rig, camera: &Camera, plan: &ViewPlan) {
     }
 }
 
+fn stereo_options(args: &RenderArgs, plan: &ViewPlan, rig: &Rig) -> output::StereoOptions {
+    output::StereoOptions {
+        image: WriteOptions { srgb: args.srgb },
+        squeeze: args.squeeze,
+        baseline_m: plan.interaxial as f64,
+        convergence_m: rig.effective_convergence,
+    }
+}
+
+/// Writes the images (a set of files: all or none); returns the files written.
 fn write_outputs(
     args: &RenderArgs,
     images: &[twinray::Image],
     plan: &ViewPlan,
     rig: &Rig,
-) -> Result<()> {
+) -> Result<Vec<PathBuf>> {
     let wo = WriteOptions { srgb: args.srgb };
     let out = &args.output;
     if images.len() == 1 {
         output::write_image(out, &images[0], &wo)?;
-        return Ok(());
+        return Ok(vec![out.clone()]);
     }
     if args.layout == LayoutArg::Multiview {
         let names: Vec<String> = if images.len() == 2 {
@@ -656,24 +864,26 @@ fn write_outputs(
             plan.interaxial,
             rig.effective_convergence.map(|c| c as f32),
         )?;
-        return Ok(());
+        return Ok(vec![out.clone()]);
     }
     if images.len() > 2 {
-        // Separate files, one per view: scene_0.png, scene_1.png, ...
-        for (i, img) in images.iter().enumerate() {
-            output::write_image(&numbered(out, i), img, &wo)?;
-        }
-        return Ok(());
+        // Separate files, one per view: scene_0.png, scene_1.png, ... encoded
+        // first, then put in place together.
+        let staged = images
+            .iter()
+            .enumerate()
+            .map(|(i, img)| output::stage_image(&numbered(out, i), img, &wo))
+            .collect::<twinray::Result<Vec<_>>>()?;
+        return Ok(output::commit_all(staged)?);
     }
-    let layout = stereo_layout(args);
-    let opts = output::StereoOptions {
-        image: wo,
-        squeeze: args.squeeze,
-        baseline_m: plan.interaxial as f64,
-        convergence_m: rig.effective_convergence,
-    };
-    output::write_stereo(out, layout, &images[0], &images[1], &opts)?;
-    Ok(())
+    let opts = stereo_options(args, plan, rig);
+    Ok(output::write_stereo(
+        out,
+        stereo_layout(args),
+        &images[0],
+        &images[1],
+        &opts,
+    )?)
 }
 
 fn stereo_layout(args: &RenderArgs) -> Layout {
@@ -684,18 +894,22 @@ fn stereo_layout(args: &RenderArgs) -> Layout {
         LayoutArg::Tb => Layout::TopBottom,
         LayoutArg::Mpo => Layout::Mpo,
         LayoutArg::Multiview => Layout::MultiviewExr,
-        LayoutArg::Anaglyph => Layout::Anaglyph(match args.anaglyph {
-            AnaglyphArg::Dubois => AnaglyphMethod::Dubois,
-            AnaglyphArg::Color => AnaglyphMethod::Color,
-            AnaglyphArg::Gray => AnaglyphMethod::Gray,
-            AnaglyphArg::GreenMagenta => AnaglyphMethod::GreenMagenta,
-            AnaglyphArg::YellowBlue => AnaglyphMethod::YellowBlue,
-        }),
-        LayoutArg::Interlace => Layout::Interlace(match args.interlace {
-            InterlaceArg::Rows => InterlaceMode::Rows,
-            InterlaceArg::Columns => InterlaceMode::Columns,
-            InterlaceArg::Checker => InterlaceMode::Checker,
-        }),
+        LayoutArg::Anaglyph => {
+            Layout::Anaglyph(match args.anaglyph.unwrap_or(AnaglyphArg::Dubois) {
+                AnaglyphArg::Dubois => AnaglyphMethod::Dubois,
+                AnaglyphArg::Color => AnaglyphMethod::Color,
+                AnaglyphArg::Gray => AnaglyphMethod::Gray,
+                AnaglyphArg::GreenMagenta => AnaglyphMethod::GreenMagenta,
+                AnaglyphArg::YellowBlue => AnaglyphMethod::YellowBlue,
+            })
+        }
+        LayoutArg::Interlace => {
+            Layout::Interlace(match args.interlace.unwrap_or(InterlaceArg::Rows) {
+                InterlaceArg::Rows => InterlaceMode::Rows,
+                InterlaceArg::Columns => InterlaceMode::Columns,
+                InterlaceArg::Checker => InterlaceMode::Checker,
+            })
+        }
     }
 }
 

@@ -29,8 +29,10 @@ pub struct Camera {
 impl Camera {
     /// A camera for `vp` rendering `width` x `height` pixels.
     pub fn new(vp: &Viewpoint, width: u32, height: u32) -> Camera {
-        let forward = (vp.at - vp.from).normalize();
-        let right = forward.cross(vp.up).normalize();
+        // Scaled before normalising: `at - from` of 1e-25 or an `up` of 1e-30
+        // would square to zero (and a length of 1e20 to infinity).
+        let forward = unit(vp.at - vp.from);
+        let right = unit(forward.cross(unit(vp.up)));
         let up = right.cross(forward);
         let spanned = width.min(height).max(2) - 1;
         let half_angle = (vp.angle_deg.to_radians() * 0.5) as f64;
@@ -103,9 +105,52 @@ impl Camera {
     }
 }
 
+/// `v` divided by its largest component, then normalised: no underflow or
+/// overflow of the squared length for any finite non-zero `v`.
+fn unit(v: Vec3) -> Vec3 {
+    (v / v.abs().max_element()).normalize()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tiny_and_huge_viewpoint_vectors_give_the_same_axes() {
+        // The attack: `from 0 -1e-25 1`, `at 0 0 1` and `up 0 0 1e-30` passed the
+        // parser and gave NaN axes (a garbage image).
+        let reference = Camera::new(&vp(), 5, 5);
+        for (from, at, up) in [
+            (
+                Vec3::new(0.0, -1e-25, 0.0),
+                Vec3::ZERO,
+                Vec3::new(0.0, 0.0, 1e-30),
+            ),
+            (
+                Vec3::new(0.0, -1e20, 0.0),
+                Vec3::new(0.0, 1e20, 0.0),
+                Vec3::Z * 3e38,
+            ),
+        ] {
+            let c = Camera::new(
+                &Viewpoint {
+                    from,
+                    at,
+                    up,
+                    ..vp()
+                },
+                5,
+                5,
+            );
+            for (a, b) in [
+                (c.forward, reference.forward),
+                (c.right, reference.right),
+                (c.up, reference.up),
+            ] {
+                assert!((a - b).length() < 1e-6, "{a} vs {b}");
+            }
+        }
+    }
 
     fn vp() -> Viewpoint {
         Viewpoint {

@@ -8,6 +8,7 @@ pub mod bvh;
 pub mod camera;
 pub mod error;
 pub mod image;
+pub mod job;
 pub mod loaders;
 pub mod math;
 pub mod output;

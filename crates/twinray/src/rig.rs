@@ -7,6 +7,7 @@
 //! views with equal camera columns see along parallel rays.
 
 use crate::camera::Camera;
+use crate::{Error, Result};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct View {
@@ -38,7 +39,8 @@ impl Rig {
     }
 
     /// Two eyes `interaxial` apart, converging at `convergence` (None = infinity).
-    pub fn stereo(camera: &Camera, interaxial: f32, convergence: Option<f64>) -> Rig {
+    /// Fails like [`Rig::multi_view`].
+    pub fn stereo(camera: &Camera, interaxial: f32, convergence: Option<f64>) -> Result<Rig> {
         Rig::multi_view(camera, 2, interaxial, convergence)
     }
 
@@ -47,42 +49,77 @@ impl Rig {
     /// view), then the set is centred: points at the convergence distance land on
     /// the same pixel in every view, up to the rounding, which is reported as the
     /// effective convergence distance.
+    ///
+    /// Refused (`Error::Invalid`): a spacing or convergence that is not a finite
+    /// number >= 0 (> 0 for the convergence), and a rig whose outer views are
+    /// shifted by the image width or more (they would show nothing the camera
+    /// frames; a convergence of 4e-9 asked for a shift of 1e10 pixels).
     pub fn multi_view(
         camera: &Camera,
         count: usize,
         spacing: f32,
         convergence: Option<f64>,
-    ) -> Rig {
+    ) -> Result<Rig> {
         let count = count.max(1);
+        if !(spacing.is_finite() && spacing >= 0.0) {
+            return Err(Error::Invalid(format!(
+                "the interaxial distance must be a finite distance >= 0, got {spacing}"
+            )));
+        }
+        if let Some(c) = convergence {
+            if !(c.is_finite() && c > 0.0) {
+                return Err(Error::Invalid(format!(
+                    "the convergence distance must be a finite distance > 0, got {c}"
+                )));
+            }
+        }
         let offsets: Vec<f32> = (0..count)
             .map(|i| (i as f32 - (count as f32 - 1.0) * 0.5) * spacing)
             .collect();
         let f = camera.focal_pixels();
+        // In f64 until the range is known to be safe: the outer views are
+        // shifted by half the rounded parallax of the whole span, which must stay
+        // below the image width (so that every view still shows part of what the
+        // camera frames, and every shift fits an i32).
         let disparity = |offset_from_first: f64| match convergence {
-            Some(c) => (f * offset_from_first / c).round() as i64,
-            None => 0,
+            Some(c) => (f * offset_from_first / c).round(),
+            None => 0.0,
         };
-        let total = disparity(((count - 1) as f64) * spacing as f64);
+        let span = (count - 1) as f64 * spacing as f64;
+        let total = disparity(span);
+        let width = f64::from(camera.width).min(f64::from(i32::MAX));
+        let largest_shift = (total / 2.0).ceil();
+        if !(largest_shift.is_finite() && largest_shift < width) {
+            let c = convergence.unwrap_or(f64::INFINITY);
+            return Err(Error::Invalid(format!(
+                "views {spacing} apart converging at {c} need an image shift of {largest_shift} \
+                 pixels, more than the image is wide ({} pixels): the outer views would show \
+                 nothing of what the camera frames (use a larger convergence distance or a \
+                 smaller interaxial)",
+                camera.width
+            )));
+        }
+        let total = total as i64;
         let centre = total / 2;
         let views = offsets
             .iter()
             .enumerate()
             .map(|(i, &offset)| View {
                 offset,
-                shift: (centre - disparity(i as f64 * spacing as f64)) as i32,
+                // |centre - d| <= ceil(total / 2) < width <= i32::MAX: no overflow.
+                shift: (centre - disparity(i as f64 * spacing as f64) as i64) as i32,
             })
             .collect();
-        let span = (count - 1) as f64 * spacing as f64;
         let effective_convergence = if total == 0 || span == 0.0 {
             None
         } else {
             Some(f * span / total as f64)
         };
-        Rig {
+        Ok(Rig {
             views,
             convergence,
             effective_convergence,
-        }
+        })
     }
 
     /// The depth beyond which an object may be cut from the twinning (the
@@ -115,7 +152,8 @@ impl Rig {
     /// `width` columns needs.
     pub fn column_range(&self, width: u32) -> (i32, i32) {
         let lo = self.views.iter().map(|v| v.shift).min().unwrap_or(0);
-        let hi = self.views.iter().map(|v| v.shift).max().unwrap_or(0) + width as i32 - 1;
+        let hi = self.views.iter().map(|v| v.shift).max().unwrap_or(0);
+        let hi = hi.saturating_add(i32::try_from(width).unwrap_or(i32::MAX) - 1);
         (lo, hi)
     }
 }
@@ -141,7 +179,7 @@ mod tests {
 
     #[test]
     fn stereo_offsets_are_symmetric() {
-        let rig = Rig::stereo(&camera(), 0.5, None);
+        let rig = Rig::stereo(&camera(), 0.5, None).unwrap();
         assert_eq!(rig.views[0].offset, -0.25);
         assert_eq!(rig.views[1].offset, 0.25);
         assert_eq!(rig.views[0].shift, 0);
@@ -153,7 +191,7 @@ mod tests {
     fn shifts_put_the_convergence_plane_at_zero_parallax() {
         let cam = camera();
         let c = 4.0;
-        let rig = Rig::stereo(&cam, 0.5, Some(c));
+        let rig = Rig::stereo(&cam, 0.5, Some(c)).unwrap();
         let d = (cam.focal_pixels() * 0.5 / c).round() as i32;
         assert_eq!(rig.views[0].shift - rig.views[1].shift, d);
         let eff = rig.effective_convergence.unwrap();
@@ -164,10 +202,37 @@ mod tests {
     #[test]
     fn column_range_covers_every_view() {
         let cam = camera();
-        let rig = Rig::stereo(&cam, 0.5, Some(2.0));
+        let rig = Rig::stereo(&cam, 0.5, Some(2.0)).unwrap();
         let (lo, hi) = rig.column_range(cam.width);
         for v in &rig.views {
             assert!(lo <= v.shift && v.shift + cam.width as i32 - 1 <= hi);
         }
+    }
+
+    #[test]
+    fn shifts_beyond_the_image_are_refused() {
+        // The attack: a convergence of 4e-9 gave a shift of ~1e10 pixels, truncated
+        // to i32 (and a 23 GB allocation or "capacity overflow" panics).
+        let cam = camera();
+        for (b, c) in [
+            (0.3, Some(4e-9)),
+            (0.3, Some(1e-300)),
+            (f32::MAX, Some(1.0)),
+        ] {
+            let err = Rig::stereo(&cam, b, c).unwrap_err();
+            assert!(
+                err.to_string().contains("more than the image is wide"),
+                "{err}"
+            );
+        }
+        // The largest accepted shift is one pixel less than the width (201).
+        let f = cam.focal_pixels();
+        let rig = Rig::stereo(&cam, 0.5, Some(f * 0.5 / 400.0)).unwrap();
+        assert_eq!(rig.views[0].shift - rig.views[1].shift, 400);
+        assert_eq!(rig.views[0].shift, 200);
+        assert!(Rig::stereo(&cam, 0.5, Some(f * 0.5 / 401.0)).is_err());
+        assert!(Rig::stereo(&cam, -1.0, None).is_err());
+        assert!(Rig::stereo(&cam, f32::NAN, None).is_err());
+        assert!(Rig::stereo(&cam, 1.0, Some(0.0)).is_err());
     }
 }

@@ -19,6 +19,35 @@ pub struct Material {
 }
 
 impl Material {
+    /// The material with every value in the range the shading model is defined
+    /// for, and what was changed (for a warning): `kd`, `ks` and `t` in 0..=1,
+    /// `shine` >= 0, colour components >= 0, `ior` > 0 (else 1). Out of range,
+    /// they gave infinite pixels (a negative Phong exponent) or light from
+    /// nowhere (`kd` -1: ambient 2).
+    pub fn clamped(mut self) -> (Material, Vec<String>) {
+        let mut changed = Vec::new();
+        for (name, value, lo, hi) in [
+            ("Kd", &mut self.kd, 0.0, 1.0),
+            ("Ks", &mut self.ks, 0.0, 1.0),
+            ("T", &mut self.t, 0.0, 1.0),
+            ("Shine", &mut self.shine, 0.0, f32::MAX),
+            ("red", &mut self.color.x, 0.0, f32::MAX),
+            ("green", &mut self.color.y, 0.0, f32::MAX),
+            ("blue", &mut self.color.z, 0.0, f32::MAX),
+        ] {
+            let fixed = value.clamp(lo, hi);
+            if fixed != *value {
+                changed.push(format!("{name} {value} clamped to {fixed}"));
+                *value = fixed;
+            }
+        }
+        if self.ior <= 0.0 {
+            changed.push(format!("index of refraction {} replaced by 1", self.ior));
+            self.ior = 1.0;
+        }
+        (self, changed)
+    }
+
     /// Ambient coefficient: what `kd`, `ks` and `t` leave of one, the convention of
     /// the SPD's own POV-Ray exporter (balls' floor: 1 - 0.8 = 0.2; glass: 0).
     pub fn ambient(&self) -> f32 {
@@ -119,6 +148,10 @@ impl Scene {
                 .push(format!("{where_}: sphere of radius 0 skipped"));
             return;
         }
+        if !within_range(&[center, Vec3::splat(radius)]) {
+            self.warnings.push(out_of_range("sphere", where_));
+            return;
+        }
         self.push(Shape::Sphere(Sphere {
             center,
             radius: radius.abs(),
@@ -134,6 +167,10 @@ impl Scene {
         apex_radius: f32,
         where_: &str,
     ) {
+        if !within_range(&[base, apex, Vec3::new(base_radius, apex_radius, 0.0)]) {
+            self.warnings.push(out_of_range("cone", where_));
+            return;
+        }
         let inside = base_radius < 0.0 || apex_radius < 0.0;
         match Cone::new(base, base_radius, apex, apex_radius, inside) {
             Some(c) => self.push(Shape::Cone(c)),
@@ -159,13 +196,34 @@ impl Scene {
         normals: Option<&[Vec3]>,
         where_: &str,
     ) {
+        if !within_range(vertices) {
+            self.warnings.push(out_of_range("polygon", where_));
+            return;
+        }
         let face_normal = newell_normal(vertices);
         let Some(face_normal) = face_normal else {
             self.warnings
                 .push(format!("{where_}: polygon of zero area skipped"));
             return;
         };
-        let triangles = triangulate(vertices, face_normal);
+        let plane = project_to_plane(vertices, face_normal);
+        // Small polygons keep ear clipping (its triangles, so the images do not
+        // change); past the cap, only convex ones are taken, as a fan.
+        let large = vertices.len() > MAX_NONCONVEX_VERTICES;
+        let convex = large && is_convex(&plane);
+        if large && !convex {
+            self.warnings.push(format!(
+                "{where_}: non-convex polygon of {} vertices skipped: ear clipping beyond \
+                 {MAX_NONCONVEX_VERTICES} vertices could take minutes (split it into smaller polygons)",
+                vertices.len()
+            ));
+            return;
+        }
+        let triangles = if convex {
+            fan(vertices.len())
+        } else {
+            ear_clip(&plane)
+        };
         if triangles.is_empty() {
             self.warnings.push(format!(
                 "{where_}: polygon could not be triangulated, skipped"
@@ -221,6 +279,21 @@ impl Scene {
     }
 }
 
+/// Largest coordinate or radius a shape may have: intersection tests square
+/// distances in single precision, which overflows past about 1.8e19 (a sphere
+/// of radius 2e19 vanished).
+pub const MAX_COORDINATE: f32 = 1e18;
+
+fn within_range(points: &[Vec3]) -> bool {
+    points
+        .iter()
+        .all(|p| p.abs().max_element() <= MAX_COORDINATE)
+}
+
+fn out_of_range(what: &str, where_: &str) -> String {
+    format!("{where_}: {what} skipped: a coordinate or radius beyond {MAX_COORDINATE:e}")
+}
+
 /// Unit normal of a polygon by Newell's method (robust for non-convex and
 /// nearly collinear vertices); `None` for zero area.
 fn newell_normal(v: &[Vec3]) -> Option<Vec3> {
@@ -240,13 +313,14 @@ fn newell_normal(v: &[Vec3]) -> Option<Vec3> {
     (len > 0.0 && len.is_finite()).then(|| n / len)
 }
 
-/// Triangles (vertex index triples) covering the polygon: a fan when it is a
-/// triangle, otherwise ear clipping in the plane of the dominant normal axis.
-fn triangulate(v: &[Vec3], normal: Vec3) -> Vec<[usize; 3]> {
-    if v.len() == 3 {
-        return vec![[0, 1, 2]];
-    }
-    // Drop the dominant axis: project to 2-D keeping orientation irrelevant.
+/// Most vertices of a non-convex polygon: ear clipping grows faster than
+/// the square of the count on adversarial shapes (a comb of 40,000 vertices
+/// took 1.8 s, 400,000 took 389 s; docs/reliability.md). Larger convex
+/// polygons are cut as a fan, in linear time.
+pub const MAX_NONCONVEX_VERTICES: usize = 50_000;
+
+/// The polygon in the plane of its dominant normal axis, in double precision.
+fn project_to_plane(v: &[Vec3], normal: Vec3) -> Vec<[f64; 2]> {
     let a = normal.abs();
     let (i, j) = if a.x >= a.y && a.x >= a.z {
         (1, 2)
@@ -255,7 +329,52 @@ fn triangulate(v: &[Vec3], normal: Vec3) -> Vec<[usize; 3]> {
     } else {
         (0, 1)
     };
-    let flat: Vec<[f64; 2]> = v.iter().map(|p| [p[i] as f64, p[j] as f64]).collect();
+    v.iter().map(|p| [p[i] as f64, p[j] as f64]).collect()
+}
+
+/// Every turn goes the same way and the boundary winds around once (a star
+/// turns one way too, but winds more than once). A dent smaller than the
+/// rounding of single-precision coordinates (1e-6 of the polygon's extent)
+/// counts as straight: a 200,000-vertex circle read from a file has such dents.
+fn is_convex(p: &[[f64; 2]]) -> bool {
+    let n = p.len();
+    let extent = p
+        .iter()
+        .fold(0.0f64, |m, q| m.max(q[0].abs()).max(q[1].abs()));
+    let tolerance = 1e-6 * extent;
+    let (mut sign, mut winding) = (0.0f64, 0.0f64);
+    for k in 0..n {
+        let (a, b, c) = (p[k], p[(k + 1) % n], p[(k + 2) % n]);
+        let (e, f) = ([b[0] - a[0], b[1] - a[1]], [c[0] - b[0], c[1] - b[1]]);
+        let cross = e[0] * f[1] - e[1] * f[0];
+        // Distance of `b` from the line through `a` and `c`.
+        let chord = ((c[0] - a[0]).powi(2) + (c[1] - a[1]).powi(2)).sqrt();
+        let dent = if chord > 0.0 {
+            cross.abs() / chord
+        } else {
+            0.0
+        };
+        if dent > tolerance {
+            if sign * cross < 0.0 {
+                return false;
+            }
+            sign = cross;
+        }
+        winding += cross.atan2(e[0] * f[0] + e[1] * f[1]);
+    }
+    (winding.abs() - std::f64::consts::TAU).abs() < 1e-6
+}
+
+/// A triangle fan from vertex 0 (for convex polygons).
+fn fan(n: usize) -> Vec<[usize; 3]> {
+    (1..n - 1).map(|k| [0, k, k + 1]).collect()
+}
+
+/// Ear clipping (the `earcut` crate) for non-convex polygons.
+fn ear_clip(flat: &[[f64; 2]]) -> Vec<[usize; 3]> {
+    if flat.len() == 3 {
+        return vec![[0, 1, 2]];
+    }
     let mut earcut = earcut::Earcut::new();
     let mut out: Vec<u32> = Vec::new();
     earcut.earcut(flat.iter().copied(), &[], &mut out);
@@ -331,6 +450,95 @@ mod tests {
         }
         s.finish();
         assert_eq!(s.lights[0].color, Some(Color::splat(0.5)));
+    }
+
+    #[test]
+    fn convex_polygons_are_fans_and_huge_non_convex_ones_skipped() {
+        let circle = |n: usize| -> Vec<Vec3> {
+            (0..n)
+                .map(|k| {
+                    let a = std::f32::consts::TAU * k as f32 / n as f32;
+                    Vec3::new(a.cos(), a.sin(), 0.0)
+                })
+                .collect()
+        };
+        let plane = project_to_plane(&circle(100), Vec3::Z);
+        assert!(is_convex(&plane));
+        let star: Vec<Vec3> = (0..5)
+            .map(|k| {
+                let a = std::f32::consts::TAU * (2 * k) as f32 / 5.0;
+                Vec3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        assert!(!is_convex(&project_to_plane(&star, Vec3::Z)));
+        let l_shape = [
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [1.0, 1.0],
+            [1.0, 2.0],
+            [0.0, 2.0],
+        ];
+        assert!(!is_convex(&l_shape));
+        // A convex polygon of 200,000 vertices: a fan, at once.
+        let mut s = Scene::new();
+        s.add_polygon(&circle(200_000), "f.nff:2");
+        assert!(s.shapes.len() > 199_900, "{}", s.shapes.len()); // less zero-area slivers
+                                                                 // The attack's comb (non-convex) beyond the cap: skipped with a warning.
+        let teeth = MAX_NONCONVEX_VERTICES / 4 + 1;
+        let mut comb = Vec::new();
+        for t in 0..teeth {
+            let x = t as f32;
+            comb.extend([
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x, 1.0, 0.0),
+                Vec3::new(x + 0.5, 1.0, 0.0),
+                Vec3::new(x + 0.5, 0.1, 0.0),
+            ]);
+        }
+        comb.extend([
+            Vec3::new(teeth as f32, 0.0, 0.0),
+            Vec3::new(teeth as f32, -1.0, 0.0),
+            Vec3::new(0.0, -1.0, 0.0),
+        ]);
+        let mut s = Scene::new();
+        s.add_polygon(&comb, "f.nff:3");
+        assert!(s.shapes.is_empty());
+        assert!(
+            s.warnings[0].contains("non-convex polygon of 50007 vertices skipped"),
+            "{:?}",
+            s.warnings
+        );
+    }
+
+    #[test]
+    fn huge_shapes_are_skipped_with_a_warning() {
+        // The attack: a sphere of radius 2e19 silently vanished (its squared
+        // radius overflows).
+        let mut s = Scene::new();
+        s.add_sphere(Vec3::ZERO, 2e19, "f.nff:2");
+        s.add_sphere(Vec3::ZERO, 1e18, "f.nff:3");
+        s.add_polygon(&[Vec3::ZERO, Vec3::X * 1e19, Vec3::Y], "f.nff:4");
+        assert_eq!(s.shapes.len(), 1);
+        assert_eq!(s.warnings.len(), 2, "{:?}", s.warnings);
+        assert!(s.warnings[0].starts_with("f.nff:2: sphere skipped"));
+    }
+
+    #[test]
+    fn materials_are_clamped_with_what_changed() {
+        // The attack: Shine -1e20 gave infinite pixels, Kd -1 an ambient of 2.
+        let (m, changed) = Material {
+            kd: -1.0,
+            shine: -1e20,
+            ..Material::default()
+        }
+        .clamped();
+        assert_eq!((m.kd, m.shine), (0.0, 0.0));
+        assert_eq!(changed.len(), 2, "{changed:?}");
+        assert!(changed[0].contains("Kd -1 clamped to 0"), "{changed:?}");
+        assert!(m.ambient() <= 1.0);
+        let (same, none) = Material::default().clamped();
+        assert_eq!((same, none.len()), (Material::default(), 0));
     }
 
     #[test]

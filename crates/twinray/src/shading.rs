@@ -9,6 +9,8 @@
 //! opaque object, the product of `T` over the transmitting objects in between.
 //! No shadow ray is cast where the normal faces away from the light.
 
+use arrayvec::ArrayVec;
+
 use crate::bvh::{AnyHit, AnyHitTest, SegmentPacket, TraversalStats};
 use crate::math::{Color, Ray, Vec3};
 use crate::scene::Material;
@@ -38,24 +40,16 @@ pub struct SurfacePoint<'a> {
 }
 
 /// What reaches a point from a light through transmitting objects: the product
-/// of their `T`. The factors are multiplied in sorted order, so the result does
-/// not depend on the order in which a traversal met the objects (a packet of
-/// shadow rays may meet them in another order than a single ray).
-#[derive(Clone, Copy, Debug)]
+/// of their `T`, however many. The factors are multiplied in sorted order, so
+/// the result does not depend on the order in which a traversal met the objects
+/// (a packet of shadow rays may meet them in another order than a single ray).
+/// The first 16 factors live inline; more spill to the heap (rare: light
+/// through 17 glass objects).
+#[derive(Clone, Debug, Default)]
 pub struct Transmittance {
-    factors: [f32; 16],
-    count: usize,
+    inline: ArrayVec<f32, 16>,
+    spilled: Vec<f32>,
     opaque: bool,
-}
-
-impl Default for Transmittance {
-    fn default() -> Self {
-        Transmittance {
-            factors: [1.0; 16],
-            count: 0,
-            opaque: false,
-        }
-    }
 }
 
 impl Transmittance {
@@ -66,24 +60,24 @@ impl Transmittance {
             self.opaque = true;
             return AnyHit::Stop;
         }
-        if self.count == self.factors.len() {
-            // Past 16 transmitting surfaces the light is below any visible level.
-            self.opaque = true;
-            return AnyHit::Stop;
+        if let Err(full) = self.inline.try_push(t) {
+            self.spilled.push(full.element());
         }
-        self.factors[self.count] = t;
-        self.count += 1;
         AnyHit::Continue
     }
 
     pub fn value(&self) -> f32 {
-        if self.opaque {
-            return 0.0;
+        fn sorted_product(f: &mut [f32]) -> f32 {
+            f.sort_unstable_by(f32::total_cmp);
+            f.iter().product()
         }
-        let mut f = self.factors;
-        let f = &mut f[..self.count];
-        f.sort_unstable_by(f32::total_cmp);
-        f.iter().product()
+        if self.opaque {
+            0.0
+        } else if self.spilled.is_empty() {
+            sorted_product(&mut self.inline.clone())
+        } else {
+            sorted_product(&mut [&self.inline[..], &self.spilled[..]].concat())
+        }
     }
 }
 
@@ -98,7 +92,7 @@ pub fn shadow_packet<const K: usize>(
     let mut test = ShadowTest {
         world,
         segments,
-        through: [Transmittance::default(); K],
+        through: std::array::from_fn(|_| Transmittance::default()),
         blocker: [None; K],
     };
     world.bvh.occlusion(segments, stats, &mut test);

@@ -82,7 +82,7 @@ fn stereo(
 ) -> (Camera, Rig, RenderOutput) {
     let vp = &world.scene.viewpoint;
     let cam = Camera::new(vp, vp.width, vp.height);
-    let rig = Rig::stereo(&cam, b, convergence);
+    let rig = Rig::stereo(&cam, b, convergence).expect("rig");
     let out = render(world, &cam, &rig, opts, &|_, _| {}).expect("render");
     (cam, rig, out)
 }
@@ -266,7 +266,7 @@ fn paper_mode_traces_the_samples_that_receive_nothing() {
 fn merged_secondary_rays_serve_both_views_of_a_mirror_floor() {
     let world = world("example.nff");
     let cam = camera(&world, 96, 72);
-    let rig = Rig::stereo(&cam, 0.3, Some(default_convergence(&world)));
+    let rig = Rig::stereo(&cam, 0.3, Some(default_convergence(&world))).expect("rig");
     let exact = run(&world, &cam, &rig, &approx(None, false));
     let merged = run(&world, &cam, &rig, &approx(None, true));
     assert!(merged.counts.merged_rays > 0);
@@ -314,7 +314,7 @@ fn cut_objects_keep_their_disparity_within_the_bound() {
     let scene = far_scene();
     let cam = Camera::new(&scene.viewpoint, 256, 128);
     let b = 0.5;
-    let rig = Rig::stereo(&cam, b, Some(50.0));
+    let rig = Rig::stereo(&cam, b, Some(50.0)).expect("rig");
     let px = 0.5;
     let depth = rig.cut_depth_for_parallax(&cam, px).expect("two views");
     assert!((depth - cam.focal_pixels() * b as f64 / px).abs() < 1e-9);
@@ -358,6 +358,6 @@ fn approximations_need_the_twin_method() {
     };
     let vp = &world.scene.viewpoint;
     let cam = Camera::new(vp, vp.width, vp.height);
-    let rig = Rig::stereo(&cam, 0.4, None);
+    let rig = Rig::stereo(&cam, 0.4, None).expect("rig");
     assert!(render(&world, &cam, &rig, &opts, &|_, _| {}).is_err());
 }

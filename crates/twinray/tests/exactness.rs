@@ -45,7 +45,7 @@ fn check_scene(name: &str, width: u32, height: u32, interaxials: &[f32], samplin
     let conv = default_convergence(&world);
     for &b in interaxials {
         for convergence in [None, Some(conv), Some(conv * 0.4)] {
-            let rig = Rig::stereo(&cam, b, convergence);
+            let rig = Rig::stereo(&cam, b, convergence).unwrap();
             let reference = run(&world, &cam, &rig, &options(Method::Independent, sampling));
             let twin = run(&world, &cam, &rig, &options(Method::Twin, sampling));
             for v in 0..2 {
@@ -104,7 +104,7 @@ fn spd_corner_sampling_twin_equals_independent() {
 fn interaxial_zero_gives_identical_eyes() {
     let world = world("example.nff");
     let cam = camera(&world, 64, 48);
-    let rig = Rig::stereo(&cam, 0.0, None);
+    let rig = Rig::stereo(&cam, 0.0, None).unwrap();
     let out = run(
         &world,
         &cam,
@@ -119,7 +119,7 @@ fn multi_view_twin_equals_independent() {
     let world = world("example.nff");
     let cam = camera(&world, 64, 48);
     for count in [3, 5, 8] {
-        let rig = Rig::multi_view(&cam, count, 0.12, Some(default_convergence(&world)));
+        let rig = Rig::multi_view(&cam, count, 0.12, Some(default_convergence(&world))).unwrap();
         let reference = run(
             &world,
             &cam,
@@ -155,7 +155,7 @@ fn views_samples_of_one_point_are_shaded_together() {
     // wall, spheres) traced as one packet.
     let world = world("example.nff");
     let cam = camera(&world, 96, 72);
-    let rig = Rig::stereo(&cam, 0.3, None);
+    let rig = Rig::stereo(&cam, 0.3, None).unwrap();
     let twin = run(
         &world,
         &cam,

@@ -164,7 +164,7 @@ fn spd_procedure_matches_its_reference_image() {
 fn same_image_for_any_thread_count() {
     let world = world("example.nff");
     let cam = camera(&world, 80, 60);
-    let rig = Rig::stereo(&cam, 0.3, Some(default_convergence(&world)));
+    let rig = Rig::stereo(&cam, 0.3, Some(default_convergence(&world))).unwrap();
     for method in [Method::Independent, Method::Twin] {
         let render_with = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new()

@@ -65,7 +65,7 @@ struct Measured {
 fn measure(b: f32, convergence: Option<f64>) -> (Vec<Measured>, Rig, Camera) {
     let world = world("probe.nff");
     let cam = camera(&world, 257, 129);
-    let rig = Rig::stereo(&cam, b, convergence);
+    let rig = Rig::stereo(&cam, b, convergence).unwrap();
     let out = run(
         &world,
         &cam,
@@ -162,7 +162,7 @@ fn eyes_are_in_order_near_objects_in_front_of_the_screen() {
 fn interaxial_moves_the_eyes_along_the_right_axis() {
     let world = world("probe.nff");
     let cam = camera(&world, 64, 32);
-    let rig = Rig::stereo(&cam, 0.5, None);
+    let rig = Rig::stereo(&cam, 0.5, None).unwrap();
     let left = cam.eye_at(rig.views[0].offset);
     let right = cam.eye_at(rig.views[1].offset);
     assert!(((right - left).length() - 0.5).abs() < 1e-6);

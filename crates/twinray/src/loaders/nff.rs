@@ -26,7 +26,7 @@ use std::path::Path;
 use super::LoadOptions;
 use crate::error::{Error, Result};
 use crate::math::Vec3;
-use crate::scene::{Light, Material, Scene, Viewpoint};
+use crate::scene::{Light, Material, Scene, Viewpoint, MAX_COORDINATE};
 
 const ENTITIES: &str = "v, b, l, f, c, s, p, pp";
 
@@ -465,7 +465,7 @@ impl Parser<'_, '_> {
                 _ => (vp.width, vp.height) = self.resolution(kw.line)?,
             }
         }
-        let [_, at_line, up_line, ..] = seen.map(|l| l.unwrap_or(v_line));
+        let [from_line, at_line, up_line, ..] = seen.map(|l| l.unwrap_or(v_line));
         let Some(dir) = direction(vp.at - vp.from) else {
             return Err(self.err(
                 at_line,
@@ -480,6 +480,16 @@ impl Parser<'_, '_> {
                 up_line,
                 "viewpoint 'up' is parallel to the viewing direction (at - from)".to_string(),
             ));
+        }
+        for (p, line) in [(vp.from, from_line), (vp.at, at_line)] {
+            if p.abs().max_element() > MAX_COORDINATE {
+                return Err(self.err(
+                    line,
+                    format!(
+                        "viewpoint beyond {MAX_COORDINATE:e} (single precision would overflow)"
+                    ),
+                ));
+            }
         }
         self.scene.viewpoint = vp;
         Ok(())
@@ -534,6 +544,14 @@ impl Parser<'_, '_> {
             }
             _ => None,
         };
+        if position.abs().max_element() > MAX_COORDINATE {
+            return Err(self.err(
+                line,
+                format!(
+                    "light position beyond {MAX_COORDINATE:e} (single precision would overflow)"
+                ),
+            ));
+        }
         self.scene.lights.push(Light { position, color });
         Ok(())
     }
@@ -541,14 +559,21 @@ impl Parser<'_, '_> {
     fn material(&mut self, line: usize) -> Result<()> {
         let [r, g, b, kd, ks, shine, t, ior] =
             self.numbers(line, What::of("material (r g b Kd Ks Shine T ior)"))?;
-        self.scene.add_material(Material {
+        let (material, changed) = Material {
             color: Vec3::new(r, g, b),
             kd,
             ks,
             shine,
             t,
             ior,
-        });
+        }
+        .clamped();
+        if !changed.is_empty() {
+            self.set_where(line);
+            let warning = format!("{}: material {}", self.where_, changed.join(", "));
+            self.scene.warnings.push(warning);
+        }
+        self.scene.add_material(material);
         Ok(())
     }
 

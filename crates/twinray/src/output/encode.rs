@@ -18,7 +18,7 @@ use std::io::Cursor;
 use std::path::Path;
 
 use crate::math::Color;
-use crate::output::atomic::{write_atomically, Failure, Sink};
+use crate::output::atomic::{stage, Failure, Sink, Staged};
 use crate::output::check_image;
 use crate::{Error, Image, Result};
 
@@ -70,13 +70,19 @@ impl ImageFormat {
 /// Writes `img` to `path` in the format its extension names, atomically
 /// (see [`crate::output`]): on error no file (or the previous one) is left.
 pub fn write_image(path: &Path, img: &Image, opts: &WriteOptions) -> Result<()> {
+    stage_image(path, img, opts)?.commit()
+}
+
+/// Encodes `img` for `path` without touching `path` yet: one file of a set
+/// put in place together by [`commit_all`](crate::output::commit_all).
+pub fn stage_image(path: &Path, img: &Image, opts: &WriteOptions) -> Result<Staged> {
     let format = ImageFormat::from_path(path)?;
     check_image(img, "image")?;
     match format {
-        ImageFormat::Png => write_atomically(path, |w| encode_png(w, img, opts)),
-        ImageFormat::Jpeg => write_atomically(path, |w| encode_jpeg(w, img, opts)),
-        ImageFormat::Exr => write_atomically(path, |w| encode_exr(w, img)),
-        ImageFormat::Pfm => write_atomically(path, |w| encode_pfm(w, img)),
+        ImageFormat::Png => stage(path, |w| encode_png(w, img, opts)),
+        ImageFormat::Jpeg => stage(path, |w| encode_jpeg(w, img, opts)),
+        ImageFormat::Exr => stage(path, |w| encode_exr(w, img)),
+        ImageFormat::Pfm => stage(path, |w| encode_pfm(w, img)),
     }
 }
 
@@ -616,12 +622,13 @@ mod tests {
             write_image(&path, &Image::new(0, 5), &WriteOptions::default()),
             Err(Error::Invalid(_))
         ));
-        // Missing directory: Io error naming the path, nothing created.
+        // Missing directory: an error naming the path, nothing created.
         let path = dir.path().join("missing").join("a.exr");
-        match write_image(&path, &gradient(2, 2), &WriteOptions::default()) {
-            Err(Error::Io { path: p, .. }) => assert_eq!(p, path),
-            other => panic!("unexpected {other:?}"),
-        }
+        let err = write_image(&path, &gradient(2, 2), &WriteOptions::default()).unwrap_err();
+        assert!(
+            err.to_string().contains("missing/a.exr: no directory"),
+            "{err}"
+        );
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
     }
 

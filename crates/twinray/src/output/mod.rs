@@ -11,7 +11,13 @@
 //!
 //! **Atomic writes.** Every file is first written to a temporary file in the
 //! target's directory and renamed over the target only when complete, so an
-//! error never leaves a partial output (nor destroys an existing one).
+//! error never leaves a partial output (nor destroys an existing one). Sets of
+//! files are encoded first and put in place together ([`stage_image`],
+//! [`commit_all`]). FIFOs and devices are written through, symbolic links
+//! followed, read-only files refused ([`atomic`](self) module notes).
+//!
+//! **Checked first.** [`targets`] checks paths and format limits before the
+//! images exist, so a caller can refuse a job before rendering it.
 //!
 //! **Validation.** Every function checks its images (`pixels.len() ==
 //! width * height`, neither dimension 0) and, for pairs, that both eyes have
@@ -24,18 +30,20 @@ pub mod encode;
 pub mod layouts;
 pub mod mpo;
 pub mod multiview_exr;
+pub mod targets;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 pub use anaglyph::{anaglyph, AnaglyphMethod};
-pub use atomic::write_text;
+pub use atomic::{commit_all, remove_temporary_files, write_text, Staged};
 pub use compare::{compare, difference_image, Difference};
-pub use encode::{read_image, write_image, ImageFormat, WriteOptions};
+pub use encode::{read_image, stage_image, write_image, ImageFormat, WriteOptions};
 pub use layouts::{cross, interlace, separate_paths, side_by_side, top_bottom, InterlaceMode};
 pub use mpo::write_mpo;
 pub use multiview_exr::write_multiview_exr;
+pub use targets::{check_distinct, check_file_target, check_image_target, check_stereo_targets};
 
 use crate::{Error, Image, Result};
 
@@ -182,8 +190,8 @@ impl Default for StereoOptions {
 }
 
 /// Composes the pair as `layout` and writes it to `out` (for
-/// [`Layout::Separate`], to the two [`separate_paths`] of `out`). Returns the
-/// files written. `Mpo` needs a `.mpo`, `.jpg` or `.jpeg` name,
+/// [`Layout::Separate`], to the two [`separate_paths`] of `out`, both or
+/// neither). Returns the files written. `Mpo` needs a `.mpo`, `.jpg` or `.jpeg` name,
 /// `MultiviewExr` a `.exr` name; the others any [`ImageFormat`].
 /// Everything is validated before the first file is written.
 pub fn write_stereo(
@@ -194,42 +202,28 @@ pub fn write_stereo(
     opts: &StereoOptions,
 ) -> Result<Vec<PathBuf>> {
     check_pair(left, right)?;
-    let ext = out
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
+    let files = check_stereo_targets(out, layout, left.width, left.height, opts)?;
     let frame = match layout {
         Layout::Separate => {
-            ImageFormat::from_path(out)?;
-            let (l, r) = separate_paths(out);
-            write_image(&l, left, &opts.image)?;
-            write_image(&r, right, &opts.image)?;
-            return Ok(vec![l, r]);
+            // Both eyes or neither: encoded first, then put in place together.
+            let staged = vec![
+                stage_image(&files[0], left, &opts.image)?,
+                stage_image(&files[1], right, &opts.image)?,
+            ];
+            return commit_all(staged);
         }
         Layout::Mpo => {
-            if !matches!(ext.as_str(), "mpo" | "jpg" | "jpeg") {
-                return Err(Error::Invalid(format!(
-                    "{}: the mpo layout needs a .mpo (or .jpg) file name",
-                    out.display()
-                )));
-            }
             write_mpo(out, left, right, opts.baseline_m, &opts.image)?;
-            return Ok(vec![out.to_path_buf()]);
+            return Ok(files);
         }
         Layout::MultiviewExr => {
-            if ext != "exr" {
-                return Err(Error::Invalid(format!(
-                    "{}: the multiview-exr layout needs a .exr file name",
-                    out.display()
-                )));
-            }
             write_multiview_exr(
                 out,
                 &[("left", left), ("right", right)],
                 opts.baseline_m as f32,
                 opts.convergence_m.map(|c| c as f32),
             )?;
-            return Ok(vec![out.to_path_buf()]);
+            return Ok(files);
         }
         Layout::SideBySide => side_by_side(left, right, opts.squeeze)?,
         Layout::Cross => cross(left, right, opts.squeeze)?,

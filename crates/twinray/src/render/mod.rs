@@ -33,6 +33,32 @@ use crate::world::World;
 /// Most views one packet carries (one bit per view in the lane mask).
 pub const MAX_VIEWS: usize = 32;
 
+/// Deepest ray level accepted (`TraceSettings::max_depth`). The tracer recurses
+/// once per level; with 32 views a closed box of mirrors overflowed a 2 MiB
+/// worker stack from about level 180 (measured, see docs/reliability.md), so 64
+/// leaves room. Past a handful of bounces the contribution is invisible anyway.
+pub const MAX_DEPTH: u32 = 64;
+
+impl TraceSettings {
+    /// Refuses settings the tracer cannot honour: a depth outside `1..=MAX_DEPTH`,
+    /// a cut-off weight that is not a finite number >= 0.
+    pub fn validate(&self) -> crate::Result<()> {
+        if !(1..=MAX_DEPTH).contains(&self.max_depth) {
+            return Err(crate::Error::Invalid(format!(
+                "the ray depth must be between 1 (eye rays only) and {MAX_DEPTH}, got {}",
+                self.max_depth
+            )));
+        }
+        if !(self.min_weight.is_finite() && self.min_weight >= 0.0) {
+            return Err(crate::Error::Invalid(format!(
+                "the cut-off weight must be a finite number >= 0, got {}",
+                self.min_weight
+            )));
+        }
+        Ok(())
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     Independent,
@@ -141,6 +167,7 @@ pub fn render(
     opts: &RenderOptions,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> crate::Result<RenderOutput> {
+    opts.trace.validate()?;
     let views = rig.views.len();
     if views == 0 || views > MAX_VIEWS {
         return Err(crate::Error::Invalid(format!(
@@ -188,7 +215,7 @@ pub fn render(
             _ => twin::render::<32>(&job),
         },
     };
-    let images = grids.iter().map(|g| grid.resolve(g, camera)).collect();
+    let images = grids.into_iter().map(|g| grid.resolve(g, camera)).collect();
     Ok(RenderOutput {
         images,
         counts,
@@ -236,14 +263,15 @@ impl Grid {
         }
     }
 
-    /// Turns one view's samples into its image.
-    fn resolve(&self, samples: &[Color], camera: &Camera) -> Image {
+    /// Turns one view's samples into its image (pixel centres: the samples
+    /// themselves, not copied, which keeps the peak memory down).
+    fn resolve(&self, samples: Vec<Color>, camera: &Camera) -> Image {
         let (w, h) = (camera.width, camera.height);
         if self.offset == 0.0 {
             return Image {
                 width: w,
                 height: h,
-                pixels: samples.to_vec(),
+                pixels: samples,
             };
         }
         let mut img = Image::new(w, h);

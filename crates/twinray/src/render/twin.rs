@@ -641,7 +641,7 @@ mod tests {
         let distance = (scene.viewpoint.at - scene.viewpoint.from).length() as f64;
         let world = World::new(scene);
         let camera = Camera::new(&world.scene.viewpoint, 96, 72);
-        let rig = Rig::stereo(&camera, 0.3, Some(distance * 0.4));
+        let rig = Rig::stereo(&camera, 0.3, Some(distance * 0.4)).expect("rig");
         assert!(
             rig.views[0].shift - rig.views[1].shift >= 4,
             "{:?}",

@@ -20,16 +20,26 @@ pub struct Triangle {
     /// Unit normal of the source polygon, orientation from its vertex order.
     pub face_normal: Vec3,
     pub normals: TriangleNormals,
+    /// Unit normal of this triangle's own plane, computed in double precision
+    /// from the vertices: a well-conditioned distance even on thin slivers
+    /// (see `intersect`).
+    pub plane_normal: Vec3,
 }
 
 impl Triangle {
     pub fn new(a: Vec3, b: Vec3, c: Vec3, face_normal: Vec3, normals: TriangleNormals) -> Self {
+        let (a64, b64, c64) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+        let plane_normal = (b64 - a64)
+            .cross(c64 - a64)
+            .try_normalize()
+            .map_or(face_normal, |n| n.as_vec3());
         Triangle {
             v0: a,
             e1: b - a,
             e2: c - a,
             face_normal,
             normals,
+            plane_normal,
         }
     }
 
@@ -51,7 +61,12 @@ impl Triangle {
         if v < 0.0 || u + v > 1.0 {
             return None;
         }
-        let t = self.e2.dot(q) * inv;
+        // The distance from the plane, not Möller–Trumbore's `e2·q / det`: on
+        // the thin slivers a many-vertex polygon is cut into, that loses its
+        // precision (a hit point off the plane by more than the offset of the
+        // shadow ray, or a hit behind the origin) and the polygon shadowed
+        // itself. The plane's normal was computed in double precision.
+        let t = -self.plane_normal.dot(s) / self.plane_normal.dot(ray.dir);
         if t > t_min && t < t_max {
             Some(SurfaceHit { t, u, v })
         } else {
@@ -73,6 +88,7 @@ impl Triangle {
         let sp = |v: Vec3| (f32x4::splat(v.x), f32x4::splat(v.y), f32x4::splat(v.z));
         let ((e1x, e1y, e1z), (e2x, e2y, e2z), (v0x, v0y, v0z)) =
             (sp(self.e1), sp(self.e2), sp(self.v0));
+        let (nx, ny, nz) = sp(self.plane_normal);
         // p = dir x e2
         let px = dy * e2z - e2y * dz;
         let py = dz * e2x - e2z * dx;
@@ -86,7 +102,7 @@ impl Triangle {
         let qy = sz * e1x - e1z * sx;
         let qz = sx * e1y - e1x * sy;
         let v = (dx * qx + dy * qy + dz * qz) * inv;
-        let t = (e2x * qx + e2y * qy + e2z * qz) * inv;
+        let t = -(nx * sx + ny * sy + nz * sz) / (nx * dx + ny * dy + nz * dz);
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
         // The scalar tests, lane by lane (NaN fails `contains` and the t range,

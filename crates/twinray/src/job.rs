@@ -1,0 +1,171 @@
+//! The job checked before it runs: what can be known to fail (too many
+//! threads, more memory than the machine gives) is refused before the scene is
+//! built or the first ray traced, with a message that says why.
+//!
+//! The other checks live with what they check: the rig's shifts in
+//! [`Rig::multi_view`](crate::rig::Rig::multi_view), the ray depth and cut-off
+//! in [`TraceSettings::validate`](crate::render::TraceSettings::validate), the
+//! output paths and format limits in [`output::check_targets`](crate::output::check_targets).
+//! docs/reliability.md lists them all.
+
+use crate::render::Sampling;
+use crate::{Error, Result};
+
+/// Most worker threads accepted: far beyond any core count, low enough that a
+/// typo (`--threads 10000`) is refused at once rather than after spawning them.
+pub const MAX_THREADS: usize = 1024;
+
+/// Refuses a thread count of 0 or above [`MAX_THREADS`].
+pub fn check_threads(threads: usize) -> Result<()> {
+    if !(1..=MAX_THREADS).contains(&threads) {
+        return Err(Error::Invalid(format!(
+            "{threads} worker threads: use 1 to {MAX_THREADS}"
+        )));
+    }
+    Ok(())
+}
+
+/// Bytes of one colour (three `f32`).
+const COLOR_BYTES: u64 = 12;
+
+/// The peak memory of rendering `views` images of `width` x `height` and
+/// writing them, in bytes, not counting the scene: the larger of
+/// * rendering: each view's samples twice (the rows as traced, then joined);
+/// * writing: the images, plus for a pair a composed frame of both eyes and its
+///   8-bit copy (a single image: its 8-bit copy).
+///
+/// An estimate from the buffers the renderer allocates (docs/reliability.md
+/// compares it with measured peaks); saturates instead of overflowing.
+pub fn estimate_render_memory(width: u32, height: u32, views: usize, sampling: Sampling) -> u64 {
+    let (w, h) = (u64::from(width), u64::from(height));
+    let (sw, sh) = match sampling {
+        Sampling::Centers => (w, h),
+        Sampling::Corners => (w + 1, h + 1),
+    };
+    let views = views as u64;
+    let pixels = w.saturating_mul(h);
+    let image = pixels.saturating_mul(COLOR_BYTES);
+    let samples = sw.saturating_mul(sh).saturating_mul(COLOR_BYTES);
+    let rendering = samples.saturating_mul(2).saturating_mul(views);
+    let extra = if views > 1 {
+        image
+            .saturating_mul(2)
+            .saturating_add(pixels.saturating_mul(8))
+    } else {
+        pixels.saturating_mul(4)
+    };
+    let writing = image.saturating_mul(views).saturating_add(extra);
+    rendering.max(writing)
+}
+
+/// Memory this process may still use, in bytes, as far as the system tells:
+/// the least of the memory available (`MemAvailable`), what is left of a cgroup
+/// limit and what is left of an address-space limit (`ulimit -v`). `None`
+/// where none is known (then nothing is refused).
+pub fn available_memory() -> Option<u64> {
+    let read = |path: &str| std::fs::read_to_string(path).ok();
+    let kib_field = |text: &str, key: &str| -> Option<u64> {
+        let line = text.lines().find(|l| l.starts_with(key))?;
+        let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+        Some(kib.saturating_mul(1024))
+    };
+    let mut limits = Vec::new();
+    if let Some(meminfo) = read("/proc/meminfo") {
+        limits.extend(kib_field(&meminfo, "MemAvailable:"));
+    }
+    let cgroup_max = read("/sys/fs/cgroup/memory.max").and_then(|s| s.trim().parse::<u64>().ok());
+    let cgroup_now =
+        read("/sys/fs/cgroup/memory.current").and_then(|s| s.trim().parse::<u64>().ok());
+    if let (Some(max), Some(now)) = (cgroup_max, cgroup_now) {
+        limits.push(max.saturating_sub(now));
+    }
+    let address_limit = read("/proc/self/limits").and_then(|text| {
+        let line = text.lines().find(|l| l.starts_with("Max address space"))?;
+        line.split_whitespace().nth(3)?.parse::<u64>().ok()
+    });
+    let address_used = read("/proc/self/status").and_then(|s| kib_field(&s, "VmSize:"));
+    if let (Some(limit), Some(used)) = (address_limit, address_used) {
+        limits.push(limit.saturating_sub(used));
+    }
+    limits.into_iter().min()
+}
+
+/// Refuses a job of `needed` bytes when `available` is known and smaller.
+/// `what` describes the job for the message (e.g. "2 views of 4096x4096").
+pub fn check_memory(needed: u64, available: Option<u64>, what: &str) -> Result<()> {
+    match available {
+        Some(available) if needed > available => Err(Error::Invalid(format!(
+            "{what} needs about {} of memory, but only {} is available: use a smaller \
+             size or fewer views",
+            human_bytes(needed),
+            human_bytes(available)
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// `1.5 GB`, `340 MB`, `12 kB`: decimal units, for messages.
+pub fn human_bytes(bytes: u64) -> String {
+    let b = bytes as f64;
+    match bytes {
+        0..=999 => format!("{bytes} bytes"),
+        1_000..=999_999 => format!("{:.0} kB", b / 1e3),
+        1_000_000..=999_999_999 => format!("{:.0} MB", b / 1e6),
+        _ => format!("{:.1} GB", b / 1e9),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thread_counts() {
+        assert!(check_threads(1).is_ok());
+        assert!(check_threads(MAX_THREADS).is_ok());
+        assert!(check_threads(0).is_err());
+        let err = check_threads(10_000).unwrap_err().to_string();
+        assert!(err.contains("1 to 1024"), "{err}");
+    }
+
+    #[test]
+    fn memory_estimates() {
+        // One 16384² view: the samples twice (6.4 GB), the attack's 9 GB peak
+        // less the copy the renderer no longer makes.
+        let mono = estimate_render_memory(16384, 16384, 1, Sampling::Centers);
+        assert_eq!(mono, 2 * 16384 * 16384 * 12);
+        // 32 views of 4096²: 13 GB.
+        let many = estimate_render_memory(4096, 4096, 32, Sampling::Centers);
+        assert_eq!(many, 2 * 32 * 4096 * 4096 * 12);
+        // A pair's output frame counts when it is the larger.
+        let pair = estimate_render_memory(10, 10, 2, Sampling::Centers);
+        assert_eq!(pair, 2 * 1200 + 2 * 1200 + 800);
+        assert!(estimate_render_memory(10, 10, 1, Sampling::Corners) > 2 * 1200);
+        assert_eq!(
+            estimate_render_memory(u32::MAX, u32::MAX, 32, Sampling::Corners),
+            u64::MAX
+        );
+    }
+
+    #[test]
+    fn memory_check_names_the_job_and_the_sizes() {
+        assert!(check_memory(10, None, "x").is_ok());
+        assert!(check_memory(10, Some(10), "x").is_ok());
+        let err = check_memory(13_000_000_000, Some(8_000_000_000), "32 views of 4096x4096")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("32 views of 4096x4096 needs about 13.0 GB"),
+            "{err}"
+        );
+        assert!(err.contains("only 8.0 GB"), "{err}");
+    }
+
+    #[test]
+    fn this_machine_reports_some_memory() {
+        // On Linux /proc/meminfo is always there.
+        if cfg!(target_os = "linux") {
+            assert!(available_memory().is_some_and(|b| b > 0));
+        }
+    }
+}
