@@ -8,6 +8,7 @@ pub mod bvh;
 pub mod camera;
 pub mod error;
 pub mod image;
+pub mod lights;
 pub mod loaders;
 pub mod math;
 pub mod output;
@@ -17,6 +18,7 @@ pub mod scene;
 pub mod shading;
 pub mod shapes;
 pub mod stats;
+pub mod texture;
 pub mod world;
 
 pub use error::{Error, Result};

@@ -24,12 +24,15 @@ impl World {
         let order = std::mem::take(&mut bvh.order);
         let mut shapes = Vec::with_capacity(order.len());
         let mut materials = Vec::with_capacity(order.len());
+        let mut groups = Vec::with_capacity(order.len());
         for &i in &order {
             shapes.push(scene.shapes[i as usize].clone());
             materials.push(scene.shape_material[i as usize]);
+            groups.push(scene.shape_group[i as usize]);
         }
         scene.shapes = shapes;
         scene.shape_material = materials;
+        scene.shape_group = groups;
         bvh.order = (0..order.len() as u32).collect();
         World {
             scene,
@@ -44,13 +47,15 @@ impl World {
         self.scene.materials[self.scene.shape_material[prim as usize] as usize].t
     }
 
-    /// Bytes held by shapes, materials, normals and the hierarchy.
+    /// Bytes held by shapes, materials, corner attributes, textures and the hierarchy.
     pub fn memory_bytes(&self) -> usize {
         let s = &self.scene;
         s.shapes.len() * std::mem::size_of::<crate::shapes::Shape>()
             + s.shape_material.len() * 4
-            + s.patch_normals.len() * std::mem::size_of::<[crate::math::Vec3; 3]>()
+            + s.shape_group.len() * 4
+            + s.corners.len() * std::mem::size_of::<crate::scene::Corners>()
             + s.materials.len() * std::mem::size_of::<crate::scene::Material>()
+            + s.textures.iter().map(|t| t.memory_bytes()).sum::<usize>()
             + self.bvh.memory_bytes()
     }
 }

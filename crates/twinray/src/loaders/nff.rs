@@ -482,6 +482,7 @@ impl Parser<'_, '_> {
             ));
         }
         self.scene.viewpoint = vp;
+        self.scene.viewpoint_given = true;
         Ok(())
     }
 
@@ -534,7 +535,7 @@ impl Parser<'_, '_> {
             }
             _ => None,
         };
-        self.scene.lights.push(Light { position, color });
+        self.scene.lights.push(Light::point(position, color));
         Ok(())
     }
 
@@ -548,6 +549,8 @@ impl Parser<'_, '_> {
             shine,
             t,
             ior,
+            mirror: ks,
+            ..Material::default()
         });
         Ok(())
     }
@@ -729,9 +732,9 @@ pp 3
         // Three lights: colourless ones get the SPD default 1/sqrt(3).
         assert_eq!(s.lights.len(), 3);
         let d = Color::splat(1.0 / 3f32.sqrt());
-        assert_eq!(s.lights[0].position, Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!(s.lights[0].position(), Some(Vec3::new(1.0, 2.0, 3.0)));
         assert_eq!(s.lights[0].color, Some(d));
-        assert_eq!(s.lights[1].position, Vec3::new(4.0, 5.0, 6.0));
+        assert_eq!(s.lights[1].position(), Some(Vec3::new(4.0, 5.0, 6.0)));
         assert_eq!(s.lights[1].color, Some(Vec3::new(0.5, 0.25, 1.0)));
         assert_eq!(s.lights[2].color, Some(d));
 
@@ -745,6 +748,8 @@ pp 3
                 shine: 3.0,
                 t: 0.9,
                 ior: 1.5,
+                mirror: 0.5,
+                ..Material::default()
             }
         );
 
@@ -778,8 +783,8 @@ pp 3
             panic!("{:?}", s.shapes[5])
         };
         assert_eq!(pt.normals, TriangleNormals::Patch(0));
-        assert_eq!(s.patch_normals.len(), 1);
-        let [n0, n1, n2] = s.patch_normals[0];
+        assert_eq!(s.corners.len(), 1);
+        let [n0, n1, n2] = s.corners[0].normals.unwrap();
         assert_eq!((n0, n1), (Vec3::Z, Vec3::Z));
         assert!((n2 - Vec3::new(0.0, 1.0, 1.0).normalize()).length() < 1e-6);
     }

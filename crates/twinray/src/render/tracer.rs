@@ -162,6 +162,7 @@ impl<'a> Tracer<'a> {
             normal: Vec3::Z,
             t: 0.0,
             material: &default_material,
+            color: Color::ZERO,
         });
         let mut lit = 0u32; // lanes with a hit whose material takes light
         let mut lanes = packet.mask;
@@ -175,15 +176,16 @@ impl<'a> Tracer<'a> {
             let hit = &hits.hit[l];
             let d = packet.dirs[l];
             let shape = &scene.shapes[prim];
-            let material = &scene.materials[scene.shape_material[prim] as usize];
             let point = packet.origins[l] + d * hit.t;
-            let normal = shape.normal(point, hit, &scene.patch_normals);
+            let surface = scene.surface_at(prim, hit, point);
+            let (material, normal) = (surface.material, surface.normal);
             let facing = if normal.dot(d) < 0.0 { normal } else { -normal };
             points[l] = SurfacePoint {
                 point,
                 normal: facing,
                 t: hit.t,
                 material,
+                color: surface.color,
             };
             out[l] = ambient(&points[l]);
             if material.kd > 0.0 || material.ks > 0.0 {
@@ -193,7 +195,7 @@ impl<'a> Tracer<'a> {
                 continue;
             }
             // Transmission first: total internal reflection hands its weight to the mirror.
-            let mut mirror = material.ks;
+            let mut mirror = material.mirror;
             if material.t > 0.0 {
                 let entering = shape.geometric_normal(point).dot(d) < 0.0;
                 let ior = if material.ior > 0.0 {
@@ -215,7 +217,7 @@ impl<'a> Tracer<'a> {
                     None => mirror += material.t,
                 }
             }
-            let spd_forces = self.settings.spd && (material.ks > 0.0 || material.t > 0.0);
+            let spd_forces = self.settings.spd && (material.mirror > 0.0 || material.t > 0.0);
             if (mirror > 0.0 && self.wanted(weights[l] * mirror)) || spd_forces {
                 reflected[l] = Some(Spawn {
                     origin: offset_point(point, facing, hit.t),
@@ -233,11 +235,13 @@ impl<'a> Tracer<'a> {
                     t_max: [0.0; K],
                     mask: 0,
                 };
+                let mut light_color = [Color::ZERO; K];
                 let mut lanes = lit;
                 while lanes != 0 {
                     let l = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;
-                    if let Some((dir, dist)) = toward_light(&points[l], light.position) {
+                    if let Some((dir, dist, color)) = toward_light(&points[l], light) {
+                        light_color[l] = color;
                         seg.origins[l] =
                             offset_point(points[l].point, points[l].normal, points[l].t);
                         seg.dirs[l] = dir;
@@ -286,7 +290,6 @@ impl<'a> Tracer<'a> {
                         }
                     }
                 }
-                let color = scene.light_color(i);
                 let mut lanes = with_shadow_ray;
                 while lanes != 0 {
                     let l = lanes.trailing_zeros() as usize;
@@ -296,7 +299,7 @@ impl<'a> Tracer<'a> {
                             &points[l],
                             packet.dirs[l],
                             seg.dirs[l],
-                            color,
+                            light_color[l],
                             through[l],
                         );
                     }
