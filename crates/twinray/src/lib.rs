@@ -19,6 +19,7 @@ pub mod shading;
 pub mod shapes;
 pub mod stats;
 pub mod texture;
+pub mod view;
 pub mod world;
 
 pub use error::{Error, Result};
