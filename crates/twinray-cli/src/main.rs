@@ -386,7 +386,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     view::apply(&mut scene, &overrides)?;
     if !scene.viewpoint_given && args.from.is_none() {
         eprintln!(
-            "twinray: note: {} has no camera: looking at the whole scene from +z (set one with --from, --at, --up, --fov)",
+            "twinray: note: {} has no camera: looking at the whole scene from the front (set one with --from, --at, --up, --fov)",
             args.scene.display()
         );
     }

@@ -309,7 +309,14 @@ impl Scene {
                 .push(format!("{}: polygon of zero area skipped", where_()));
             return;
         };
-        let triangles = triangulate(vertices, face_normal);
+        // A triangle is its own triangulation: no allocation for mesh triangles.
+        let cut;
+        let triangles: &[[usize; 3]] = if vertices.len() == 3 {
+            &[[0, 1, 2]]
+        } else {
+            cut = triangulate(vertices, face_normal);
+            &cut
+        };
         if triangles.is_empty() {
             self.warnings.push(format!(
                 "{}: polygon could not be triangulated, skipped",
@@ -317,7 +324,7 @@ impl Scene {
             ));
             return;
         }
-        for [a, b, c] in triangles {
+        for &[a, b, c] in triangles {
             let (pa, pb, pc) = (vertices[a], vertices[b], vertices[c]);
             if (pb - pa).cross(pc - pa).length_squared() == 0.0 {
                 continue; // a sliver from collinear vertices; the rest covers the area
@@ -370,7 +377,8 @@ impl Scene {
         true
     }
 
-    /// Points the camera at the whole scene: from the front (+z, y up) at a
+    /// Points the camera at the whole scene: from the front (+z, y up), raised
+    /// and turned a little so that a flat model is not seen edge-on, at a
     /// distance that fits the bounding sphere in a 45° field of view.
     pub fn frame_bounds(&mut self) {
         let b = self.bounds();
@@ -387,7 +395,7 @@ impl Scene {
         let fov_deg: f32 = 45.0;
         let distance = radius / (fov_deg.to_radians() * 0.5).sin() * 1.05;
         self.viewpoint = Viewpoint {
-            from: center + Vec3::new(0.0, 0.0, distance),
+            from: center + Vec3::new(0.35, 0.5, 1.0).normalize() * distance,
             at: center,
             up: Vec3::Y,
             angle_deg: fov_deg,

@@ -29,9 +29,9 @@ pub struct Texture {
     pub wrap_t: Wrap,
 }
 
-/// Largest texture accepted, in texels (a 16k × 16k image); larger ones are
-/// refused before decoding.
-pub const MAX_TEXELS: u64 = 16384 * 16384;
+/// Largest texture accepted, in texels (an 8k × 8k image, 768 MiB as linear
+/// floats); larger ones are refused before decoding.
+pub const MAX_TEXELS: u64 = 8192 * 8192;
 
 impl Texture {
     /// A texture from 8-bit sRGB-encoded RGB(A) pixels (alpha ignored).

@@ -72,7 +72,7 @@ pub fn apply(scene: &mut Scene, o: &ViewOverrides) -> Result<()> {
         vp.angle_span = AngleSpan::ImageHeight;
     }
     let forward = vp.at - vp.from;
-    if !(forward.length() > 0.0) {
+    if forward.length().is_nan() || forward.length() <= 0.0 {
         return Err(Error::Invalid(
             "the camera's position (--from) and target (--at) are the same point".into(),
         ));

@@ -119,7 +119,7 @@ fn as_gltf(m: &Model, materials: serde_json::Value) -> String {
         views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()}));
         let mut a = json!({"bufferView": views.len() - 1, "componentType": component,
                            "count": count, "type": kind});
-        if kind == "VEC3" && accessors.len() == 0 {
+        if kind == "VEC3" && accessors.is_empty() {
             a["min"] = json!([-10, -10, -10]);
             a["max"] = json!([10, 10, 10]);
         }

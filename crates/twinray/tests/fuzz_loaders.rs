@@ -71,13 +71,17 @@ fn mutate(rng: &mut fastrand::Rng, data: &[u8]) -> Vec<u8> {
                 d.splice(at..at, t.iter().copied());
             }
             5 => {
-                // Replace a run of digits with an extreme number.
-                let start = at;
+                // Replace the next run of digits (an index, a count, an
+                // offset) with an extreme number.
+                let Some(start) = d[at..].iter().position(u8::is_ascii_digit) else {
+                    continue;
+                };
+                let start = at + start;
                 let mut end = start;
                 while end < d.len() && d[end].is_ascii_digit() {
                     end += 1;
                 }
-                let t = TOKENS[rng.usize(..9)];
+                let t = TOKENS[rng.usize(..6)];
                 d.splice(start..end, t.iter().copied());
             }
             _ => d.truncate(at),

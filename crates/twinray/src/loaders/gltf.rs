@@ -48,7 +48,8 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene> {
 /// Parse glTF or GLB bytes; `file` names it in messages and locates its
 /// external buffers and images.
 pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {
-    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| gltf_error(file, e))?;
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| gltf_error(file, e))?;
+    validate(&gltf, file)?;
     let loader = Loader {
         file,
         dir: file.parent().unwrap_or(Path::new("")),
@@ -92,6 +93,12 @@ pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene
         )));
     }
     scene.shapes.reserve(triangles as usize);
+    let with_attributes = doc.meshes().flat_map(|m| m.primitives()).any(|p| {
+        p.get(&gltf::Semantic::Normals).is_some() || p.get(&gltf::Semantic::TexCoords(0)).is_some()
+    });
+    if with_attributes {
+        scene.corners.reserve(triangles as usize);
+    }
 
     let first_warning = scene.warnings.len();
     let mut cameras = Vec::new();
@@ -145,6 +152,38 @@ pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene
         None => scene.frame_bounds(),
     }
     Ok(scene)
+}
+
+/// The crate's schema validation, after a check it lacks: gltf-json 1.4.1's
+/// validation indexes the accessors with a primitive's POSITION index
+/// unchecked, and panics when it is out of range.
+fn validate(gltf: &gltf::Gltf, file: &Path) -> Result<()> {
+    use gltf::json::validation::{Checked, Validate};
+    let root = gltf.document.as_json();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let position = prim
+                .attributes
+                .get(&Checked::Valid(gltf::Semantic::Positions));
+            if let Some(a) = position.filter(|a| a.value() >= root.accessors.len()) {
+                return Err(Error::Invalid(format!(
+                    "{}: meshes[{m}].primitives[{p}].attributes[\"POSITION\"]: accessor {} does not exist ({} accessors)",
+                    file.display(),
+                    a.value(),
+                    root.accessors.len()
+                )));
+            }
+        }
+    }
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, error| {
+        errors.push((path(), error))
+    });
+    if errors.is_empty() {
+        Ok(())
+    } else {
+        Err(gltf_error(file, gltf::Error::Validation(errors)))
+    }
 }
 
 /// The crate's error as one line: JSON syntax errors with their line, schema
@@ -614,7 +653,9 @@ fn percent_decode(uri: &str) -> String {
 
 /// How a metallic-roughness material maps to twinray's Whitted material
 /// (docs/formats.md): the base colour is the colour; the diffuse weight is
-/// what metal and transmission leave; the Phong highlight and the mirror carry
+/// what metal and transmission leave, plus a rough metal's scattered share
+/// (metal × roughness: a very rough metal looks like a coloured matte
+/// surface); the Phong highlight and the mirror carry
 /// the specular reflectance at normal incidence (0.04 for dielectrics, 1 for
 /// metals), the highlight fading as roughness grows and the mirror with its
 /// square; roughness sets the Phong exponent (α = roughness², shine = 2/α² − 2).
@@ -642,7 +683,7 @@ pub fn material_from_pbr(m: &gltf::Material, texture: Option<u32>) -> Material {
         .map(|x| if x.is_finite() { x.max(0.0) } else { 0.0 });
     Material {
         color: Color::new(r, g, b),
-        kd: (1.0 - metal) * (1.0 - transmission),
+        kd: (1.0 - metal) * (1.0 - transmission) + metal * rough,
         ks: specular * (1.0 - rough),
         shine: (2.0 / (alpha * alpha) - 2.0).clamp(1.0, 10_000.0),
         t: (1.0 - metal) * transmission,
@@ -813,11 +854,11 @@ pub(crate) mod tests {
     /// A GLB container: header, JSON chunk, BIN chunk.
     pub fn glb(doc: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
         let mut json = doc.to_string().into_bytes();
-        while json.len() % 4 != 0 {
+        while !json.len().is_multiple_of(4) {
             json.push(b' ');
         }
         let mut bin = bin.to_vec();
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let total = 12 + 8 + json.len() + 8 + bin.len();
@@ -894,6 +935,8 @@ pub(crate) mod tests {
         view_too_short["accessors"][0]["count"] = json!(400);
         let mut missing_accessor = good.clone();
         missing_accessor["meshes"][0]["primitives"][0]["indices"] = json!(9);
+        let mut missing_position = good.clone();
+        missing_position["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(5);
         let mut short_buffer = good.clone();
         short_buffer["buffers"][0]["byteLength"] = json!(4000);
         short_buffer["bufferViews"][1]["byteLength"] = json!(3000);
@@ -901,6 +944,10 @@ pub(crate) mod tests {
             (index_out_of_range, "accessors[1]: index 7"),
             (view_too_short, "accessors[0]: 400 elements"),
             (missing_accessor, "meshes[0].primitives[0].indices"),
+            (
+                missing_position,
+                "attributes[\"POSITION\"]: accessor 5 does not exist",
+            ),
             (short_buffer, "buffers[0]"),
         ];
         for (doc, expected) in cases {

@@ -184,6 +184,12 @@ pub fn parse_obj(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
         )));
     }
     scene.shapes.reserve(triangles as usize);
+    if models
+        .iter()
+        .any(|m| !m.mesh.normals.is_empty() || !m.mesh.texcoords.is_empty())
+    {
+        scene.corners.reserve(triangles as usize);
+    }
 
     let given = FaceAttributes::of(bytes);
     let total_faces: usize = models.iter().map(|m| face_count(&m.mesh)).sum();
@@ -256,21 +262,22 @@ impl FaceAttributes {
     fn of(bytes: &[u8]) -> FaceAttributes {
         let mut faces = Vec::new();
         for line in bytes.split(|&b| b == b'\n') {
-            let line = String::from_utf8_lossy(line);
-            let mut words = line.split_whitespace();
-            if words.next() != Some("f") {
+            let mut words = line
+                .split(|b| b.is_ascii_whitespace())
+                .filter(|w| !w.is_empty());
+            if words.next() != Some(b"f") {
                 continue;
             }
-            let vertices: Vec<&str> = words.collect();
-            if vertices.len() < 3 {
-                continue; // points and lines: tobj drops them too
+            let (mut count, mut vt, mut vn) = (0, true, true);
+            for v in words {
+                let mut parts = v.split(|&b| b == b'/').skip(1);
+                vt &= parts.next().is_some_and(|p| !p.is_empty());
+                vn &= parts.next().is_some_and(|p| !p.is_empty());
+                count += 1;
             }
-            let has = |k: usize| {
-                vertices
-                    .iter()
-                    .all(|v| v.split('/').nth(k).is_some_and(|s| !s.is_empty()))
-            };
-            faces.push((has(1), has(2)));
+            if count >= 3 {
+                faces.push((vt, vn)); // points and lines: tobj drops them too
+            }
         }
         FaceAttributes(faces, 0)
     }
