@@ -7,8 +7,6 @@ mod common;
 use common::*;
 use twinray::lights::{Light, LightKind};
 use twinray::math::{Color, Vec3};
-use twinray::render::{Method, Sampling};
-use twinray::rig::Rig;
 use twinray::scene::{Material, Scene, Viewpoint};
 use twinray::World;
 
@@ -44,15 +42,7 @@ fn scene(light: LightKind) -> Scene {
 /// Brightness in the middle column at rows 20 (the occluder's top), 30 (the
 /// floor at z ≈ -3.64) and 40 (z ≈ -7.3): the image's top is +z.
 fn render(s: Scene) -> (f32, f32, f32) {
-    let world = World::new(s);
-    let cam = camera(&world, 41, 41);
-    let out = run(
-        &world,
-        &cam,
-        &Rig::mono(),
-        &options(Method::Independent, Sampling::Centers),
-    );
-    let img = &out.images[0];
+    let img = mono(&World::new(s), 41, 41);
     (img.get(20, 20).x, img.get(20, 30).x, img.get(20, 40).x)
 }
 
@@ -62,14 +52,8 @@ fn directional_light_casts_a_shadow_below_the_occluder() {
     let dir = Vec3::new(-1.5, -1.0, 0.0).normalize();
     let world = World::new(scene(LightKind::Directional { direction: dir }));
     let cam = camera(&world, 41, 41);
-    let out = run(
-        &world,
-        &cam,
-        &Rig::mono(),
-        &options(Method::Independent, Sampling::Centers),
-    );
-    let img = &out.images[0];
-    // Find the columns over the floor at x = 1.5 (shadow) and x = -3 (lit).
+    let img = mono(&world, 41, 41);
+    // The columns over the floor at x = -1.5 (shadow) and x = 3 (lit).
     let column = |x: f32| {
         (0..41)
             .min_by(|&a, &b| {

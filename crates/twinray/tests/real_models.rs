@@ -7,8 +7,6 @@ use std::path::PathBuf;
 
 use common::*;
 use twinray::loaders::{load_scene, LoadOptions};
-use twinray::render::{Method, Sampling};
-use twinray::rig::Rig;
 use twinray::{Scene, World};
 
 fn model(name: &str) -> Scene {
@@ -20,15 +18,7 @@ fn model(name: &str) -> Scene {
 
 fn render(mut scene: Scene) -> Vec<[u32; 3]> {
     scene.add_headlight_if_dark();
-    let world = World::new(scene);
-    let cam = camera(&world, 40, 30);
-    let out = run(
-        &world,
-        &cam,
-        &Rig::mono(),
-        &options(Method::Independent, Sampling::Centers),
-    );
-    let img = &out.images[0];
+    let img = mono(&World::new(scene), 40, 30);
     (0..30)
         .flat_map(|y| (0..40).map(move |x| (x, y)))
         .map(|(x, y)| img.get(x, y).to_array().map(f32::to_bits))

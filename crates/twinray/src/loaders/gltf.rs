@@ -25,7 +25,7 @@ use glam::{Mat3, Mat4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::khr_lights_punctual::Kind as LightType;
 
-use super::{fold_warnings, read_file, LoadOptions};
+use super::{fold_warnings, read_file, reserve_triangles, LoadOptions};
 use crate::error::{Error, Result};
 use crate::lights::{Light, LightKind};
 use crate::math::{Color, Vec3};
@@ -50,12 +50,13 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene> {
 pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {
     let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| gltf_error(file, e))?;
     validate(&gltf, file)?;
+    let doc = &gltf.document;
     let loader = Loader {
         file,
         dir: file.parent().unwrap_or(Path::new("")),
         opts,
+        doc,
     };
-    let doc = &gltf.document;
     let buffers = doc
         .buffers()
         .map(|b| loader.buffer(&b, gltf.blob.as_deref()))
@@ -85,20 +86,10 @@ pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene
         .flat_map(|mesh| mesh.primitives())
         .map(|p| primitive_triangles(&p))
         .fold(0u64, u64::saturating_add);
-    if triangles > opts.max_triangles {
-        return Err(Error::Invalid(format!(
-            "{}: {triangles} triangles exceed the limit of {}",
-            file.display(),
-            opts.max_triangles
-        )));
-    }
-    scene.shapes.reserve(triangles as usize);
-    let with_attributes = doc.meshes().flat_map(|m| m.primitives()).any(|p| {
+    let with_corners = doc.meshes().flat_map(|m| m.primitives()).any(|p| {
         p.get(&gltf::Semantic::Normals).is_some() || p.get(&gltf::Semantic::TexCoords(0)).is_some()
     });
-    if with_attributes {
-        scene.corners.reserve(triangles as usize);
-    }
+    reserve_triangles(&mut scene, triangles, with_corners, file, opts)?;
 
     let first_warning = scene.warnings.len();
     let mut cameras = Vec::new();
@@ -210,10 +201,16 @@ fn gltf_error(file: &Path, e: gltf::Error) -> Error {
     }
 }
 
+/// The file being loaded. Images and cameras are read from the document's
+/// JSON (`doc.as_json()`): the crate's `Image::source` and
+/// `Camera::projection` unwrap fields its validation does not require (an
+/// image with neither `uri` nor `bufferView`, a perspective camera described
+/// as orthographic) and panic; the fuzzer found the first.
 struct Loader<'a> {
     file: &'a Path,
     dir: &'a Path,
     opts: &'a LoadOptions,
+    doc: &'a gltf::Document,
 }
 
 /// Checked view of an accessor's elements in a buffer.
@@ -540,8 +537,12 @@ impl Loader<'_> {
             return t;
         }
         let what = format!("images[{}]", image.index());
-        let bytes = match image.source() {
-            gltf::image::Source::View { view, .. } => {
+        let json = &self.doc.as_json().images[image.index()];
+        let view = json
+            .buffer_view
+            .and_then(|v| self.doc.views().nth(v.value()));
+        let bytes = match (view, &json.uri) {
+            (Some(view), _) => {
                 let buffer = &buffers[view.buffer().index()];
                 view.offset()
                     .checked_add(view.length())
@@ -549,9 +550,8 @@ impl Loader<'_> {
                     .map(|b| b.to_vec())
                     .ok_or_else(|| format!("bufferViews[{}] is outside its buffer", view.index()))
             }
-            gltf::image::Source::Uri { uri, .. } => {
-                self.uri_bytes(uri, &what).map_err(|e| e.to_string())
-            }
+            (None, Some(uri)) => self.uri_bytes(uri, &what).map_err(|e| e.to_string()),
+            (None, None) => Err(format!("{what} has neither a uri nor a bufferView")),
         };
         let decoded = bytes.and_then(|b| Texture::decode(&b, &what));
         let index = match decoded {
@@ -578,15 +578,15 @@ impl Loader<'_> {
         node: &gltf::Node,
         world: &Mat4,
     ) -> Option<NamedCamera> {
-        let gltf::camera::Projection::Perspective(p) = camera.projection() else {
-            return None;
-        };
+        let p = self.doc.as_json().cameras[camera.index()]
+            .perspective
+            .as_ref()?;
         let from = world.transform_point3(Vec3::ZERO);
         let forward = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
         let up = world.transform_vector3(Vec3::Y).normalize_or(Vec3::Y);
         let height = 480u32;
         let width = p
-            .aspect_ratio()
+            .aspect_ratio
             .filter(|a| a.is_finite() && *a > 0.0)
             .map_or(640, |a| {
                 ((height as f32 * a).round() as u32).clamp(1, self.opts.max_resolution)
@@ -601,9 +601,13 @@ impl Loader<'_> {
                 from,
                 at: from + forward,
                 up,
-                angle_deg: p.yfov().to_degrees().clamp(1e-3, 179.0),
+                angle_deg: if p.yfov.is_finite() {
+                    p.yfov.to_degrees().clamp(1e-3, 179.0)
+                } else {
+                    45.0
+                },
                 angle_span: AngleSpan::ImageHeight,
-                hither: p.znear().max(0.0),
+                hither: p.znear.max(0.0),
                 width,
                 height,
             },
@@ -963,6 +967,34 @@ pub(crate) mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.starts_with("t.gltf:"), "{e}");
+    }
+
+    /// What the fuzzer found (seed 307, mutant 3767): an image with neither
+    /// `uri` nor `bufferView`, which the gltf crate's `Image::source` unwraps.
+    /// Also a perspective camera holding only orthographic numbers.
+    #[test]
+    fn image_without_source_and_camera_without_projection_do_not_panic() {
+        let mut doc = one_mesh(
+            &QUAD,
+            &QUAD_INDICES,
+            &data_uri(&mesh_bytes(&QUAD, &QUAD_INDICES)),
+        );
+        doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+        doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+        doc["textures"] = json!([{"source": 0}]);
+        doc["images"] = json!([{"name": "nothing"}]);
+        doc["cameras"] = json!([{"type": "perspective",
+            "orthographic": {"xmag": 1, "ymag": 1, "znear": 0.1, "zfar": 10}}]);
+        doc["nodes"] = json!([{"mesh": 0}, {"camera": 0}]);
+        doc["scenes"] = json!([{"nodes": [0, 1]}]);
+        let s = parse(&doc).unwrap();
+        assert_eq!(s.materials[0].texture, None);
+        assert!(
+            s.warnings.iter().any(|w| w.contains("neither a uri")),
+            "{:?}",
+            s.warnings
+        );
+        assert!(s.cameras.is_empty() && !s.viewpoint_given);
     }
 
     #[test]

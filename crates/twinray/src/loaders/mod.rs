@@ -65,6 +65,30 @@ fn read_file(path: &Path) -> Result<Vec<u8>> {
     })
 }
 
+/// Refuses a mesh file of more than `opts.max_triangles` triangles, before
+/// taking their memory; reserves it otherwise (corner records too when the
+/// mesh has normals or texture coordinates).
+fn reserve_triangles(
+    scene: &mut Scene,
+    triangles: u64,
+    with_corners: bool,
+    file: &Path,
+    opts: &LoadOptions,
+) -> Result<()> {
+    if triangles > opts.max_triangles {
+        return Err(Error::Invalid(format!(
+            "{}: {triangles} triangles exceed the limit of {}",
+            file.display(),
+            opts.max_triangles
+        )));
+    }
+    scene.shapes.reserve(triangles as usize);
+    if with_corners {
+        scene.corners.reserve(triangles as usize);
+    }
+    Ok(())
+}
+
 /// A mesh file's warnings past the first `keep` folded into one line, so that
 /// a scanned model with thousands of slivers does not flood the terminal.
 fn fold_warnings(scene: &mut Scene, from: usize, keep: usize) {

@@ -16,7 +16,7 @@ use std::collections::HashMap;
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
-use super::{fold_warnings, read_file, LoadOptions};
+use super::{fold_warnings, read_file, reserve_triangles, LoadOptions};
 use crate::error::{Error, Result};
 use crate::math::{Color, Vec3};
 use crate::scene::{Material, MeshPolygon, Scene, SceneFormat, Uv};
@@ -176,20 +176,10 @@ pub fn parse_obj(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
     });
 
     let triangles: u64 = models.iter().map(|m| face_triangles(&m.mesh)).sum::<u64>();
-    if triangles > opts.max_triangles {
-        return Err(Error::Invalid(format!(
-            "{}: {triangles} triangles exceed the limit of {}",
-            file.display(),
-            opts.max_triangles
-        )));
-    }
-    scene.shapes.reserve(triangles as usize);
-    if models
+    let with_corners = models
         .iter()
-        .any(|m| !m.mesh.normals.is_empty() || !m.mesh.texcoords.is_empty())
-    {
-        scene.corners.reserve(triangles as usize);
-    }
+        .any(|m| !m.mesh.normals.is_empty() || !m.mesh.texcoords.is_empty());
+    reserve_triangles(&mut scene, triangles, with_corners, file, opts)?;
 
     let given = FaceAttributes::of(bytes);
     let total_faces: usize = models.iter().map(|m| face_count(&m.mesh)).sum();
