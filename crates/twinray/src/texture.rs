@@ -133,8 +133,17 @@ pub fn srgb_to_linear(c: f32) -> f32 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// A PNG of one colour.
+    pub fn png(width: u32, height: u32, rgb: [u8; 3]) -> Vec<u8> {
+        let mut png = Vec::new();
+        image::RgbImage::from_pixel(width, height, image::Rgb(rgb))
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        png
+    }
 
     fn checker() -> Texture {
         // 2x2: black, white / white, black.
@@ -174,10 +183,7 @@ mod tests {
 
     #[test]
     fn png_decodes_and_garbage_is_an_error() {
-        let mut png = Vec::new();
-        image::RgbImage::from_pixel(3, 2, image::Rgb([255, 0, 0]))
-            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-            .unwrap();
+        let png = png(3, 2, [255, 0, 0]);
         let t = Texture::decode(&png, "red.png").unwrap();
         assert_eq!((t.width, t.height), (3, 2));
         assert_eq!(t.texels[5], Color::new(1.0, 0.0, 0.0));

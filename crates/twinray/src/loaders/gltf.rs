@@ -783,6 +783,15 @@ pub(crate) mod tests {
     const QUAD: [[f32; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];
     const QUAD_INDICES: [u32; 6] = [0, 1, 2, 0, 2, 3];
 
+    /// A unit square of two triangles in a data-URI buffer.
+    fn quad() -> serde_json::Value {
+        one_mesh(
+            &QUAD,
+            &QUAD_INDICES,
+            &data_uri(&mesh_bytes(&QUAD, &QUAD_INDICES)),
+        )
+    }
+
     fn parse(doc: &serde_json::Value) -> Result<Scene> {
         parse_gltf(
             doc.to_string().as_bytes(),
@@ -793,11 +802,7 @@ pub(crate) mod tests {
 
     #[test]
     fn nodes_transforms_cameras_lights_and_materials() {
-        let mut doc = one_mesh(
-            &QUAD,
-            &QUAD_INDICES,
-            &data_uri(&mesh_bytes(&QUAD, &QUAD_INDICES)),
-        );
+        let mut doc = quad();
         doc["nodes"] = json!([
             {"children": [1, 2, 3], "translation": [10, 0, 0]},
             {"mesh": 0, "scale": [2, 2, 2], "name": "big"},
@@ -881,10 +886,7 @@ pub(crate) mod tests {
 
     #[test]
     fn textured_material_samples_its_image() {
-        let mut png = Vec::new();
-        image::RgbImage::from_pixel(2, 2, image::Rgb([0, 255, 0]))
-            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-            .unwrap();
+        let png = crate::texture::tests::png(2, 2, [0, 255, 0]);
         let uv: [[f32; 2]; 4] = [[0., 0.], [1., 0.], [1., 1.], [0., 1.]];
         let mut bytes = mesh_bytes(&QUAD, &QUAD_INDICES);
         let uv_offset = bytes.len();
@@ -927,11 +929,7 @@ pub(crate) mod tests {
 
     #[test]
     fn bad_files_name_the_place() {
-        let good = one_mesh(
-            &QUAD,
-            &QUAD_INDICES,
-            &data_uri(&mesh_bytes(&QUAD, &QUAD_INDICES)),
-        );
+        let good = quad();
         let mut index_out_of_range = good.clone();
         index_out_of_range["buffers"][0]["uri"] =
             json!(data_uri(&mesh_bytes(&QUAD, &[0, 1, 2, 0, 2, 7])));
@@ -974,11 +972,7 @@ pub(crate) mod tests {
     /// Also a perspective camera holding only orthographic numbers.
     #[test]
     fn image_without_source_and_camera_without_projection_do_not_panic() {
-        let mut doc = one_mesh(
-            &QUAD,
-            &QUAD_INDICES,
-            &data_uri(&mesh_bytes(&QUAD, &QUAD_INDICES)),
-        );
+        let mut doc = quad();
         doc["meshes"][0]["primitives"][0]["material"] = json!(0);
         doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
         doc["textures"] = json!([{"source": 0}]);
@@ -999,11 +993,7 @@ pub(crate) mod tests {
 
     #[test]
     fn absurd_triangle_counts_are_refused_before_reading() {
-        let mut doc = one_mesh(
-            &QUAD,
-            &QUAD_INDICES,
-            &data_uri(&mesh_bytes(&QUAD, &QUAD_INDICES)),
-        );
+        let mut doc = quad();
         doc["accessors"][1]["count"] = json!(3_000_000_000u64);
         let e = parse(&doc).unwrap_err().to_string();
         assert!(e.contains("exceed the limit"), "{e}");
