@@ -13,13 +13,16 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use twinray::camera::Camera;
 use twinray::loaders::{load_scene, LoadOptions};
+use twinray::math::Vec3;
 use twinray::output::{self, AnaglyphMethod, InterlaceMode, Layout, WriteOptions};
 use twinray::render::{
     self, Approximations, Method, RenderOptions, ReprojectMode, Reprojection, Sampling,
     TraceSettings,
 };
 use twinray::rig::Rig;
+use twinray::scene::SceneFormat;
 use twinray::stats::{Report, SceneFacts, Timings};
+use twinray::view::{self, ViewOverrides};
 use twinray::world::Cut;
 use twinray::World;
 
@@ -36,7 +39,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene (NFF) to an image, or a stereo pair / view set in a layout.
+    /// Render a scene (NFF, OBJ, glTF) to an image, or a stereo pair / view set in a layout.
     Render(RenderArgs),
     /// Time stereo pairs: the twin method against two independent renders (the paper's tables 2.1, 2.2).
     BenchStereo(bench::BenchArgs),
@@ -101,7 +104,7 @@ enum InterlaceArg {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// Scene file (.nff).
+    /// Scene file: .nff, .obj (with its .mtl), .gltf or .glb.
     scene: PathBuf,
     /// Output image: .png or .jpg (8-bit), .exr or .pfm (32-bit float, linear), .mpo
     /// (--layout mpo). Several views: NAME_L/NAME_R (--layout separate) or NAME_0, NAME_1...
@@ -144,6 +147,25 @@ struct RenderArgs {
     /// Most vertices one polygon or patch of the scene file may have.
     #[arg(long, default_value_t = 1_000_000)]
     max_vertices: usize,
+    /// Most triangles an OBJ or glTF file may have.
+    #[arg(long, default_value_t = 100_000_000)]
+    max_triangles: u64,
+
+    /// Which of a glTF file's cameras to use: its name or its index (default: the first).
+    #[arg(long)]
+    camera: Option<String>,
+    /// Camera position X,Y,Z (default: the file's camera, or one framing the scene).
+    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    from: Option<Vec3>,
+    /// Point the camera looks at, X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    at: Option<Vec3>,
+    /// Camera up direction X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    up: Option<Vec3>,
+    /// Vertical field of view in degrees, top edge of the image to bottom edge.
+    #[arg(long)]
+    fov: Option<f32>,
 
     /// Render a stereo pair.
     #[arg(long)]
@@ -277,6 +299,17 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
         return Err("width and height must be at least 1".into());
     }
     Ok((w, h))
+}
+
+fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let numbers: Vec<f32> = parts.iter().filter_map(|p| p.parse().ok()).collect();
+    match numbers[..] {
+        [x, y, z] if parts.len() == 3 && numbers.iter().all(|v| v.is_finite()) => {
+            Ok(Vec3::new(x, y, z))
+        }
+        _ => Err(format!("'{s}' is not X,Y,Z (three numbers)")),
+    }
 }
 
 /// A command-line error from clap as one line (`twinray: ...`), like every other
@@ -626,11 +659,32 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     let load_opts = LoadOptions {
         max_resolution: args.max_resolution,
         max_vertices: args.max_vertices,
+        max_triangles: args.max_triangles,
     };
-    let scene = load_scene(&args.scene, &load_opts)?;
+    let mut scene = load_scene(&args.scene, &load_opts)?;
     let load_s = t0.elapsed().as_secs_f64();
     for w in &scene.warnings {
         eprintln!("twinray: warning: {w}");
+    }
+    let overrides = ViewOverrides {
+        camera: args.camera.clone(),
+        from: args.from,
+        at: args.at,
+        up: args.up,
+        fov_deg: args.fov,
+    };
+    view::apply(&mut scene, &overrides)?;
+    if !scene.viewpoint_given && args.from.is_none() {
+        eprintln!(
+            "twinray: note: {} has no camera: looking at the whole scene from the front (set one with --from, --at, --up, --fov)",
+            args.scene.display()
+        );
+    }
+    if scene.format != SceneFormat::Nff && scene.add_headlight_if_dark() {
+        eprintln!(
+            "twinray: warning: {} has no lights: added a white point light at the camera",
+            args.scene.display()
+        );
     }
     let (width, height) = match (args.size, args.spd) {
         (Some(s), _) => s,

@@ -993,3 +993,92 @@ fn help_and_version_exit_zero() {
         assert!(run.stdout.contains(option), "render --help lacks {option}");
     }
 }
+
+// ---------------------------------------------------------------------------
+// OBJ and glTF scenes, camera and light from the command line
+// ---------------------------------------------------------------------------
+
+fn model(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../twinray/tests/data/models")
+        .join(name)
+}
+
+#[test]
+fn obj_and_glb_render_framed_with_a_headlight_and_a_warning() {
+    let dir = tmp();
+    for name in ["pybullet/torus/torus_textured.obj", "gltf/torus.glb"] {
+        let out = dir.path().join("m.png");
+        let run = render(&model(name), &out, &["--size", SIZE]);
+        run.ok();
+        assert_eq!(png_size(&out), (W, H));
+        assert!(
+            run.stderr
+                .contains("has no lights: added a white point light"),
+            "{}",
+            run.stderr
+        );
+        assert!(run.stderr.contains("has no camera"), "{}", run.stderr);
+        std::fs::remove_file(&out).unwrap();
+    }
+}
+
+#[test]
+fn camera_options_move_the_view() {
+    let dir = tmp();
+    let scene = model("gltf/torus.glb");
+    let (a, b) = (dir.path().join("a.pfm"), dir.path().join("b.pfm"));
+    render(&scene, &a, &["--size", SIZE]).ok();
+    let moved = [
+        "--size",
+        SIZE,
+        "--from",
+        "0.3,2,0.5",
+        "--at",
+        "0,0,0",
+        "--up",
+        "0,0,1",
+        "--fov",
+        "50",
+    ];
+    render(&scene, &b, &moved).ok();
+    assert!(psnr(&a, &b) < 30.0, "a different view");
+    // The same view twice is the same image.
+    let c = dir.path().join("c.pfm");
+    render(&scene, &c, &moved).ok();
+    assert!(read(&b) == read(&c));
+}
+
+#[test]
+fn bad_camera_options_and_bad_meshes_are_one_line_and_write_nothing() {
+    let dir = tmp();
+    let out = dir.path().join("x.png");
+    let glb = model("gltf/torus.glb");
+    for (args, expect) in [
+        (vec!["--camera", "main"], "no cameras"),
+        (vec!["--from", "1,2"], "X,Y,Z"),
+        (vec!["--fov", "0"], "--fov"),
+        (vec!["--from", "0,0,0", "--at", "0,0,0"], "same point"),
+        (vec!["--max-triangles", "100"], "exceed the limit"),
+    ] {
+        let msg = render(&glb, &out, &args).one_line_error().to_string();
+        assert!(msg.contains(expect), "{args:?}: {msg}");
+    }
+    let bad_obj = write_scene(
+        dir.path(),
+        "bad.obj",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
+    );
+    let msg = render(&bad_obj, &out, &[]).one_line_error().to_string();
+    assert!(msg.contains(&format!("{}:4:", bad_obj.display())), "{msg}");
+    let bad_gltf = write_scene(
+        dir.path(),
+        "bad.gltf",
+        br#"{"asset": {"version": "2.0"}, "meshes": [{"primitives": [{"attributes": {"POSITION": 3}}]}]}"#,
+    );
+    let msg = render(&bad_gltf, &out, &[]).one_line_error().to_string();
+    assert!(msg.contains("meshes[0].primitives[0].attributes"), "{msg}");
+    assert!(!out.exists());
+    let entries: Vec<String> = entries(dir.path());
+    assert_eq!(entries, vec!["bad.gltf".to_string(), "bad.obj".to_string()]);
+}

@@ -7,7 +7,7 @@
 //! directions for the same camera column: the twin method depends on it.
 
 use crate::math::{Ray, Vec3};
-use crate::scene::Viewpoint;
+use crate::scene::{AngleSpan, Viewpoint};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
@@ -34,9 +34,14 @@ impl Camera {
         let forward = unit(vp.at - vp.from);
         let right = unit(forward.cross(unit(vp.up)));
         let up = right.cross(forward);
-        let spanned = width.min(height).max(2) - 1;
         let half_angle = (vp.angle_deg.to_radians() * 0.5) as f64;
-        let pixel_size = (2.0 * half_angle.tan() / spanned as f64) as f32;
+        let pixel_size = match vp.angle_span {
+            AngleSpan::EdgePixelCentres => {
+                let spanned = width.min(height).max(2) - 1;
+                (2.0 * half_angle.tan() / spanned as f64) as f32
+            }
+            AngleSpan::ImageHeight => (2.0 * half_angle.tan() / height.max(1) as f64) as f32,
+        };
         Camera {
             eye: vp.from,
             forward,
@@ -158,6 +163,7 @@ mod tests {
             at: Vec3::new(0.0, 1.0, 0.0),
             up: Vec3::Z,
             angle_deg: 90.0,
+            angle_span: AngleSpan::EdgePixelCentres,
             hither: 0.0,
             width: 5,
             height: 5,
@@ -200,6 +206,17 @@ mod tests {
         let l = c.direction(0.0, 2.0);
         let r = c.direction(8.0, 2.0);
         assert!(l.dot(r).acos().to_degrees() > 90.0);
+    }
+
+    #[test]
+    fn image_height_angle_spans_the_outer_edges() {
+        let mut v = vp();
+        v.angle_span = AngleSpan::ImageHeight;
+        let c = Camera::new(&v, 8, 4);
+        // The top edge of the image is half a pixel above row 0's centre.
+        let top = c.direction(3.5, -0.5);
+        let bottom = c.direction(3.5, 3.5);
+        assert!((top.dot(bottom).acos().to_degrees() - 90.0).abs() < 1e-4);
     }
 
     #[test]

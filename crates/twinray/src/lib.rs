@@ -9,6 +9,7 @@ pub mod camera;
 pub mod error;
 pub mod image;
 pub mod job;
+pub mod lights;
 pub mod loaders;
 pub mod math;
 pub mod output;
@@ -18,6 +19,8 @@ pub mod scene;
 pub mod shading;
 pub mod shapes;
 pub mod stats;
+pub mod texture;
+pub mod view;
 pub mod world;
 
 pub use error::{Error, Result};

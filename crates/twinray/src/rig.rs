@@ -170,6 +170,7 @@ mod tests {
             at: Vec3::Y,
             up: Vec3::Z,
             angle_deg: 60.0,
+            angle_span: Default::default(),
             hither: 0.0,
             width: 201,
             height: 101,

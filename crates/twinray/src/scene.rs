@@ -1,13 +1,24 @@
-//! The loaded scene: primitives, materials, lights and the NFF viewpoint.
+//! The loaded scene: primitives with their materials, per-corner attributes
+//! and groups, textures, lights, and the cameras a file describes.
 //!
 //! Loaders call the `add_*` methods; they turn polygons into triangles and skip
-//! degenerate geometry with a warning instead of failing.
+//! degenerate geometry with a warning instead of failing. The tracer asks the
+//! scene one thing about a hit: its shading normal, colour and material
+//! ([`Scene::surface_at`]).
 
-use crate::math::{Color, Vec3};
-use crate::shapes::{Cone, Shape, Sphere, Triangle, TriangleNormals};
+use crate::math::{Aabb, Color, Vec3};
+use crate::shapes::{Cone, Shape, Sphere, SurfaceHit, Triangle, TriangleNormals};
+use crate::texture::Texture;
 
-/// NFF `f`: colour, diffuse `kd`, specular `ks` (Phong highlight and mirror
-/// weight), Phong exponent `shine`, transmission `t` and index of refraction.
+pub use crate::lights::{Light, LightKind};
+
+/// Texture coordinates (u, v), v = 0 at the top row of the image.
+pub type Uv = glam::Vec2;
+
+/// Whitted's material, NFF's `f` and what OBJ and glTF materials map to (see
+/// docs/formats.md): colour, diffuse `kd`, Phong highlight `ks` and exponent
+/// `shine`, mirror weight `mirror` (NFF: equal to `ks`), transmission `t` and
+/// index of refraction, light emitted, and a texture for the colour.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub color: Color,
@@ -16,6 +27,12 @@ pub struct Material {
     pub shine: f32,
     pub t: f32,
     pub ior: f32,
+    pub mirror: f32,
+    /// Added to the colour of every hit, whatever the light (glTF `emissive`).
+    pub emission: Color,
+    /// Index into `Scene::textures`: multiplies `color` where a triangle has
+    /// texture coordinates.
+    pub texture: Option<u32>,
 }
 
 impl Material {
@@ -64,25 +81,32 @@ impl Default for Material {
             shine: 0.0,
             t: 0.0,
             ior: 1.0,
+            mirror: 0.0,
+            emission: Color::ZERO,
+            texture: None,
         }
     }
 }
 
-#[derive(Clone, Debug, PartialEq)]
-pub struct Light {
-    pub position: Vec3,
-    /// `None` when the file gave no colour: intensity then follows the SPD
-    /// convention, 1/sqrt(number of lights), fixed by `Scene::finish`.
-    pub color: Option<Color>,
+/// Which angle `Viewpoint::angle_deg` measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum AngleSpan {
+    /// NFF: between the centres of the edge pixels of the shorter side.
+    #[default]
+    EdgePixelCentres,
+    /// glTF `yfov` and `--fov`: the image's full height, top edge to bottom edge.
+    ImageHeight,
 }
 
-/// NFF `v`: the viewpoint. `angle` (degrees) spans the centres of the edge pixels.
+/// Where the camera is and what it sees: NFF `v`, a glTF camera, or the
+/// command line's `--from/--at/--up/--fov`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Viewpoint {
     pub from: Vec3,
     pub at: Vec3,
     pub up: Vec3,
     pub angle_deg: f32,
+    pub angle_span: AngleSpan,
     pub hither: f32,
     pub width: u32,
     pub height: u32,
@@ -95,6 +119,7 @@ impl Default for Viewpoint {
             at: Vec3::ZERO,
             up: Vec3::Y,
             angle_deg: 45.0,
+            angle_span: AngleSpan::EdgePixelCentres,
             hither: 0.0,
             width: 512,
             height: 512,
@@ -102,19 +127,73 @@ impl Default for Viewpoint {
     }
 }
 
+/// A camera a scene file describes, by name (glTF cameras).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NamedCamera {
+    pub name: String,
+    pub viewpoint: Viewpoint,
+}
+
+/// The file format a scene came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SceneFormat {
+    #[default]
+    Nff,
+    Obj,
+    Gltf,
+}
+
+/// Attributes of a triangle's three corners (`TriangleNormals::Patch` indexes
+/// them): normals for smooth shading, texture coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Corners {
+    pub normals: Option<[Vec3; 3]>,
+    pub uv: Option<[Uv; 3]>,
+}
+
 #[derive(Clone, Debug, Default)]
 pub struct Scene {
+    pub format: SceneFormat,
+    /// The camera in use: NFF's `v`, the chosen glTF camera, or one framing the
+    /// scene's bounds.
     pub viewpoint: Viewpoint,
+    /// Whether `viewpoint` was given by the file (else it frames the bounds).
+    pub viewpoint_given: bool,
+    /// Every camera of the file (glTF), in file order.
+    pub cameras: Vec<NamedCamera>,
     pub background: Color,
     pub lights: Vec<Light>,
     pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
     pub shapes: Vec<Shape>,
     /// Material index of each shape.
     pub shape_material: Vec<u32>,
-    /// Per-vertex normals of smooth triangles (`TriangleNormals::Patch`).
-    pub patch_normals: Vec<[Vec3; 3]>,
-    /// Degenerate geometry skipped, with where it was.
+    /// Group of each shape: an OBJ object or group, a glTF node, an NFF entity.
+    /// Object-tree cuts (§2.3) treat a group as one object.
+    pub shape_group: Vec<u32>,
+    /// Per-corner attributes of smooth or textured triangles (`TriangleNormals::Patch`).
+    pub corners: Vec<Corners>,
+    /// Degenerate geometry skipped and missing textures, with where they were.
     pub warnings: Vec<String>,
+    next_group: u32,
+}
+
+/// What the tracer needs of a hit: the unit shading normal (not yet turned
+/// toward the ray), the colour there (material colour times texture) and the
+/// material.
+pub struct SurfaceSample<'a> {
+    pub normal: Vec3,
+    pub color: Color,
+    pub material: &'a Material,
+}
+
+/// A triangle of a mesh as the OBJ and glTF loaders hand it over.
+pub struct MeshPolygon<'a> {
+    pub vertices: &'a [Vec3],
+    pub normals: Option<&'a [Vec3]>,
+    pub uv: Option<&'a [Uv]>,
+    pub material: u32,
+    pub group: u32,
 }
 
 impl Scene {
@@ -135,10 +214,54 @@ impl Scene {
         (self.materials.len() - 1) as u32
     }
 
+    /// A new group id for the shapes that follow.
+    pub fn new_group(&mut self) -> u32 {
+        self.next_group += 1;
+        self.next_group - 1
+    }
+
     fn push(&mut self, s: Shape) {
         let m = self.current_material();
+        let g = self.new_group();
+        self.push_with(s, m, g);
+    }
+
+    fn push_with(&mut self, s: Shape, material: u32, group: u32) {
+        if self.materials.is_empty() {
+            self.materials.push(Material::default());
+        }
         self.shapes.push(s);
-        self.shape_material.push(m);
+        self.shape_material.push(material);
+        self.shape_group.push(group);
+    }
+
+    /// The shading normal, colour and material where a ray met primitive `prim`.
+    #[inline]
+    pub fn surface_at(&self, prim: usize, hit: &SurfaceHit, point: Vec3) -> SurfaceSample<'_> {
+        let shape = &self.shapes[prim];
+        let material = &self.materials[self.shape_material[prim] as usize];
+        let normal = shape.normal(point, hit, &self.corners);
+        let mut color = material.color;
+        if let (Some(tex), Shape::Triangle(t)) = (material.texture, shape) {
+            if let TriangleNormals::Patch(i) = t.normals {
+                if let Some([a, b, c]) = self.corners[i as usize].uv {
+                    let uv = a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v;
+                    color *= self.textures[tex as usize].sample(uv.x, uv.y);
+                }
+            }
+        }
+        SurfaceSample {
+            normal,
+            color,
+            material,
+        }
+    }
+
+    /// Bounds of every shape (empty for an empty scene).
+    pub fn bounds(&self) -> Aabb {
+        self.shapes
+            .iter()
+            .fold(Aabb::EMPTY, |b, s| b.union(s.bounds()))
     }
 
     /// `where_` locates the entity for the warning (e.g. "scene.nff:12").
@@ -196,67 +319,98 @@ impl Scene {
         normals: Option<&[Vec3]>,
         where_: &str,
     ) {
+        // The current material (created by `push_with` if there is none yet).
+        let material = self.materials.len().saturating_sub(1) as u32;
+        let group = self.new_group();
+        self.add_mesh_polygon(
+            &MeshPolygon {
+                vertices,
+                normals,
+                uv: None,
+                material,
+                group,
+            },
+            &|| where_.to_string(),
+        );
+    }
+
+    /// A polygon of a mesh (OBJ face, glTF triangle) with its own material and
+    /// group, per-vertex normals and texture coordinates when it has them. It is
+    /// cut into triangles exactly as NFF's polygons are.
+    /// `where_` locates the polygon for a warning (made only when one is given).
+    pub fn add_mesh_polygon(&mut self, poly: &MeshPolygon, where_: &dyn Fn() -> String) {
+        let vertices = poly.vertices;
         if !within_range(vertices) {
-            self.warnings.push(out_of_range("polygon", where_));
+            self.warnings.push(out_of_range("polygon", &where_()));
             return;
         }
         let face_normal = newell_normal(vertices);
         let Some(face_normal) = face_normal else {
             self.warnings
-                .push(format!("{where_}: polygon of zero area skipped"));
+                .push(format!("{}: polygon of zero area skipped", where_()));
             return;
         };
-        let plane = project_to_plane(vertices, face_normal);
+        // A triangle is its own triangulation: no allocation for mesh triangles.
         // Small polygons keep ear clipping (its triangles, so the images do not
         // change); past the cap, only convex ones are taken, as a fan.
-        let large = vertices.len() > MAX_NONCONVEX_VERTICES;
-        let convex = large && is_convex(&plane);
-        if large && !convex {
-            self.warnings.push(format!(
-                "{where_}: non-convex polygon of {} vertices skipped: ear clipping beyond \
-                 {MAX_NONCONVEX_VERTICES} vertices could take minutes (split it into smaller polygons)",
-                vertices.len()
-            ));
-            return;
-        }
-        let triangles = if convex {
-            fan(vertices.len())
+        let cut;
+        let triangles: &[[usize; 3]] = if vertices.len() == 3 {
+            &[[0, 1, 2]]
         } else {
-            ear_clip(&plane)
+            let plane = project_to_plane(vertices, face_normal);
+            let large = vertices.len() > MAX_NONCONVEX_VERTICES;
+            let convex = large && is_convex(&plane);
+            if large && !convex {
+                self.warnings.push(format!(
+                    "{}: non-convex polygon of {} vertices skipped: ear clipping beyond \
+                     {MAX_NONCONVEX_VERTICES} vertices could take minutes (split it into smaller polygons)",
+                    where_(),
+                    vertices.len()
+                ));
+                return;
+            }
+            cut = if convex {
+                fan(vertices.len())
+            } else {
+                ear_clip(&plane)
+            };
+            &cut
         };
         if triangles.is_empty() {
             self.warnings.push(format!(
-                "{where_}: polygon could not be triangulated, skipped"
+                "{}: polygon could not be triangulated, skipped",
+                where_()
             ));
             return;
         }
-        for [a, b, c] in triangles {
+        for &[a, b, c] in triangles {
             let (pa, pb, pc) = (vertices[a], vertices[b], vertices[c]);
             if (pb - pa).cross(pc - pa).length_squared() == 0.0 {
                 continue; // a sliver from collinear vertices; the rest covers the area
             }
-            let tri_normals = match normals {
-                None => TriangleNormals::Flat,
-                Some(ns) => {
-                    let pick = |i: usize| {
-                        let n = ns[i].normalize_or_zero();
-                        if n == Vec3::ZERO {
-                            face_normal
-                        } else {
-                            n
-                        }
-                    };
-                    self.patch_normals.push([pick(a), pick(b), pick(c)]);
-                    TriangleNormals::Patch((self.patch_normals.len() - 1) as u32)
-                }
+            let normals = poly.normals.map(|ns| {
+                let pick = |i: usize| {
+                    let n = ns[i].normalize_or_zero();
+                    if n == Vec3::ZERO || !n.is_finite() {
+                        face_normal
+                    } else {
+                        n
+                    }
+                };
+                [pick(a), pick(b), pick(c)]
+            });
+            let uv = poly.uv.map(|uv| [uv[a], uv[b], uv[c]]);
+            let tri_normals = if normals.is_none() && uv.is_none() {
+                TriangleNormals::Flat
+            } else {
+                self.corners.push(Corners { normals, uv });
+                TriangleNormals::Patch((self.corners.len() - 1) as u32)
             };
-            self.push(Shape::Triangle(Triangle::new(
-                pa,
-                pb,
-                pc,
-                face_normal,
-                tri_normals,
-            )));
+            self.push_with(
+                Shape::Triangle(Triangle::new(pa, pb, pc, face_normal, tri_normals)),
+                poly.material,
+                poly.group,
+            );
         }
     }
 
@@ -271,11 +425,45 @@ impl Scene {
         }
     }
 
-    pub fn light_color(&self, i: usize) -> Color {
-        let n = self.lights.len().max(1) as f32;
-        self.lights[i]
-            .color
-            .unwrap_or_else(|| Color::splat(1.0 / n.sqrt()))
+    /// Adds a white point light at the camera (a headlight) for a scene that
+    /// has none, so that a model without lights is seen; returns whether it did.
+    pub fn add_headlight_if_dark(&mut self) -> bool {
+        if !self.lights.is_empty() {
+            return false;
+        }
+        self.lights
+            .push(Light::point(self.viewpoint.from, Some(Color::ONE)));
+        true
+    }
+
+    /// Points the camera at the whole scene: from the front (+z, y up), raised
+    /// and turned a little so that a flat model is not seen edge-on, at a
+    /// distance that fits the bounding sphere in a 45° field of view.
+    pub fn frame_bounds(&mut self) {
+        let b = self.bounds();
+        let (center, radius) = if b.min.x <= b.max.x {
+            ((b.min + b.max) * 0.5, ((b.max - b.min) * 0.5).length())
+        } else {
+            (Vec3::ZERO, 1.0)
+        };
+        let radius = if radius > 0.0 && radius.is_finite() {
+            radius
+        } else {
+            1.0
+        };
+        let fov_deg: f32 = 45.0;
+        let distance = radius / (fov_deg.to_radians() * 0.5).sin() * 1.05;
+        self.viewpoint = Viewpoint {
+            from: center + Vec3::new(0.35, 0.5, 1.0).normalize() * distance,
+            at: center,
+            up: Vec3::Y,
+            angle_deg: fov_deg,
+            angle_span: AngleSpan::ImageHeight,
+            hither: distance * 1e-4,
+            width: self.viewpoint.width,
+            height: self.viewpoint.height,
+        };
+        self.viewpoint_given = false;
     }
 }
 
@@ -443,10 +631,7 @@ mod tests {
     fn spd_light_intensity() {
         let mut s = Scene::new();
         for _ in 0..4 {
-            s.lights.push(Light {
-                position: Vec3::ZERO,
-                color: None,
-            });
+            s.lights.push(Light::point(Vec3::ZERO, None));
         }
         s.finish();
         assert_eq!(s.lights[0].color, Some(Color::splat(0.5)));

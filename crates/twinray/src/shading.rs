@@ -12,6 +12,7 @@
 use arrayvec::ArrayVec;
 
 use crate::bvh::{AnyHit, AnyHitTest, SegmentPacket, TraversalStats};
+use crate::lights::Light;
 use crate::math::{Color, Ray, Vec3};
 use crate::scene::Material;
 use crate::world::World;
@@ -37,6 +38,8 @@ pub struct SurfacePoint<'a> {
     /// Distance along the incoming ray (for the offset margin).
     pub t: f32,
     pub material: &'a Material,
+    /// The surface colour here: the material's, times its texture.
+    pub color: Color,
 }
 
 /// What reaches a point from a light through transmitting objects: the product
@@ -181,23 +184,23 @@ pub fn blocks(world: &World, prim: u32, origin: Vec3, dir: Vec3, dist: f32) -> b
         .is_some()
 }
 
-/// The direction and distance from a surface point to a light, if the light is
-/// on the side the normal faces (else no shadow ray is cast).
+/// The direction, distance and colour of a light arriving at a surface point,
+/// if the light is on the side the normal faces (else no shadow ray is cast).
 #[inline]
-pub fn toward_light(sp: &SurfacePoint, light: Vec3) -> Option<(Vec3, f32)> {
-    let to_light = light - sp.point;
-    let dist = to_light.length();
-    if dist <= 0.0 {
-        return None;
-    }
-    let l = to_light / dist;
-    (sp.normal.dot(l) > 0.0).then_some((l, dist))
+pub fn toward_light(sp: &SurfacePoint, light: &Light) -> Option<(Vec3, f32, Color)> {
+    let (l, dist, color) = light.toward(sp.point)?;
+    (sp.normal.dot(l) > 0.0).then_some((l, dist, color))
 }
 
-/// Ambient term of the material at `sp`.
+/// Ambient term of the surface at `sp`, plus the light it emits.
 #[inline]
 pub fn ambient(sp: &SurfacePoint) -> Color {
-    sp.material.color * sp.material.ambient()
+    let a = sp.color * sp.material.ambient();
+    if sp.material.emission == Color::ZERO {
+        a
+    } else {
+        a + sp.material.emission
+    }
 }
 
 /// Diffuse and Phong highlight from a light in direction `l` with colour
@@ -211,7 +214,7 @@ pub fn light_contribution(
     through: f32,
 ) -> Color {
     let m = sp.material;
-    let mut c = m.color * (m.kd * sp.normal.dot(l));
+    let mut c = sp.color * (m.kd * sp.normal.dot(l));
     if m.ks > 0.0 {
         let r = crate::math::reflect(-l, sp.normal);
         let r_dot_v = r.dot(-view_dir);

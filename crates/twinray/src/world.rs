@@ -61,13 +61,35 @@ impl World {
     }
 
     /// The scene made ready to trace, its object tree cut at `cut` if given.
-    /// A primitive is cut only if all of it lies beyond the cut.
+    /// The cut takes whole groups (the loader's unit: an NFF entity, an OBJ
+    /// object, a glTF node), and a group only if all of it lies beyond the cut,
+    /// so that objects that touch across the cut stay together.
     pub fn with_cut(mut scene: Scene, cut: Option<Cut>) -> World {
         let start = Instant::now();
         scene.finish();
         let boxes: Vec<Aabb> = scene.shapes.iter().map(|s| s.bounds()).collect();
-        let (near, far): (Vec<u32>, Vec<u32>) = (0..boxes.len() as u32)
-            .partition(|&i| cut.is_none_or(|c| !c.beyond(&boxes[i as usize])));
+        let far_groups: Vec<bool> = match cut {
+            None => Vec::new(),
+            Some(c) => {
+                let groups = scene
+                    .shape_group
+                    .iter()
+                    .map(|&g| g as usize + 1)
+                    .max()
+                    .unwrap_or(0);
+                let mut beyond = vec![true; groups];
+                for (b, &g) in boxes.iter().zip(&scene.shape_group) {
+                    beyond[g as usize] &= c.beyond(b);
+                }
+                beyond
+            }
+        };
+        let (near, far): (Vec<u32>, Vec<u32>) = (0..boxes.len() as u32).partition(|&i| {
+            !far_groups
+                .get(scene.shape_group[i as usize] as usize)
+                .copied()
+                .unwrap_or(false)
+        });
         let build = |set: &[u32]| {
             let set_boxes: Vec<Aabb> = set.iter().map(|&i| boxes[i as usize]).collect();
             let mut bvh = bvh::build(&set_boxes, &BuildOptions::default());
@@ -88,12 +110,15 @@ impl World {
         }
         let mut shapes = Vec::with_capacity(order.len());
         let mut materials = Vec::with_capacity(order.len());
+        let mut groups = Vec::with_capacity(order.len());
         for &i in &order {
             shapes.push(scene.shapes[i as usize].clone());
             materials.push(scene.shape_material[i as usize]);
+            groups.push(scene.shape_group[i as usize]);
         }
         scene.shapes = shapes;
         scene.shape_material = materials;
+        scene.shape_group = groups;
         bvh.order = (0..near_count).collect();
         World {
             scene,
@@ -149,13 +174,15 @@ impl World {
         ta.face_normal.dot(tb.v0 - ta.v0).abs() <= 1e-5 * scale
     }
 
-    /// Bytes held by shapes, materials, normals and the hierarchy.
+    /// Bytes held by shapes, materials, corner attributes, textures and the hierarchy.
     pub fn memory_bytes(&self) -> usize {
         let s = &self.scene;
         s.shapes.len() * std::mem::size_of::<crate::shapes::Shape>()
             + s.shape_material.len() * 4
-            + s.patch_normals.len() * std::mem::size_of::<[crate::math::Vec3; 3]>()
+            + s.shape_group.len() * 4
+            + s.corners.len() * std::mem::size_of::<crate::scene::Corners>()
             + s.materials.len() * std::mem::size_of::<crate::scene::Material>()
+            + s.textures.iter().map(|t| t.memory_bytes()).sum::<usize>()
             + self.bvh.memory_bytes()
             + self.far.as_ref().map_or(0, Bvh::memory_bytes)
     }

@@ -46,6 +46,18 @@ pub fn run(world: &World, camera: &Camera, rig: &Rig, opts: &RenderOptions) -> R
     render(world, camera, rig, opts, &|_, _| {}).expect("render")
 }
 
+/// One mono image of `world` by the reference method, pixel centres.
+pub fn mono(world: &World, width: u32, height: u32) -> twinray::Image {
+    let cam = camera(world, width, height);
+    let out = run(
+        world,
+        &cam,
+        &Rig::mono(),
+        &options(Method::Independent, Sampling::Centers),
+    );
+    out.images.into_iter().next().expect("one view")
+}
+
 /// The distance from the eye to the NFF `at` point: the default convergence.
 pub fn default_convergence(world: &World) -> f64 {
     (world.scene.viewpoint.at - world.scene.viewpoint.from).length() as f64

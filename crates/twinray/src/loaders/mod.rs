@@ -1,14 +1,19 @@
 //! Scene loaders: turn a scene file into a [`Scene`].
 //!
-//! Only NFF (Eric Haines' Neutral File Format, the format of the Standard
-//! Procedural Databases) for now; [`load_scene`] picks the loader by extension.
+//! NFF (Eric Haines' Neutral File Format, the format of the Standard
+//! Procedural Databases), Wavefront OBJ with its MTL materials, and glTF 2.0
+//! (`.gltf`, `.glb`); [`load_scene`] picks the loader by extension.
 
 use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
+pub mod gltf;
 pub mod nff;
+pub mod obj;
+
+const SUPPORTED: &str = ".nff, .obj, .gltf, .glb";
 
 /// Limits on what a scene may ask for (absurd resolutions are refused unless raised).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -17,6 +22,9 @@ pub struct LoadOptions {
     pub max_resolution: u32,
     /// Largest accepted number of vertices of one polygon or patch.
     pub max_vertices: usize,
+    /// Largest accepted number of triangles of a mesh file (OBJ, glTF):
+    /// refused before the memory for them is taken.
+    pub max_triangles: u64,
 }
 
 impl Default for LoadOptions {
@@ -24,25 +32,72 @@ impl Default for LoadOptions {
         LoadOptions {
             max_resolution: 16384,
             max_vertices: 1_000_000,
+            max_triangles: 100_000_000,
         }
     }
 }
 
-/// Load a scene, choosing the format by file extension (`.nff`, any case).
+/// Load a scene, choosing the format by file extension (any case).
 pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
     match ext.as_deref() {
         Some("nff") => nff::load_nff(path, opts),
+        Some("obj") => obj::load_obj(path, opts),
+        Some("gltf") | Some("glb") => gltf::load_gltf(path, opts),
         Some(other) => Err(Error::Invalid(format!(
-            "{}: unknown scene format '.{other}' (supported: .nff)",
+            "{}: unknown scene format '.{other}' (supported: {SUPPORTED})",
             path.display()
         ))),
         None => Err(Error::Invalid(format!(
-            "{}: cannot tell the scene format without a file extension (supported: .nff)",
+            "{}: cannot tell the scene format without a file extension (supported: {SUPPORTED})",
             path.display()
         ))),
+    }
+}
+
+/// Reads a whole file, naming it in the error.
+fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Refuses a mesh file of more than `opts.max_triangles` triangles, before
+/// taking their memory; reserves it otherwise (corner records too when the
+/// mesh has normals or texture coordinates).
+fn reserve_triangles(
+    scene: &mut Scene,
+    triangles: u64,
+    with_corners: bool,
+    file: &Path,
+    opts: &LoadOptions,
+) -> Result<()> {
+    if triangles > opts.max_triangles {
+        return Err(Error::Invalid(format!(
+            "{}: {triangles} triangles exceed the limit of {}",
+            file.display(),
+            opts.max_triangles
+        )));
+    }
+    scene.shapes.reserve(triangles as usize);
+    if with_corners {
+        scene.corners.reserve(triangles as usize);
+    }
+    Ok(())
+}
+
+/// A mesh file's warnings past the first `keep` folded into one line, so that
+/// a scanned model with thousands of slivers does not flood the terminal.
+fn fold_warnings(scene: &mut Scene, from: usize, keep: usize) {
+    let extra = scene.warnings.len().saturating_sub(from + keep);
+    if extra > 0 {
+        scene.warnings.truncate(from + keep);
+        scene
+            .warnings
+            .push(format!("... and {extra} more warnings like these"));
     }
 }
 
@@ -52,12 +107,12 @@ mod tests {
 
     #[test]
     fn unknown_extension_is_invalid() {
-        let e = load_scene(Path::new("scene.obj"), &LoadOptions::default()).unwrap_err();
+        let e = load_scene(Path::new("scene.ply"), &LoadOptions::default()).unwrap_err();
         let Error::Invalid(msg) = &e else {
             panic!("{e:?}")
         };
-        assert!(msg.contains("unknown scene format '.obj'"), "{msg}");
-        assert!(msg.contains(".nff"), "{msg}");
+        assert!(msg.contains("unknown scene format '.ply'"), "{msg}");
+        assert!(msg.contains(".nff, .obj, .gltf, .glb"), "{msg}");
         let e = load_scene(Path::new("scene"), &LoadOptions::default()).unwrap_err();
         assert!(matches!(e, Error::Invalid(_)), "{e:?}");
     }

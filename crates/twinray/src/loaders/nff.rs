@@ -492,6 +492,7 @@ impl Parser<'_, '_> {
             }
         }
         self.scene.viewpoint = vp;
+        self.scene.viewpoint_given = true;
         Ok(())
     }
 
@@ -552,7 +553,7 @@ impl Parser<'_, '_> {
                 ),
             ));
         }
-        self.scene.lights.push(Light { position, color });
+        self.scene.lights.push(Light::point(position, color));
         Ok(())
     }
 
@@ -566,8 +567,14 @@ impl Parser<'_, '_> {
             shine,
             t,
             ior,
+            ..Material::default()
         }
         .clamped();
+        // NFF's Ks is both the highlight and the mirror weight.
+        let material = Material {
+            mirror: material.ks,
+            ..material
+        };
         if !changed.is_empty() {
             self.set_where(line);
             let warning = format!("{}: material {}", self.where_, changed.join(", "));
@@ -754,9 +761,9 @@ pp 3
         // Three lights: colourless ones get the SPD default 1/sqrt(3).
         assert_eq!(s.lights.len(), 3);
         let d = Color::splat(1.0 / 3f32.sqrt());
-        assert_eq!(s.lights[0].position, Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!(s.lights[0].position(), Some(Vec3::new(1.0, 2.0, 3.0)));
         assert_eq!(s.lights[0].color, Some(d));
-        assert_eq!(s.lights[1].position, Vec3::new(4.0, 5.0, 6.0));
+        assert_eq!(s.lights[1].position(), Some(Vec3::new(4.0, 5.0, 6.0)));
         assert_eq!(s.lights[1].color, Some(Vec3::new(0.5, 0.25, 1.0)));
         assert_eq!(s.lights[2].color, Some(d));
 
@@ -770,6 +777,8 @@ pp 3
                 shine: 3.0,
                 t: 0.9,
                 ior: 1.5,
+                mirror: 0.5,
+                ..Material::default()
             }
         );
 
@@ -803,8 +812,8 @@ pp 3
             panic!("{:?}", s.shapes[5])
         };
         assert_eq!(pt.normals, TriangleNormals::Patch(0));
-        assert_eq!(s.patch_normals.len(), 1);
-        let [n0, n1, n2] = s.patch_normals[0];
+        assert_eq!(s.corners.len(), 1);
+        let [n0, n1, n2] = s.corners[0].normals.unwrap();
         assert_eq!((n0, n1), (Vec3::Z, Vec3::Z));
         assert!((n2 - Vec3::new(0.0, 1.0, 1.0).normalize()).length() < 1e-6);
     }

@@ -205,8 +205,8 @@ impl<'a> Tracer<'a> {
             if through <= 0.0 {
                 continue;
             }
-            if let Some((dir, _)) = toward_light(sp, light.position) {
-                out += light_contribution(sp, packet.dirs[0], dir, scene.light_color(i), through);
+            if let Some((dir, _, color)) = toward_light(sp, light) {
+                out += light_contribution(sp, packet.dirs[0], dir, color, through);
             }
         }
         out + donor.secondary
@@ -320,16 +320,19 @@ impl<'a> Tracer<'a> {
             let hit = &hits.hit[l];
             let d = packet.dirs[l];
             let shape = &scene.shapes[prim];
-            let material = &scene.materials[scene.shape_material[prim] as usize];
-            self.tree_coefficient = self.tree_coefficient.max(material.ks.max(material.t));
             let point = packet.origins[l] + d * hit.t;
-            let normal = shape.normal(point, hit, &scene.patch_normals);
+            let surface = scene.surface_at(prim, hit, point);
+            let (material, normal) = (surface.material, surface.normal);
+            self.tree_coefficient = self
+                .tree_coefficient
+                .max(material.ks.max(material.mirror).max(material.t));
             let facing = if normal.dot(d) < 0.0 { normal } else { -normal };
             let sp = SurfacePoint {
                 point,
                 normal: facing,
                 t: hit.t,
                 material,
+                color: surface.color,
             };
             s.ambient[l] = ambient(&sp);
             s.prims[l] = prim as u32;
@@ -341,7 +344,7 @@ impl<'a> Tracer<'a> {
                 continue;
             }
             // Transmission first: total internal reflection hands its weight to the mirror.
-            let mut mirror = material.ks;
+            let mut mirror = material.mirror;
             if material.t > 0.0 {
                 let entering = shape.geometric_normal(point).dot(d) < 0.0;
                 let ior = if material.ior > 0.0 {
@@ -363,7 +366,7 @@ impl<'a> Tracer<'a> {
                     None => mirror += material.t,
                 }
             }
-            let spd_forces = self.settings.spd && (material.ks > 0.0 || material.t > 0.0);
+            let spd_forces = self.settings.spd && (material.mirror > 0.0 || material.t > 0.0);
             if (mirror > 0.0 && self.wanted(weights[l] * mirror)) || spd_forces {
                 s.reflected[l] = Some(Spawn {
                     origin: offset_point(point, facing, hit.t),
@@ -398,12 +401,14 @@ impl<'a> Tracer<'a> {
                 t_max: [0.0; K],
                 mask: 0,
             };
+            let mut light_color = [Color::ZERO; K];
             let mut lanes = s.lit;
             while lanes != 0 {
                 let l = lanes.trailing_zeros() as usize;
                 lanes &= lanes - 1;
                 let Some(sp) = &s.points[l] else { continue };
-                if let Some((dir, dist)) = toward_light(sp, light.position) {
+                if let Some((dir, dist, color)) = toward_light(sp, light) {
+                    light_color[l] = color;
                     seg.origins[l] = offset_point(sp.point, sp.normal, sp.t);
                     seg.dirs[l] = dir;
                     seg.t_max[l] = dist;
@@ -417,14 +422,18 @@ impl<'a> Tracer<'a> {
             if let Some(r) = record.as_deref_mut() {
                 r[i] = if seg.mask & 1 != 0 { through[0] } else { 0.0 };
             }
-            let color = scene.light_color(i);
             let mut lanes = seg.mask;
             while lanes != 0 {
                 let l = lanes.trailing_zeros() as usize;
                 lanes &= lanes - 1;
                 if let (Some(sp), true) = (&s.points[l], through[l] > 0.0) {
-                    out[l] +=
-                        light_contribution(sp, packet.dirs[l], seg.dirs[l], color, through[l]);
+                    out[l] += light_contribution(
+                        sp,
+                        packet.dirs[l],
+                        seg.dirs[l],
+                        light_color[l],
+                        through[l],
+                    );
                 }
             }
         }

@@ -13,6 +13,7 @@ pub use sphere::Sphere;
 pub use triangle::{Triangle, TriangleNormals};
 
 use crate::math::{Aabb, Ray, Vec3};
+use crate::scene::Corners;
 use wide::f32x4;
 
 /// Two rays in lanes 0 and 1 of SSE registers, component by component: the
@@ -94,10 +95,10 @@ impl Shape {
 
     /// The oriented unit normal at `point` (outward, or inward for NFF's negative
     /// radii), and for patches the interpolated shading normal.
-    pub fn normal(&self, point: Vec3, hit: &SurfaceHit, patch_normals: &[[Vec3; 3]]) -> Vec3 {
+    pub fn normal(&self, point: Vec3, hit: &SurfaceHit, corners: &[Corners]) -> Vec3 {
         match self {
             Shape::Sphere(s) => s.normal(point),
-            Shape::Triangle(t) => t.normal(hit, patch_normals),
+            Shape::Triangle(t) => t.normal(hit, corners),
             Shape::Cone(c) => c.normal(point),
         }
     }

@@ -1,5 +1,6 @@
 use super::{RayPair, SurfaceHit};
 use crate::math::{Aabb, Ray, Vec3};
+use crate::scene::Corners;
 use wide::f32x4;
 
 /// Where a triangle's shading normal comes from.
@@ -7,7 +8,8 @@ use wide::f32x4;
 pub enum TriangleNormals {
     /// Flat: the face normal of the polygon the triangle was cut from.
     Flat,
-    /// Smooth (NFF `pp`): index into the scene's per-vertex normal triples.
+    /// Index into the scene's per-corner attributes (`Scene::corners`): normals
+    /// of a smooth triangle (NFF `pp`, OBJ `vn`, glTF `NORMAL`), texture coordinates.
     Patch(u32),
 }
 
@@ -128,11 +130,13 @@ impl Triangle {
     }
 
     #[inline]
-    pub fn normal(&self, hit: &SurfaceHit, patch_normals: &[[Vec3; 3]]) -> Vec3 {
+    pub fn normal(&self, hit: &SurfaceHit, corners: &[Corners]) -> Vec3 {
         match self.normals {
             TriangleNormals::Flat => self.face_normal,
             TriangleNormals::Patch(i) => {
-                let [n0, n1, n2] = patch_normals[i as usize];
+                let Some([n0, n1, n2]) = corners[i as usize].normals else {
+                    return self.face_normal;
+                };
                 let n = n0 * (1.0 - hit.u - hit.v) + n1 * hit.u + n2 * hit.v;
                 let n = n.normalize_or_zero();
                 if n == Vec3::ZERO {
@@ -192,7 +196,10 @@ mod tests {
     fn patch_normals_interpolate() {
         let mut t = tri();
         t.normals = TriangleNormals::Patch(0);
-        let normals = [[Vec3::X, Vec3::Y, Vec3::Z]];
+        let normals = [Corners {
+            normals: Some([Vec3::X, Vec3::Y, Vec3::Z]),
+            uv: None,
+        }];
         let h = SurfaceHit {
             t: 1.0,
             u: 0.0,

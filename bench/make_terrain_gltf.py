@@ -1,0 +1,85 @@
+#!/usr/bin/env python3
+"""Writes a height-field terrain as one mesh: NX x NZ cells, two triangles
+each (1000 x 500 = 1,000,000 triangles by default), indexed, with normals.
+
+    python3 bench/make_terrain_gltf.py OUT.glb [NX NZ]
+
+.glb gives one binary glTF file; .gltf gives JSON with an external .bin next
+to it; .obj gives the same triangles as Wavefront OBJ (v, vn, f v//vn).
+Only the standard library is used (array, struct, json).
+"""
+import array, json, math, struct, sys
+
+out = sys.argv[1]
+nx = int(sys.argv[2]) if len(sys.argv) > 2 else 1000
+nz = int(sys.argv[3]) if len(sys.argv) > 3 else 500
+
+def height(x, z):
+    return 0.05 * math.sin(x * 0.11) * math.cos(z * 0.07) + 0.02 * math.sin(x * 0.53 + z * 0.31)
+
+pos = array.array("f")
+nor = array.array("f")
+for j in range(nz + 1):
+    for i in range(nx + 1):
+        x, z = i / nx * 4 - 2, j / nz * 2 - 1
+        y = height(i, j)
+        pos.extend((x, y, z))
+        dx = (height(i + 1, j) - height(i - 1, j)) / (2 * 4 / nx)
+        dz = (height(i, j + 1) - height(i, j - 1)) / (2 * 2 / nz)
+        l = math.sqrt(dx * dx + 1 + dz * dz)
+        nor.extend((-dx / l, 1 / l, -dz / l))
+idx = array.array("I")
+w = nx + 1
+for j in range(nz):
+    for i in range(nx):
+        a = j * w + i
+        idx.extend((a, a + w, a + 1, a + 1, a + w, a + w + 1))
+blobs = [pos.tobytes(), nor.tobytes(), idx.tobytes()]
+offsets = [0, len(blobs[0]), len(blobs[0]) + len(blobs[1])]
+binary = b"".join(blobs)
+n = (nx + 1) * (nz + 1)
+doc = {
+    "asset": {"version": "2.0", "generator": "twinray bench/make_terrain_gltf.py"},
+    "scene": 0,
+    "scenes": [{"nodes": [0]}],
+    "nodes": [{"mesh": 0, "name": "terrain"}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]}],
+    "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.5, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 1}}],
+    "buffers": [{"byteLength": len(binary)}],
+    "bufferViews": [
+        {"buffer": 0, "byteOffset": offsets[0], "byteLength": len(blobs[0]), "target": 34962},
+        {"buffer": 0, "byteOffset": offsets[1], "byteLength": len(blobs[1]), "target": 34962},
+        {"buffer": 0, "byteOffset": offsets[2], "byteLength": len(blobs[2]), "target": 34963},
+    ],
+    "accessors": [
+        {"bufferView": 0, "componentType": 5126, "count": n, "type": "VEC3",
+         "min": [min(pos[0::3]), min(pos[1::3]), min(pos[2::3])],
+         "max": [max(pos[0::3]), max(pos[1::3]), max(pos[2::3])]},
+        {"bufferView": 1, "componentType": 5126, "count": n, "type": "VEC3"},
+        {"bufferView": 2, "componentType": 5125, "count": len(idx), "type": "SCALAR"},
+    ],
+}
+if out.endswith(".obj"):
+    with open(out, "w") as f:
+        f.write("o terrain\n")
+        f.write("".join("v %.6f %.6f %.6f\n" % tuple(pos[k:k + 3]) for k in range(0, len(pos), 3)))
+        f.write("".join("vn %.6f %.6f %.6f\n" % tuple(nor[k:k + 3]) for k in range(0, len(nor), 3)))
+        f.write("".join("f %d//%d %d//%d %d//%d\n" % (idx[k] + 1, idx[k] + 1, idx[k + 1] + 1, idx[k + 1] + 1, idx[k + 2] + 1, idx[k + 2] + 1)
+                        for k in range(0, len(idx), 3)))
+elif out.endswith(".glb"):
+    js = json.dumps(doc).encode()
+    js += b" " * (-len(js) % 4)
+    binary += b"\0" * (-len(binary) % 4)
+    total = 12 + 8 + len(js) + 8 + len(binary)
+    with open(out, "wb") as f:
+        f.write(struct.pack("<4sII", b"glTF", 2, total))
+        f.write(struct.pack("<I4s", len(js), b"JSON") + js)
+        f.write(struct.pack("<I4s", len(binary), b"BIN\0") + binary)
+else:
+    bin_name = out.rsplit("/", 1)[-1].rsplit(".", 1)[0] + ".bin"
+    doc["buffers"][0]["uri"] = bin_name
+    with open(out.rsplit("/", 1)[0] + "/" + bin_name if "/" in out else bin_name, "wb") as f:
+        f.write(binary)
+    with open(out, "w") as f:
+        json.dump(doc, f)
+print(f"{out}: {len(idx) // 3} triangles, {n} vertices")

@@ -1,0 +1,685 @@
+//! Wavefront OBJ with MTL materials, read with `tobj`.
+//!
+//! * Objects (`o`) and groups (`g`) become scene groups (one id per name).
+//! * Polygons of any size are cut into triangles exactly as NFF's are.
+//! * `vn` normals give smooth shading, `vt` texture coordinates feed `map_Kd`.
+//! * MTL `Kd`, `Ks`, `Ns`, `d`/`Tr`, `Ni`, `Ke`, `illum` and `map_Kd` map to
+//!   twinray's Whitted material as docs/formats.md explains.
+//!
+//! A malformed OBJ or MTL line is an error naming the file and the line (tobj
+//! reads line by line; a counting reader tells which line it stopped on). A
+//! missing MTL file or texture is a warning: the default material, or the
+//! material's colour, stands in.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::io::{BufRead, Read};
+use std::path::{Path, PathBuf};
+
+use super::{fold_warnings, read_file, reserve_triangles, LoadOptions};
+use crate::error::{Error, Result};
+use crate::math::{Color, Vec3};
+use crate::scene::{Material, MeshPolygon, Scene, SceneFormat, Uv};
+use crate::texture::{Texture, Wrap};
+
+/// Read and parse an OBJ file and the MTL files it names.
+pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene> {
+    let bytes = read_file(path)?;
+    parse_obj(&bytes, path, opts)
+}
+
+/// A `BufRead` that counts the lines handed out, so that a parse error can
+/// name the line the parser stopped on.
+struct LineCounter<R> {
+    inner: R,
+    newlines: usize,
+    ends_line: bool,
+}
+
+impl<R> LineCounter<R> {
+    fn new(inner: R) -> Self {
+        LineCounter {
+            inner,
+            newlines: 0,
+            ends_line: true,
+        }
+    }
+
+    /// 1-based line of the last byte consumed.
+    fn line(&self) -> usize {
+        if self.ends_line {
+            self.newlines.max(1)
+        } else {
+            self.newlines + 1
+        }
+    }
+}
+
+impl<R: BufRead> Read for LineCounter<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = {
+            let data = self.fill_buf()?;
+            let n = data.len().min(buf.len());
+            buf[..n].copy_from_slice(&data[..n]);
+            n
+        };
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl<R: BufRead> BufRead for LineCounter<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        self.inner.fill_buf()
+    }
+
+    fn consume(&mut self, amt: usize) {
+        if let Ok(data) = self.inner.fill_buf() {
+            let taken = &data[..amt.min(data.len())];
+            self.newlines += taken.iter().filter(|&&b| b == b'\n').count();
+            if let Some(&last) = taken.last() {
+                self.ends_line = last == b'\n';
+            }
+        }
+        self.inner.consume(amt);
+    }
+}
+
+/// What tobj's error means, for a user.
+fn explain(e: tobj::LoadError) -> String {
+    use tobj::LoadError as E;
+    match e {
+        E::ReadError => "not a text file (invalid UTF-8)".into(),
+        E::PositionParseError => "vertex 'v' needs 3 numbers (x y z [w])".into(),
+        E::NormalParseError => "normal 'vn' needs 3 numbers".into(),
+        E::TexcoordParseError => "texture coordinate 'vt' needs 1 to 3 numbers".into(),
+        E::FaceParseError => "face 'f' needs vertex indices (v, v/vt, v//vn or v/vt/vn)".into(),
+        E::FaceVertexOutOfBounds => "face refers to a vertex that does not exist".into(),
+        E::FaceTexCoordOutOfBounds => {
+            "face refers to a texture coordinate that does not exist".into()
+        }
+        E::FaceNormalOutOfBounds => "face refers to a normal that does not exist".into(),
+        E::InvalidPolygon => "face with fewer than 3 vertices".into(),
+        other => other.to_string(),
+    }
+}
+
+/// Parse OBJ bytes; `file` names it in messages and locates its MTL files and
+/// textures.
+pub fn parse_obj(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {
+    let dir = file.parent().unwrap_or(Path::new("")).to_path_buf();
+    let warnings = RefCell::new(Vec::<String>::new());
+    let mtl_error = RefCell::new(None::<Error>);
+    let material_loader = |name: &Path| -> tobj::MTLLoadResult {
+        let mtl_path = dir.join(name);
+        let Ok(mtl_bytes) = std::fs::read(&mtl_path) else {
+            warnings.borrow_mut().push(format!(
+                "{}: material library {} not found; default materials used",
+                file.display(),
+                mtl_path.display()
+            ));
+            return Err(tobj::LoadError::OpenFileFailed);
+        };
+        let mtl_bytes = match normalize_mtl_colors(&mtl_bytes) {
+            Ok(b) => b,
+            Err((line, message)) => {
+                *mtl_error.borrow_mut() = Some(Error::Parse {
+                    file: mtl_path.clone(),
+                    line,
+                    message,
+                });
+                return Err(tobj::LoadError::MaterialParseError);
+            }
+        };
+        let mut reader = LineCounter::new(&mtl_bytes[..]);
+        tobj::load_mtl_buf(&mut reader).inspect_err(|&e| {
+            *mtl_error.borrow_mut() = Some(Error::Parse {
+                file: mtl_path.clone(),
+                line: reader.line(),
+                message: explain(e),
+            });
+        })
+    };
+    let mut reader = LineCounter::new(bytes);
+    let load = tobj::LoadOptions {
+        single_index: false,
+        triangulate: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let parsed = tobj::load_obj_buf(&mut reader, &load, material_loader);
+    if let Some(e) = mtl_error.into_inner() {
+        return Err(e);
+    }
+    let (models, materials) = parsed.map_err(|e| Error::Parse {
+        file: file.to_path_buf(),
+        line: reader.line(),
+        message: explain(e),
+    })?;
+    let materials = materials.unwrap_or_default();
+
+    let mut scene = Scene::new();
+    scene.format = SceneFormat::Obj;
+    scene.warnings = warnings.into_inner();
+    let mut textures = TextureCache::new(&dir);
+    for m in &materials {
+        let texture = m
+            .diffuse_texture
+            .as_deref()
+            .and_then(|spec| textures.get(&mut scene, spec, &m.name, file));
+        scene.add_material(material_from_mtl(m, texture));
+    }
+    // Faces without `usemtl`: the default material, after the file's.
+    let default_material = scene.add_material(Material {
+        color: Color::splat(0.8),
+        ..Material::default()
+    });
+
+    let triangles: u64 = models.iter().map(|m| face_triangles(&m.mesh)).sum::<u64>();
+    let with_corners = models
+        .iter()
+        .any(|m| !m.mesh.normals.is_empty() || !m.mesh.texcoords.is_empty());
+    reserve_triangles(&mut scene, triangles, with_corners, file, opts)?;
+
+    let given = FaceAttributes::of(bytes);
+    let total_faces: usize = models.iter().map(|m| face_count(&m.mesh)).sum();
+    let mut given = (given.0.len() == total_faces).then_some(given);
+    let first_warning = scene.warnings.len();
+    let mut groups: HashMap<&str, u32> = HashMap::new();
+    for model in &models {
+        let group = *groups
+            .entry(model.name.as_str())
+            .or_insert_with(|| scene.new_group());
+        let material = model
+            .mesh
+            .material_id
+            .filter(|&i| i < materials.len())
+            .map_or(default_material, |i| i as u32);
+        let faces = face_count(&model.mesh);
+        let given_here = given.as_mut().map(|g| g.take(faces));
+        add_mesh(
+            &mut scene,
+            model,
+            material,
+            group,
+            file,
+            opts,
+            given_here.as_deref(),
+        )?;
+    }
+    fold_warnings(&mut scene, first_warning, 10);
+    scene.frame_bounds();
+    Ok(scene)
+}
+
+/// MTL colour statements (`Ka`, `Kd`, `Ks`, `Ke`) as tobj takes them: three
+/// numbers. One number is a grey and is repeated; two are an error (tobj
+/// would panic on them). Returns the 1-based line and message of an error.
+fn normalize_mtl_colors(bytes: &[u8]) -> std::result::Result<Vec<u8>, (usize, String)> {
+    let mut out = Vec::with_capacity(bytes.len() + 64);
+    for (i, line) in bytes.split_inclusive(|&b| b == b'\n').enumerate() {
+        let text = String::from_utf8_lossy(line);
+        let mut words = text.split_whitespace();
+        let key = words.next().unwrap_or("");
+        if matches!(key, "Ka" | "Kd" | "Ks" | "Ke") {
+            let values: Vec<&str> = words.collect();
+            match values.len() {
+                1 => {
+                    let v = values[0];
+                    out.extend(format!("{key} {v} {v} {v}\n").bytes());
+                    continue;
+                }
+                0 | 2 => {
+                    return Err((
+                        i + 1,
+                        format!("colour '{key}' needs 3 numbers (r g b), or 1 for a grey"),
+                    ))
+                }
+                _ => {}
+            }
+        }
+        out.extend_from_slice(line);
+    }
+    Ok(out)
+}
+
+/// Which faces of an OBJ file name texture coordinates and normals for all
+/// their vertices, in file order: tobj makes up indices for vertices without
+/// them, which must not turn a flat face smooth.
+struct FaceAttributes(Vec<(bool, bool)>, usize);
+
+impl FaceAttributes {
+    fn of(bytes: &[u8]) -> FaceAttributes {
+        let mut faces = Vec::new();
+        for line in bytes.split(|&b| b == b'\n') {
+            let mut words = line
+                .split(|b| b.is_ascii_whitespace())
+                .filter(|w| !w.is_empty());
+            if words.next() != Some(b"f") {
+                continue;
+            }
+            let (mut count, mut vt, mut vn) = (0, true, true);
+            for v in words {
+                let mut parts = v.split(|&b| b == b'/').skip(1);
+                vt &= parts.next().is_some_and(|p| !p.is_empty());
+                vn &= parts.next().is_some_and(|p| !p.is_empty());
+                count += 1;
+            }
+            if count >= 3 {
+                faces.push((vt, vn)); // points and lines: tobj drops them too
+            }
+        }
+        FaceAttributes(faces, 0)
+    }
+
+    /// The next `n` faces' flags.
+    fn take(&mut self, n: usize) -> Vec<(bool, bool)> {
+        let start = self.1.min(self.0.len());
+        self.1 += n;
+        self.0[start..self.1.min(self.0.len())].to_vec()
+    }
+}
+
+fn face_count(mesh: &tobj::Mesh) -> usize {
+    if mesh.face_arities.is_empty() {
+        mesh.indices.len() / 3
+    } else {
+        mesh.face_arities.len()
+    }
+}
+
+/// Triangles the faces of `mesh` will become (before degenerate ones are dropped).
+fn face_triangles(mesh: &tobj::Mesh) -> u64 {
+    if mesh.face_arities.is_empty() {
+        mesh.indices.len() as u64 / 3
+    } else {
+        mesh.face_arities
+            .iter()
+            .map(|&n| (n as u64).saturating_sub(2))
+            .sum()
+    }
+}
+
+fn add_mesh(
+    scene: &mut Scene,
+    model: &tobj::Model,
+    material: u32,
+    group: u32,
+    file: &Path,
+    opts: &LoadOptions,
+    given: Option<&[(bool, bool)]>,
+) -> Result<()> {
+    let mesh = &model.mesh;
+    let n = mesh.indices.len();
+    let has_normals = mesh.normal_indices.len() == n && !mesh.normals.is_empty();
+    let has_uv = mesh.texcoord_indices.len() == n && !mesh.texcoords.is_empty();
+    let position = |i: u32| vec3_at(&mesh.positions, i);
+    let normal = |i: u32| vec3_at(&mesh.normals, i);
+    let uv = |i: u32| {
+        let i = i as usize * 2;
+        let (u, v) = (mesh.texcoords.get(i)?, mesh.texcoords.get(i + 1)?);
+        // OBJ's v runs up the image; the texture's rows run down.
+        Some(Uv::new(*u, 1.0 - *v))
+    };
+    let arities: Box<dyn Iterator<Item = usize>> = if mesh.face_arities.is_empty() {
+        Box::new(std::iter::repeat_n(3, n / 3))
+    } else {
+        Box::new(mesh.face_arities.iter().map(|&a| a as usize))
+    };
+    let (mut vertices, mut normals, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
+    let mut start = 0;
+    for (face, arity) in arities.enumerate() {
+        let end = start + arity;
+        let out_of_range = || {
+            Error::Invalid(format!(
+                "{}: object '{}', face {}: index out of range",
+                file.display(),
+                model.name,
+                face + 1
+            ))
+        };
+        if end > n {
+            return Err(out_of_range());
+        }
+        if arity > opts.max_vertices {
+            return Err(Error::Invalid(format!(
+                "{}: object '{}', face {}: {arity} vertices exceed the limit of {}",
+                file.display(),
+                model.name,
+                face + 1,
+                opts.max_vertices
+            )));
+        }
+        vertices.clear();
+        normals.clear();
+        uvs.clear();
+        for k in start..end {
+            vertices.push(position(mesh.indices[k]).ok_or_else(out_of_range)?);
+            if has_normals {
+                normals.push(normal(mesh.normal_indices[k]).ok_or_else(out_of_range)?);
+            }
+            if has_uv {
+                uvs.push(uv(mesh.texcoord_indices[k]).ok_or_else(out_of_range)?);
+            }
+        }
+        start = end;
+        let face_has = |k: usize| {
+            given
+                .and_then(|g| g.get(face))
+                .is_none_or(|f| [f.0, f.1][k])
+        };
+        if vertices.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Invalid(format!(
+                "{}: object '{}', face {}: vertex coordinate is not a finite number",
+                file.display(),
+                model.name,
+                face + 1
+            )));
+        }
+        scene.add_mesh_polygon(
+            &MeshPolygon {
+                vertices: &vertices,
+                normals: (has_normals && face_has(1)).then_some(&normals[..]),
+                uv: (has_uv && face_has(0)).then_some(&uvs[..]),
+                material,
+                group,
+            },
+            &|| {
+                format!(
+                    "{}: object '{}', face {}",
+                    file.display(),
+                    model.name,
+                    face + 1
+                )
+            },
+        );
+    }
+    Ok(())
+}
+
+fn vec3_at(values: &[f32], i: u32) -> Option<Vec3> {
+    let i = i as usize * 3;
+    Some(Vec3::new(
+        *values.get(i)?,
+        *values.get(i + 1)?,
+        *values.get(i + 2)?,
+    ))
+}
+
+/// How an MTL material maps to twinray's Whitted material (docs/formats.md):
+/// `Kd` splits into a colour and a diffuse weight (its largest component);
+/// `Ks`'s largest component is the Phong highlight from `illum` 2 on and also
+/// the mirror weight from `illum` 3 on; `1 - d` (or `Tr`) is the transmission,
+/// `Ni` its index of refraction; `Ke` is emitted light.
+pub fn material_from_mtl(m: &tobj::Material, texture: Option<u32>) -> Material {
+    let finite = |x: f32| if x.is_finite() { x.max(0.0) } else { 0.0 };
+    let kd_rgb = m.diffuse.unwrap_or([0.8; 3]).map(finite);
+    let kd = kd_rgb.iter().copied().fold(0.0, f32::max);
+    let color = if kd > 0.0 {
+        Color::from(kd_rgb) / kd
+    } else {
+        Color::ZERO
+    };
+    let ks_max = m
+        .specular
+        .unwrap_or([0.0; 3])
+        .map(finite)
+        .iter()
+        .copied()
+        .fold(0.0, f32::max);
+    let illum = m.illumination_model.unwrap_or(2);
+    let opacity = match (m.dissolve, m.unknown_param.get("Tr")) {
+        (Some(d), _) => d,
+        (None, Some(tr)) => 1.0 - tr.trim().parse::<f32>().unwrap_or(0.0),
+        (None, None) => 1.0,
+    };
+    let t = (1.0 - finite(opacity)).clamp(0.0, 1.0);
+    let ior = m
+        .optical_density
+        .map(finite)
+        .filter(|&n| n > 0.0)
+        .unwrap_or(1.0);
+    Material {
+        color,
+        kd,
+        ks: if illum >= 2 { ks_max } else { 0.0 },
+        shine: finite(m.shininess.unwrap_or(0.0)),
+        t,
+        ior,
+        mirror: if illum >= 3 { ks_max } else { 0.0 },
+        emission: Color::from(m.emissive.unwrap_or([0.0; 3]).map(finite)),
+        texture,
+    }
+}
+
+/// Textures by file, each decoded once however many materials use it.
+struct TextureCache<'a> {
+    dir: &'a Path,
+    loaded: HashMap<PathBuf, Option<u32>>,
+}
+
+impl<'a> TextureCache<'a> {
+    fn new(dir: &'a Path) -> Self {
+        TextureCache {
+            dir,
+            loaded: HashMap::new(),
+        }
+    }
+
+    /// The texture of a `map_Kd` statement (options, then the file name);
+    /// `None`, with a warning, when it cannot be read.
+    fn get(&mut self, scene: &mut Scene, spec: &str, material: &str, file: &Path) -> Option<u32> {
+        let (name, wrap) = texture_file_name(spec);
+        let path = self.dir.join(name.replace('\\', "/"));
+        if let Some(&index) = self.loaded.get(&path) {
+            return index;
+        }
+        let index = match Texture::load(&path) {
+            Ok(mut tex) => {
+                tex.wrap_s = wrap;
+                tex.wrap_t = wrap;
+                scene.textures.push(tex);
+                Some((scene.textures.len() - 1) as u32)
+            }
+            Err(e) => {
+                scene.warnings.push(format!(
+                    "{}: material '{material}': texture {e}; the material's colour is used",
+                    file.display()
+                ));
+                None
+            }
+        };
+        self.loaded.insert(path, index);
+        index
+    }
+}
+
+/// The file name of a `map_Kd` argument, after its options (`-clamp on`,
+/// `-s 1 1 1`, ...), and the wrap mode `-clamp` asks for.
+fn texture_file_name(spec: &str) -> (String, Wrap) {
+    let words: Vec<&str> = spec.split_whitespace().collect();
+    let mut wrap = Wrap::Repeat;
+    let mut i = 0;
+    while i < words.len() && words[i].starts_with('-') && words.len() - i > 1 {
+        let option = words[i];
+        i += 1;
+        // Arguments run until the next option or the last word (the file).
+        let mut args = Vec::new();
+        while i < words.len() - 1 && !words[i].starts_with('-') {
+            args.push(words[i]);
+            i += 1;
+        }
+        if option == "-clamp" && args.first() == Some(&"on") {
+            wrap = Wrap::ClampToEdge;
+        }
+    }
+    (
+        words[i.min(words.len().saturating_sub(1))..].join(" "),
+        wrap,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes::{Shape, TriangleNormals};
+
+    fn load(dir: &Path, name: &str, text: &str) -> Result<Scene> {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        load_obj(&path, &LoadOptions::default())
+    }
+
+    #[test]
+    fn objects_polygons_normals_uv_and_materials() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("m.mtl"),
+            "newmtl red\nKd 0.8 0 0\nKs 0.5 0.5 0.5\nNs 20\nillum 3\nd 0.75\nNi 1.3\n\
+             newmtl tex\nKd 1 1 1\nillum 1\nmap_Kd -clamp on missing.png\n",
+        )
+        .unwrap();
+        let s = load(
+            dir.path(),
+            "a.obj",
+            "mtllib m.mtl\n\
+             v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+             vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n\
+             o quad\nusemtl red\nf 1//1 2//1 3//1 4//1\n\
+             o tri\nusemtl tex\nf 1/1 2/2 3/3\n\
+             o plain\nf 1 3 4\n",
+        )
+        .unwrap();
+        assert_eq!(s.shapes.len(), 4, "a quad, a triangle, a triangle");
+        let red = &s.materials[0];
+        assert_eq!(red.color, Color::new(1.0, 0.0, 0.0));
+        assert!((red.kd - 0.8).abs() < 1e-6);
+        assert_eq!((red.ks, red.mirror, red.shine), (0.5, 0.5, 20.0));
+        assert!((red.t - 0.25).abs() < 1e-6 && red.ior == 1.3);
+        // `usemtl` holds across objects, as in every OBJ reader.
+        assert_eq!(s.shape_material, vec![0, 0, 1, 1]);
+        // One group per object, the quad's two triangles together.
+        assert_eq!(s.shape_group[0], s.shape_group[1]);
+        assert!(s.shape_group[1] != s.shape_group[2] && s.shape_group[2] != s.shape_group[3]);
+        let Shape::Triangle(quad) = &s.shapes[0] else {
+            panic!()
+        };
+        let TriangleNormals::Patch(i) = quad.normals else {
+            panic!("smooth")
+        };
+        assert_eq!(s.corners[i as usize].normals, Some([Vec3::Z; 3]));
+        let Shape::Triangle(tri) = &s.shapes[2] else {
+            panic!()
+        };
+        let TriangleNormals::Patch(i) = tri.normals else {
+            panic!("textured")
+        };
+        // v flipped: OBJ's (1, 1) is the texture's top-right corner.
+        assert_eq!(s.corners[i as usize].uv.unwrap()[2], Uv::new(1.0, 0.0));
+        let Shape::Triangle(plain) = &s.shapes[3] else {
+            panic!()
+        };
+        assert_eq!(plain.normals, TriangleNormals::Flat);
+        // The missing texture is a warning; the material keeps its colour.
+        assert_eq!(s.materials[1].texture, None);
+        assert!(
+            s.warnings.iter().any(|w| w.contains("missing.png")),
+            "{:?}",
+            s.warnings
+        );
+        assert!(!s.viewpoint_given, "no camera in OBJ: framed");
+    }
+
+    #[test]
+    fn texture_is_loaded_and_sampled() {
+        let dir = tempfile::tempdir().unwrap();
+        image::RgbImage::from_fn(2, 1, |x, _| {
+            image::Rgb(if x == 0 { [255, 0, 0] } else { [0, 0, 255] })
+        })
+        .save(dir.path().join("t.png"))
+        .unwrap();
+        std::fs::write(
+            dir.path().join("m.mtl"),
+            "newmtl t\nKd 1 1 1\nmap_Kd t.png\n",
+        )
+        .unwrap();
+        let s = load(
+            dir.path(),
+            "t.obj",
+            "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25 0.5\nvt 0.25 0.5\nvt 0.25 0.5\n\
+             usemtl t\nf 1/1 2/2 3/3\n",
+        )
+        .unwrap();
+        assert_eq!(s.textures.len(), 1);
+        let hit = crate::shapes::SurfaceHit {
+            t: 1.0,
+            u: 0.2,
+            v: 0.2,
+        };
+        let sample = s.surface_at(0, &hit, Vec3::ZERO);
+        assert_eq!(sample.color, Color::new(1.0, 0.0, 0.0), "left texel");
+    }
+
+    #[test]
+    fn errors_name_the_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let cases = [
+            (
+                "v.obj",
+                "v 0 0 0\nv 1 0 0\nv 1 x 0\nf 1 2 3\n",
+                3,
+                "'v' needs 3 numbers",
+            ),
+            (
+                "f.obj",
+                "v 0 0 0\nv 1 0 0\nv 1 1 0\n\nf 1 2 9\n",
+                5,
+                "does not exist",
+            ),
+            ("g.obj", "# c\nv 0 0 0\nf 1/a 2 3\n", 3, "face 'f'"),
+        ];
+        for (name, text, line, what) in cases {
+            let e = load(dir.path(), name, text).unwrap_err();
+            let msg = e.to_string();
+            assert!(msg.contains(&format!("{name}:{line}: ")), "{msg}");
+            assert!(msg.contains(what), "{msg}");
+        }
+        for (mtl, line) in [("newmtl a\nKd 1 1\n", 2), ("newmtl a\n\nNs x\n", 3)] {
+            std::fs::write(dir.path().join("bad.mtl"), mtl).unwrap();
+            let e = load(dir.path(), "m.obj", "mtllib bad.mtl\nv 0 0 0\n").unwrap_err();
+            assert!(e.to_string().contains(&format!("bad.mtl:{line}: ")), "{e}");
+        }
+        std::fs::write(dir.path().join("grey.mtl"), "newmtl a\nKd 0.5\n").unwrap();
+        let s = load(dir.path(), "g.obj", "mtllib grey.mtl\nv 0 0 0\n").unwrap();
+        assert_eq!(s.materials[0].kd, 0.5);
+    }
+
+    #[test]
+    fn missing_mtl_warns() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = load(
+            dir.path(),
+            "n.obj",
+            "mtllib nope.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl x\nf 1 2 3\n",
+        )
+        .unwrap();
+        assert_eq!(s.shapes.len(), 1);
+        assert!(s.warnings[0].contains("nope.mtl"), "{:?}", s.warnings);
+    }
+
+    #[test]
+    fn map_kd_options() {
+        assert_eq!(
+            texture_file_name("a b.png"),
+            ("a b.png".into(), Wrap::Repeat)
+        );
+        assert_eq!(
+            texture_file_name("-clamp on -s 1 1 1 t.png"),
+            ("t.png".into(), Wrap::ClampToEdge)
+        );
+        assert_eq!(
+            texture_file_name("-bm 0.5 t.jpg"),
+            ("t.jpg".into(), Wrap::Repeat)
+        );
+    }
+}
