@@ -534,7 +534,8 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     };
     let scene = load_scene(&args.scene, &load_opts)?;
     let load_s = t0.elapsed().as_secs_f64();
-    for w in &scene.warnings {
+    let lights_warning = twinray::job::lights_warning(scene.lights.len());
+    for w in scene.warnings.iter().chain(&lights_warning) {
         eprintln!("twinray: warning: {w}");
     }
     let (width, height) = match (args.size, args.spd) {
