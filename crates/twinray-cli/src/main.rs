@@ -313,7 +313,7 @@ fn run_compare(args: &CompareArgs) -> Result<()> {
         )?;
     }
     if let Some(max) = args.max_diff {
-        if !(d.max_abs <= max) {
+        if d.max_abs > max || d.max_abs.is_nan() {
             bail!(
                 "the images differ by up to {:.6}, more than --max-diff {max}",
                 d.max_abs
@@ -321,7 +321,7 @@ fn run_compare(args: &CompareArgs) -> Result<()> {
         }
     }
     if let Some(min) = args.min_psnr {
-        if !(d.psnr_db >= min) {
+        if d.psnr_db < min || d.psnr_db.is_nan() {
             bail!("PSNR {:.3} dB is below --min-psnr {min}", d.psnr_db);
         }
     }
