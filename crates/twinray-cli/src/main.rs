@@ -441,7 +441,7 @@ fn run_compare(args: &CompareArgs) -> Result<()> {
         )?;
     }
     if let Some(max) = args.max_diff {
-        if !(d.max_abs <= max) {
+        if d.max_abs > max || d.max_abs.is_nan() {
             bail!(
                 "the images differ by up to {:.6}, more than --max-diff {max}",
                 d.max_abs
@@ -449,7 +449,7 @@ fn run_compare(args: &CompareArgs) -> Result<()> {
         }
     }
     if let Some(min) = args.min_psnr {
-        if !(d.psnr_db >= min) {
+        if d.psnr_db < min || d.psnr_db.is_nan() {
             bail!("PSNR {:.3} dB is below --min-psnr {min}", d.psnr_db);
         }
     }
@@ -663,7 +663,8 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     };
     let mut scene = load_scene(&args.scene, &load_opts)?;
     let load_s = t0.elapsed().as_secs_f64();
-    for w in &scene.warnings {
+    let lights_warning = twinray::job::lights_warning(scene.lights.len());
+    for w in scene.warnings.iter().chain(&lights_warning) {
         eprintln!("twinray: warning: {w}");
     }
     let overrides = ViewOverrides {

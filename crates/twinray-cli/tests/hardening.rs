@@ -244,10 +244,13 @@ fn read_only_and_impossible_outputs_are_refused_before_rendering() {
     // 4000 after 19 s, a JPEG over 65,535 px after the render; a read-only
     // file replaced by the rename.
     use std::os::unix::fs::PermissionsExt;
+    let read_only_file = |path: &Path, bytes: &[u8]| {
+        std::fs::write(path, bytes).expect("write");
+        std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o444)).expect("chmod");
+    };
     let dir = TempDir::new().expect("tmp");
     let locked = dir.path().join("locked.png");
-    std::fs::write(&locked, b"keep me").expect("write");
-    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o444)).expect("chmod");
+    read_only_file(&locked, b"keep me");
     refused(
         &render_in(&dir, "locked.png", &[]),
         "locked.png: is read-only",
@@ -275,12 +278,7 @@ fn read_only_and_impossible_outputs_are_refused_before_rendering() {
         "at most 65535",
     );
     // One view of a set that cannot be written: nothing of the set is.
-    std::fs::write(dir.path().join("v_2.png"), b"old").expect("write");
-    std::fs::set_permissions(
-        dir.path().join("v_2.png"),
-        std::fs::Permissions::from_mode(0o444),
-    )
-    .expect("chmod");
+    read_only_file(&dir.path().join("v_2.png"), b"old");
     refused(
         &render_in(&dir, "v.png", &["--views", "4", "--interaxial", "0.01"]),
         "v_2.png",

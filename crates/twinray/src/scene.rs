@@ -37,8 +37,9 @@ pub struct Material {
 
 impl Material {
     /// The material with every value in the range the shading model is defined
-    /// for, and what was changed (for a warning): `kd`, `ks` and `t` in 0..=1,
-    /// `shine` >= 0, colour components >= 0, `ior` > 0 (else 1). Out of range,
+    /// for, and what was changed (for a warning): `kd`, `ks`, `t` and the
+    /// colour components in 0..=1, `shine` >= 0, `ior` > 0 (else 1). (A colour
+    /// of 3.4e38, found by the fuzzer, gave infinite pixels.) Out of range,
     /// they gave infinite pixels (a negative Phong exponent) or light from
     /// nowhere (`kd` -1: ambient 2).
     pub fn clamped(mut self) -> (Material, Vec<String>) {
@@ -48,9 +49,9 @@ impl Material {
             ("Ks", &mut self.ks, 0.0, 1.0),
             ("T", &mut self.t, 0.0, 1.0),
             ("Shine", &mut self.shine, 0.0, f32::MAX),
-            ("red", &mut self.color.x, 0.0, f32::MAX),
-            ("green", &mut self.color.y, 0.0, f32::MAX),
-            ("blue", &mut self.color.z, 0.0, f32::MAX),
+            ("red", &mut self.color.x, 0.0, 1.0),
+            ("green", &mut self.color.y, 0.0, 1.0),
+            ("blue", &mut self.color.z, 0.0, 1.0),
         ] {
             let fixed = value.clamp(lo, hi);
             if fixed != *value {

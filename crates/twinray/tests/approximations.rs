@@ -35,6 +35,7 @@ fn viewpoint(width: u32, height: u32, angle_deg: f32) -> Viewpoint {
         hither: 0.0,
         width,
         height,
+        ..Viewpoint::default()
     }
 }
 
@@ -44,10 +45,9 @@ fn wall_scene() -> Scene {
     let mut scene = Scene::new();
     scene.viewpoint = viewpoint(96, 64, 50.0);
     scene.background = Color::new(0.1, 0.2, 0.3);
-    scene.lights.push(Light {
-        position: Vec3::new(-3.0, 2.0, 4.0),
-        color: Some(Color::ONE),
-    });
+    scene
+        .lights
+        .push(Light::point(Vec3::new(-3.0, 2.0, 4.0), Some(Color::ONE)));
     scene.add_material(diffuse(Color::new(0.8, 0.7, 0.6)));
     scene.add_polygon(
         &[
@@ -172,7 +172,7 @@ fn pole_scene() -> (Scene, f32) {
     // Lit from above and in front; an opaque roof out of the picture keeps the
     // light off the pole, not off the wall behind it: a sample that took the
     // wall's light visibility for the pole would light it.
-    scene.lights[0].position = Vec3::new(1.3, -10.0, 30.0);
+    scene.lights[0] = Light::point(Vec3::new(1.3, -10.0, 30.0), Some(Color::ONE));
     scene.add_material(diffuse(Color::splat(0.5)));
     scene.add_polygon(
         &[
@@ -282,10 +282,9 @@ fn merged_secondary_rays_serve_both_views_of_a_mirror_floor() {
 fn far_scene() -> Scene {
     let mut scene = Scene::new();
     scene.viewpoint = viewpoint(256, 128, 40.0);
-    scene.lights.push(Light {
-        position: Vec3::new(0.0, -10.0, 0.0),
-        color: Some(Color::ONE),
-    });
+    scene
+        .lights
+        .push(Light::point(Vec3::new(0.0, -10.0, 0.0), Some(Color::ONE)));
     scene.add_material(Material {
         kd: 0.0,
         ..Material::default()

@@ -172,7 +172,7 @@ fn render_bits(scene: Scene, method: Method, views: usize) -> Vec<Vec<u32>> {
     let rig = if views == 1 {
         Rig::mono()
     } else {
-        Rig::multi_view(&cam, views, 0.3, Some(default_convergence(&world)))
+        Rig::multi_view(&cam, views, 0.3, Some(default_convergence(&world))).expect("rig")
     };
     let out = run(&world, &cam, &rig, &options(method, Sampling::Centers));
     out.images

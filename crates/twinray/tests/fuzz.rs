@@ -93,6 +93,7 @@ fn check(text: &str) -> Result<(), String> {
     let opts = LoadOptions {
         max_resolution: 4096,
         max_vertices: 10_000,
+        ..LoadOptions::default()
     };
     let scene = match parse_nff(text, file, &opts) {
         Ok(scene) => scene,

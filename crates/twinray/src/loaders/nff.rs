@@ -553,6 +553,16 @@ impl Parser<'_, '_> {
                 ),
             ));
         }
+        // Light colours in 0..=1e6: a colour of 3e38 overflowed to infinite pixels.
+        let color = color.map(|c| {
+            let clamped = c.clamp(Vec3::ZERO, Vec3::splat(1e6));
+            if clamped != c {
+                self.set_where(line);
+                let warning = format!("{}: light colour {c} clamped to {clamped}", self.where_);
+                self.scene.warnings.push(warning);
+            }
+            clamped
+        });
         self.scene.lights.push(Light::point(position, color));
         Ok(())
     }
