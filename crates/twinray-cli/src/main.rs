@@ -201,7 +201,7 @@ struct RenderArgs {
     approx: ApproxArgs,
 }
 
-/// The paper's approximations (sections 2.4, 2.5): faster stereo, not exact.
+/// The paper's approximations (sections 2.3–2.5): faster stereo, not exact.
 #[derive(clap::Args, Clone, Debug, Default)]
 #[command(next_help_heading = "Approximations (twin method; the default is exact)")]
 pub struct ApproxArgs {

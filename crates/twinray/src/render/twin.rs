@@ -330,7 +330,7 @@ impl<const K: usize> RowSetup<'_, K> {
     fn diffuse_hit(&self, s: &RowScratch<K>, view: usize, i: usize, threshold: f32) -> bool {
         Self::has_hit(s, view, i) && {
             let m = self.world.material_of(s.hits[view][i].0);
-            m.ks <= threshold && m.t <= threshold
+            m.ks.max(m.mirror) <= threshold && m.t <= threshold
         }
     }
 
