@@ -173,13 +173,8 @@ impl<'a> Tracer<'a> {
         donor.through.resize(self.world.scene.lights.len(), 0.0);
         donor.secondary = Color::ZERO;
         self.tree_coefficient = 0.0;
-        let surfaces = self.surfaces(packet, hits, 1, [1.0]);
-        let mut out = surfaces.ambient;
-        self.direct_light(packet, &surfaces, &mut out, Some(&mut donor.through));
-        if 1 < self.settings.max_depth {
-            self.secondary(&surfaces, 1, &[1.0], &mut out, Some(&mut donor.secondary));
-        }
-        donor.color = out[0];
+        let record = Some((&mut donor.through[..], &mut donor.secondary));
+        donor.color = self.shade_stages(packet, hits, 1, [1.0], record)[0];
         donor.tree_coefficient = self.tree_coefficient;
     }
 
@@ -280,11 +275,25 @@ impl<'a> Tracer<'a> {
         level: u32,
         weights: [f32; K],
     ) -> [Color; K] {
+        self.shade_stages(packet, hits, level, weights, None)
+    }
+
+    /// `shade`'s stages; with `record`, lane 0's transmittance toward each light
+    /// and its weighted secondary colour are written there (`shade_donor`).
+    fn shade_stages<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        hits: &PacketHits<K>,
+        level: u32,
+        weights: [f32; K],
+        record: Option<(&mut [f32], &mut Color)>,
+    ) -> [Color; K] {
+        let (through, secondary) = record.unzip();
         let surfaces = self.surfaces(packet, hits, level, weights);
         let mut out = surfaces.ambient;
-        self.direct_light(packet, &surfaces, &mut out, None);
+        self.direct_light(packet, &surfaces, &mut out, through);
         if level < self.settings.max_depth {
-            self.secondary(&surfaces, level, &weights, &mut out, None);
+            self.secondary(&surfaces, level, &weights, &mut out, secondary);
         }
         out
     }

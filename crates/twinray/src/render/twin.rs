@@ -107,14 +107,7 @@ impl<const K: usize> RowSetup<'_, K> {
         s.far_hits.clear();
         if cut {
             for &dir in &s.dirs {
-                let centre = Packet {
-                    origins: [camera.eye],
-                    dirs: [dir],
-                    t_min: camera.hither,
-                    t_max: [f32::INFINITY],
-                    mask: 1,
-                };
-                let h = tracer.eye_hits_split(&centre, false);
+                let h = tracer.eye_hits_split(&self.centre_ray(dir), false);
                 s.far_hits.push((h.prim[0], h.hit[0]));
             }
         }
@@ -184,13 +177,7 @@ impl<const K: usize> RowSetup<'_, K> {
                     Some(color) => color,
                     None => {
                         let (prim, hit) = s.far_hits[c];
-                        let centre = Packet {
-                            origins: [self.camera.eye],
-                            dirs: [s.dirs[c]],
-                            t_min: self.camera.hither,
-                            t_max: [f32::INFINITY],
-                            mask: 1,
-                        };
+                        let centre = self.centre_ray(s.dirs[c]);
                         let hits = PacketHits {
                             prim: [prim],
                             hit: [hit],
@@ -249,18 +236,32 @@ impl<const K: usize> RowSetup<'_, K> {
     ) -> (Packet<1>, PacketHits<1>) {
         let (prim, hit) = s.hits[view][i];
         (
-            Packet {
-                origins: [self.origins[view]],
-                dirs: [self.dir(&s.dirs, view, i)],
-                t_min: self.camera.hither,
-                t_max: [f32::INFINITY],
-                mask: 1,
-            },
+            self.sample_ray(s, view, i),
             PacketHits {
                 prim: [prim],
                 hit: [hit],
             },
         )
+    }
+
+    /// View `view`'s eye ray through sample `i` of the row, as a packet of one lane.
+    fn sample_ray(&self, s: &RowScratch<K>, view: usize, i: usize) -> Packet<1> {
+        self.eye_ray(self.origins[view], self.dir(&s.dirs, view, i))
+    }
+
+    /// The rig centre's eye ray along `dir` (what every view sees beyond a cut).
+    fn centre_ray(&self, dir: Vec3) -> Packet<1> {
+        self.eye_ray(self.camera.eye, dir)
+    }
+
+    fn eye_ray(&self, origin: Vec3, dir: Vec3) -> Packet<1> {
+        Packet {
+            origins: [origin],
+            dirs: [dir],
+            t_min: self.camera.hither,
+            t_max: [f32::INFINITY],
+            mask: 1,
+        }
     }
 
     /// Shades the lanes of `group` as one packet into `out` (exact). A group
@@ -434,7 +435,7 @@ impl<const K: usize> RowSetup<'_, K> {
         s.dirs
             .extend((lo..=hi).map(|c| self.camera.direction(c as f32 + self.grid.offset, y)));
         for (i, sample_out) in out[0].iter_mut().enumerate() {
-            let (packet, _) = self.sample_packet(s, 0, i);
+            let packet = self.sample_ray(s, 0, i);
             let hits = tracer.eye_hits(&packet, &[0]);
             s.hits[0][i] = (hits.prim[0], hits.hit[0]);
             if !hits.has_hit(0) {
@@ -470,7 +471,7 @@ impl<const K: usize> RowSetup<'_, K> {
                     tracer.counts.reprojected += 1;
                     continue;
                 }
-                let (packet, _) = self.sample_packet(s, v, k);
+                let packet = self.sample_ray(s, v, k);
                 let hits = tracer.eye_hits(&packet, &[v]);
                 *sample_out = if hits.has_hit(0) {
                     tracer.shade_eye(&packet, &hits)[0]
