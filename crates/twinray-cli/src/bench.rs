@@ -53,6 +53,16 @@ pub struct BenchArgs {
     /// Disparity error in pixels allowed to cut objects (configurations cut and fast).
     #[arg(long, default_value_t = 0.5)]
     cut_parallax: f64,
+    /// Views of the rig (2: a stereo pair), spaced by each --interaxial.
+    #[arg(long, default_value_t = 2)]
+    views: usize,
+    /// Twin method: most views per packet (default: all up to 32, then 8).
+    #[arg(long, value_name = "N")]
+    views_per_batch: Option<usize>,
+    /// Sampling of both methods (default here: one ray per pixel centre, as
+    /// the paper's tables).
+    #[command(flatten)]
+    sampling: crate::sampling::SamplingArgs,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -255,12 +265,18 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
         Some("inf") => None,
         Some(s) => Some(s.parse::<f64>()?),
     };
-    let rig = Rig::stereo(&camera, b, convergence)?;
+    let rig = Rig::multi_view(&camera, args.views, b, convergence)?;
+    let sampling = if args.sampling.given() {
+        args.sampling.sampling(false)?
+    } else {
+        Sampling::Centers
+    };
     let opts = |method, approx: Approx| RenderOptions {
         trace: TraceSettings::default(),
         method,
-        sampling: Sampling::Centers,
+        sampling,
         approx: approx.options(),
+        views_per_batch: args.views_per_batch.unwrap_or(0),
     };
     let cut_depth = rig.cut_depth_for_parallax(&camera, args.cut_parallax);
     // Build + render, as a user would wait for it (the file is already parsed).

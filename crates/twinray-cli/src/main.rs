@@ -1,6 +1,7 @@
 //! The `twinray` command: parses arguments, shows progress, calls the library.
 
 mod bench;
+mod sampling;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -16,12 +17,11 @@ use twinray::loaders::{load_scene, LoadOptions};
 use twinray::math::Vec3;
 use twinray::output::{self, AnaglyphMethod, InterlaceMode, Layout, WriteOptions};
 use twinray::render::{
-    self, Approximations, Method, RenderOptions, ReprojectMode, Reprojection, Sampling,
-    TraceSettings,
+    self, Approximations, Method, RenderOptions, ReprojectMode, Reprojection, TraceSettings,
 };
 use twinray::rig::Rig;
 use twinray::scene::SceneFormat;
-use twinray::stats::{Report, SceneFacts, Timings};
+use twinray::stats::{Report, SamplingFacts, SceneFacts, Timings};
 use twinray::view::{self, ViewOverrides};
 use twinray::world::Cut;
 use twinray::World;
@@ -196,6 +196,14 @@ struct RenderArgs {
     /// columns; checker: DLP 3D displays). Left eye on even rows / columns / x+y.
     #[arg(long, value_enum)]
     interlace: Option<InterlaceArg>,
+
+    /// Twin method: most views traced as one packet (default: all, up to 32;
+    /// batches of 8 neighbouring views beyond).
+    #[arg(long, value_name = "N")]
+    views_per_batch: Option<usize>,
+
+    #[command(flatten)]
+    sampling: sampling::SamplingArgs,
 
     #[command(flatten)]
     approx: ApproxArgs,
@@ -569,6 +577,15 @@ fn check_flags(args: &RenderArgs) -> Result<()> {
     if let Some(n) = args.threads {
         twinray::job::check_threads(n).context("--threads")?;
     }
+    args.sampling.sampling(args.spd)?;
+    if let Some(n) = args.views_per_batch {
+        if !(1..=render::MAX_LANES).contains(&n) {
+            bail!(
+                "--views-per-batch must be 1 to {}, got {n}",
+                render::MAX_LANES
+            );
+        }
+    }
     trace_settings(args).validate().map_err(|e| {
         let flag = if (1..=render::MAX_DEPTH).contains(&args.max_depth) {
             "--min-weight"
@@ -714,12 +731,9 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
             MethodArg::Independent => Method::Independent,
             MethodArg::Twin => Method::Twin,
         },
-        sampling: if args.spd {
-            Sampling::Corners
-        } else {
-            Sampling::Centers
-        },
+        sampling: args.sampling.sampling(args.spd)?,
         approx: args.approx.approximations()?,
+        views_per_batch: args.views_per_batch.unwrap_or(0),
     };
     let cut = args.approx.cut(&camera, &rig)?;
     let approximate = !opts.approx.is_exact() || cut.is_some();
@@ -800,6 +814,13 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
             result.counts.rays.eye,
             result.counts.eye_traversals as f64 / result.counts.rays.eye.max(1) as f64
         );
+        eprintln!(
+            "sampling: {}; eye samples per pixel {:.2} (most {}), pixels refined {}",
+            opts.sampling.describe(),
+            result.samples_per_view as f64 / (f64::from(width) * f64::from(height)),
+            result.max_samples_per_pixel,
+            result.refined_pixels
+        );
         if approximate {
             let c = &result.counts;
             eprintln!(
@@ -835,6 +856,13 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
                 opts.method.name().to_string()
             },
             samples_per_view: result.samples_per_view,
+            sampling: SamplingFacts {
+                mode: opts.sampling.describe(),
+                eye_samples_per_pixel_mean: result.samples_per_view as f64
+                    / (f64::from(width) * f64::from(height)),
+                eye_samples_per_pixel_max: result.max_samples_per_pixel,
+                refined_pixels: result.refined_pixels,
+            },
             ..Report::default()
         };
         report.fill_counts(&result.counts, rig.views.len());

@@ -332,7 +332,7 @@ fn stats_file_counts_eye_rays() {
     render(
         &scene("example.nff"),
         &out,
-        &["--size", SIZE, "--stats", s(&json)],
+        &["--size", SIZE, "--samples", "1", "--stats", s(&json)],
     )
     .ok();
     let v = stats(&json);
@@ -371,6 +371,8 @@ fn stats_file_counts_eye_rays() {
                 "0.4",
                 "--method",
                 method,
+                "--samples",
+                "1",
                 "--stats",
                 s(&json),
             ],
@@ -390,6 +392,84 @@ fn stats_file_counts_eye_rays() {
     .ok();
     assert_eq!(count(&stats(&json), "/rays/eye"), 17 * 17);
     assert_eq!(png_size(&spd), (16, 16));
+
+    // The default, adaptive sampling: the corners, plus the points of the
+    // pixels it refined, as the report says.
+    render(
+        &scene("example.nff"),
+        &out,
+        &["--size", SIZE, "--stats", s(&json)],
+    )
+    .ok();
+    let v = stats(&json);
+    let corners = u64::from((W + 1) * (H + 1));
+    let eye = count(&v, "/rays/eye");
+    assert_eq!(count(&v, "/samples_per_view"), eye);
+    assert!(eye > corners, "{eye} eye rays, {corners} corners");
+    assert!(count(&v, "/sampling/refined_pixels") > 0);
+    let mean = v
+        .pointer("/sampling/eye_samples_per_pixel_mean")
+        .and_then(Value::as_f64)
+        .unwrap_or_default();
+    assert!((mean - eye as f64 / pixels as f64).abs() < 1e-9, "{mean}");
+    assert_eq!(count(&v, "/sampling/eye_samples_per_pixel_max"), 25);
+    let mode = v
+        .pointer("/sampling/mode")
+        .and_then(Value::as_str)
+        .unwrap_or_default();
+    assert!(mode.starts_with("adaptive"), "{mode}");
+
+    // --samples 4: four per pixel.
+    render(
+        &scene("example.nff"),
+        &out,
+        &[
+            "--size",
+            SIZE,
+            "--samples",
+            "4",
+            "--filter",
+            "tent",
+            "--stats",
+            s(&json),
+        ],
+    )
+    .ok();
+    let v = stats(&json);
+    assert_eq!(count(&v, "/rays/eye"), 4 * pixels);
+    assert_eq!(count(&v, "/sampling/eye_samples_per_pixel_max"), 4);
+}
+
+#[test]
+fn bad_sampling_values_are_refused_with_the_flag_named() {
+    let dir = tmp();
+    let out = dir.path().join("bad.png");
+    let example = scene("example.nff");
+    for (flags, says) in [
+        (vec!["--samples", "0"], "--samples"),
+        (vec!["--samples", "70000"], "--samples"),
+        (vec!["--adaptive", "-0.1"], "--adaptive"),
+        (vec!["--adaptive", "NaN"], "--adaptive"),
+        (vec!["--adaptive", "inf"], "--adaptive"),
+        (vec!["--max-samples", "8"], "--max-samples"),
+        (vec!["--samples", "4", "--adaptive"], "--adaptive"),
+        (vec!["--spd", "--samples", "4"], "--spd"),
+        (vec!["--samples", "1", "--filter", "gaussian"], "--filter"),
+    ] {
+        let mut args = vec![
+            "render",
+            s(&example),
+            "-o",
+            s(&out),
+            "--size",
+            "8x8",
+        ];
+        args.extend(flags.iter().copied());
+        let r = twinray(&args);
+        assert_ne!(r.code, Some(0), "{flags:?} accepted");
+        assert!(r.stderr.contains(says), "{flags:?}: {}", r.stderr);
+        assert!(!out.exists(), "{flags:?} wrote an image");
+    }
 }
 
 // ---------------------------------------------------------------------------

@@ -53,9 +53,11 @@ const COLOR_BYTES: u64 = 12;
 /// compares it with measured peaks); saturates instead of overflowing.
 pub fn estimate_render_memory(width: u32, height: u32, views: usize, sampling: Sampling) -> u64 {
     let (w, h) = (u64::from(width), u64::from(height));
+    // Samples kept at once per view: the pixel centres, the corner lattice,
+    // or the film's sums (and one weight per pixel, shared by the views).
     let (sw, sh) = match sampling {
-        Sampling::Centers => (w, h),
-        Sampling::Corners => (w + 1, h + 1),
+        Sampling::Centers | Sampling::Stratified { .. } => (w, h),
+        Sampling::Corners | Sampling::Adaptive { .. } => (w + 1, h + 1),
     };
     let views = views as u64;
     let pixels = w.saturating_mul(h);

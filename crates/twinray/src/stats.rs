@@ -113,6 +113,18 @@ pub struct SceneFacts {
     pub warnings: usize,
 }
 
+/// The sampling of a render: its mode (`Sampling::describe`) and the eye
+/// samples it took per pixel of one view (the corners shared by four pixels
+/// count once in the mean, whole in the largest).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SamplingFacts {
+    pub mode: String,
+    pub eye_samples_per_pixel_mean: f64,
+    pub eye_samples_per_pixel_max: u32,
+    /// Pixels the adaptive sampling split at least once.
+    pub refined_pixels: u64,
+}
+
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Report {
     pub rays: RayCounts,
@@ -123,6 +135,8 @@ pub struct Report {
     pub views: usize,
     pub method: String,
     pub samples_per_view: u64,
+    /// How the pixels were sampled, and what it took.
+    pub sampling: SamplingFacts,
     pub closest_traversals: u64,
     pub eye_traversals: u64,
     /// Eye-ray descents per eye ray: 1 for independent renders, about 1/views for twin.

@@ -10,26 +10,25 @@ use crate::camera::Camera;
 use crate::math::Vec3;
 use crate::rig::View;
 
-use super::Grid;
+use super::sampler::SampleRow;
 
 /// One packet of the shading stage: for each view (lane), the sample of the
 /// row it shades, if any.
 pub(super) type Group<const K: usize> = [Option<usize>; K];
 
-/// The sample of `view`'s row nearest to where `point` projects in it, if any.
+/// The sample of `row` nearest to where `point` projects in `view`, if any.
 ///
-/// View `v`'s sample `k` looks along camera column `k + shift_v + grid offset`,
-/// so a point that projects to camera column `c` is nearest to sample
-/// `round(c - offset) - shift_v`.
+/// View `v`'s sample of pixel `x` looks along camera column `x + shift_v`
+/// (plus its offset in the pixel), so a point that projects to camera column
+/// `c` falls in the view's image column `c - shift_v`.
 pub(super) fn nearest_sample(
     camera: &Camera,
-    grid: &Grid,
+    row: &SampleRow,
     view: &View,
     point: Vec3,
 ) -> Option<usize> {
     let (column, _) = camera.project(point, view.offset)?;
-    let k = (column - grid.offset as f64).round() - view.shift as f64;
-    (k >= 0.0 && k < grid.width as f64).then_some(k as usize)
+    row.nearest(column - view.shift as f64)
 }
 
 /// Groups the samples of one row. `points[v][i]` is where view `v`'s sample

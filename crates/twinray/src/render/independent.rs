@@ -1,58 +1,58 @@
 //! The reference method, the paper's "traditional algorithm": every view a
-//! complete mono render of its own camera.
+//! complete mono render of its own camera, its rays traced one at a time.
 
-use std::sync::atomic::{AtomicU64, Ordering};
-
-use rayon::prelude::*;
-
-use super::{Job, Samples, Tracer};
+use super::sampler::{RowColors, SampleRow};
+use super::{Job, RowWorker, Tracer, ViewBatch};
 use crate::bvh::Packet;
-use crate::math::Color;
-use crate::stats::TraceCounts;
+use crate::camera::Camera;
+use crate::rig::View;
 
-/// Every view a complete mono render: rays one at a time (packets of one lane).
-pub(super) fn render(job: &Job) -> Samples {
-    let Job {
-        world,
-        camera,
-        rig,
-        opts,
-        grid,
-        progress,
-    } = *job;
-    let total = (rig.views.len() * grid.height) as u64;
-    let done = AtomicU64::new(0);
-    let mut grids = Vec::with_capacity(rig.views.len());
-    let mut counts = TraceCounts::default();
-    for (v, view) in rig.views.iter().enumerate() {
-        let rows: Vec<(Vec<Color>, TraceCounts)> = (0..grid.height)
-            .into_par_iter()
-            .map(|j| {
-                let mut tracer = Tracer::new(world, opts.trace);
-                let origin = camera.eye_at(view.offset);
-                let row = j as f32 + grid.offset;
-                let mut out = Vec::with_capacity(grid.width);
-                for i in 0..grid.width {
-                    let column = (i as i32 + view.shift) as f32 + grid.offset;
-                    let packet = Packet {
-                        origins: [origin],
-                        dirs: [camera.direction(column, row)],
-                        t_min: camera.hither,
-                        t_max: [f32::INFINITY],
-                        mask: 1,
-                    };
-                    out.push(tracer.trace_eye(&packet, &[v])[0]);
-                }
-                progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
-                (out, tracer.finish())
-            })
-            .collect();
-        let mut samples = Vec::with_capacity(grid.width * grid.height);
-        for (row, c) in rows {
-            samples.extend(row);
-            counts.add(&c);
+/// Every view of the rig, each traced on its own.
+pub(super) struct Independent<'a> {
+    camera: &'a Camera,
+    views: Vec<View>,
+}
+
+impl<'a> Independent<'a> {
+    pub(super) fn new(job: &Job<'a>) -> Independent<'a> {
+        Independent {
+            camera: job.camera,
+            views: job.rig.views.clone(),
         }
-        grids.push(samples);
     }
-    (grids, counts)
+}
+
+impl ViewBatch for Independent<'_> {
+    fn view_count(&self) -> usize {
+        self.views.len()
+    }
+
+    fn worker(&self) -> Box<dyn RowWorker + '_> {
+        Box::new(IndependentWorker { batch: self })
+    }
+}
+
+struct IndependentWorker<'s, 'a> {
+    batch: &'s Independent<'a>,
+}
+
+impl RowWorker for IndependentWorker<'_, '_> {
+    /// View by view, one ray (a packet of one lane) per sample.
+    fn trace(&mut self, tracer: &mut Tracer, row: &SampleRow, out: &mut [RowColors]) {
+        let camera = self.batch.camera;
+        for (v, (view, view_out)) in self.batch.views.iter().zip(out).enumerate() {
+            let origin = camera.eye_at(view.offset);
+            for (i, sample_out) in view_out.iter_mut().enumerate() {
+                let (column, y) = row.camera_point(i, view.shift);
+                let packet = Packet {
+                    origins: [origin],
+                    dirs: [camera.direction(column, y)],
+                    t_min: camera.hither,
+                    t_max: [f32::INFINITY],
+                    mask: 1,
+                };
+                *sample_out = tracer.trace_eye(&packet, &[v])[0];
+            }
+        }
+    }
 }

@@ -11,17 +11,32 @@
 //! The paper's approximations (sections 2.4, 2.5) are options of the twin
 //! method (`Approximations`); without them its images are exact.
 //!
-//! Both methods evaluate a grid of samples per view (pixel centres, or the
-//! pixel corners of the SPD procedure) with the same ray arithmetic.
+//! Where the rays go and how they become pixels is the same for both methods:
+//! the `Sampler` (`sampler`: pixel centres, the SPD's corners, N stratified
+//! samples, or the adaptive refinement of section 2.6 in `adaptive`) gives
+//! rows of sample positions, the same in every view; a method traces a row for
+//! its views; the `Film` (`film`) filters the samples into pixels. The methods
+//! compute every ray from the same positions with the same arithmetic, so
+//! their images are equal for every sampling.
+//!
+//! More views than a packet holds ([`MAX_LANES`]) are traced in batches of
+//! neighbouring views, each a twin packet of its own.
 
+mod adaptive;
+mod film;
 mod grouping;
 mod independent;
+pub mod sampler;
 mod tracer;
 mod twin;
 
+pub use sampler::{Filter, SampleRow, Sampling};
 pub use tracer::{Donor, TraceSettings, Tracer};
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
+
+use rayon::prelude::*;
 
 use crate::camera::Camera;
 use crate::image::Image;
@@ -29,9 +44,15 @@ use crate::math::Color;
 use crate::rig::Rig;
 use crate::stats::TraceCounts;
 use crate::world::World;
+use adaptive::{Refiner, RowRefinement};
+use film::{Film, FilmBand};
+use sampler::{Pattern, RowColors};
 
 /// Most views one packet carries (one bit per view in the lane mask).
-pub const MAX_VIEWS: usize = 32;
+pub const MAX_LANES: usize = 32;
+
+/// Most views one render takes (in batches of at most [`MAX_LANES`]).
+pub const MAX_VIEWS: usize = 256;
 
 /// Deepest ray level accepted (`TraceSettings::max_depth`). The tracer recurses
 /// once per level; with 32 views a closed box of mirrors overflowed a 2 MiB
@@ -72,16 +93,6 @@ impl Method {
             Method::Twin => "twin",
         }
     }
-}
-
-/// Where a pixel's rays go.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Sampling {
-    /// One ray through each pixel centre.
-    Centers,
-    /// SPD procedure: rays through the (W+1)×(H+1) pixel corners, each pixel
-    /// the mean of its four corners.
-    Corners,
 }
 
 /// How the paper's reprojection (section 2.5) decides that a view's sample may
@@ -136,6 +147,9 @@ pub struct RenderOptions {
     pub method: Method,
     pub sampling: Sampling,
     pub approx: Approximations,
+    /// Twin method: most views traced as one packet (0: automatic, see
+    /// [`views_per_batch`]).
+    pub views_per_batch: usize,
 }
 
 impl Default for RenderOptions {
@@ -145,7 +159,19 @@ impl Default for RenderOptions {
             method: Method::Independent,
             sampling: Sampling::Centers,
             approx: Approximations::default(),
+            views_per_batch: 0,
         }
+    }
+}
+
+/// The twin method's batch size for `views` views when none is asked for:
+/// all views in one packet up to [`MAX_LANES`], else batches of 8 neighbouring
+/// views (docs/benchmarks.md#views measures the choice).
+pub fn views_per_batch(views: usize, asked: usize) -> usize {
+    match asked {
+        0 if views <= MAX_LANES => views.max(1),
+        0 => 8,
+        n => n.min(MAX_LANES),
     }
 }
 
@@ -156,6 +182,10 @@ pub struct RenderOutput {
     pub seconds: f64,
     /// Samples (eye rays) per view.
     pub samples_per_view: u64,
+    /// Most eye samples one pixel's colour came from.
+    pub max_samples_per_pixel: u32,
+    /// Pixels the adaptive sampling refined (0 for the other samplings).
+    pub refined_pixels: u64,
 }
 
 /// Renders every view of `rig`. `progress(done, total)` is called from worker
@@ -194,94 +224,362 @@ pub fn render(
             "the paper's reprojection mode does not combine with a cut of the object tree".into(),
         ));
     }
+    opts.sampling.validate()?;
     let start = Instant::now();
-    let grid = Grid::for_camera(camera, opts.sampling);
     let job = Job {
         world,
         camera,
         rig,
         opts,
-        grid: &grid,
         progress,
     };
-    let (grids, counts) = match opts.method {
-        Method::Independent => independent::render(&job),
-        Method::Twin => match views {
-            1 => twin::render::<1>(&job),
-            2 => twin::render::<2>(&job),
-            3..=4 => twin::render::<4>(&job),
-            5..=8 => twin::render::<8>(&job),
-            9..=16 => twin::render::<16>(&job),
-            _ => twin::render::<32>(&job),
-        },
+    let batches = match opts.method {
+        Method::Independent => {
+            vec![Box::new(independent::Independent::new(&job)) as Box<dyn ViewBatch>]
+        }
+        Method::Twin => twin_batches(&job, views_per_batch(views, opts.views_per_batch))?,
     };
-    let images = grids.into_iter().map(|g| grid.resolve(g, camera)).collect();
+    let run = Run {
+        job: &job,
+        batches: &batches,
+        views,
+        width: camera.width as usize,
+        height: camera.height as usize,
+        done: AtomicU64::new(0),
+        total: AtomicU64::new(0),
+    };
+    let sampled = match opts.sampling {
+        Sampling::Centers => run.centers(),
+        Sampling::Corners => run.corners(),
+        Sampling::Stratified {
+            samples,
+            filter,
+            seed,
+        } => run.stratified(samples, filter, seed),
+        Sampling::Adaptive {
+            threshold,
+            max_samples,
+        } => run.adaptive(threshold, max_samples),
+    };
     Ok(RenderOutput {
-        images,
-        counts,
+        images: sampled.images,
+        counts: sampled.counts,
         seconds: start.elapsed().as_secs_f64(),
-        samples_per_view: (grid.width * grid.height) as u64,
+        samples_per_view: sampled.samples_per_view,
+        max_samples_per_pixel: sampled.max_per_pixel,
+        refined_pixels: sampled.refined,
     })
 }
 
+/// The views of the rig in batches of `size` neighbours, each traced by the
+/// twin method as packets of its own (its first view leads its groups).
+fn twin_batches<'a>(job: &Job<'a>, size: usize) -> crate::Result<Vec<Box<dyn ViewBatch + 'a>>> {
+    let mut batches: Vec<Box<dyn ViewBatch + 'a>> = Vec::new();
+    for (b, views) in job.rig.views.chunks(size.max(1)).enumerate() {
+        let rig = Rig {
+            views: views.to_vec(),
+            ..job.rig.clone()
+        };
+        let first = b * size;
+        batches.push(match views.len() {
+            1 => Box::new(twin::RowSetup::<1>::new(job, rig, first)),
+            2 => Box::new(twin::RowSetup::<2>::new(job, rig, first)),
+            3..=4 => Box::new(twin::RowSetup::<4>::new(job, rig, first)),
+            5..=8 => Box::new(twin::RowSetup::<8>::new(job, rig, first)),
+            9..=16 => Box::new(twin::RowSetup::<16>::new(job, rig, first)),
+            17..=MAX_LANES => Box::new(twin::RowSetup::<32>::new(job, rig, first)),
+            n => {
+                return Err(crate::Error::Invalid(format!(
+                    "{n} views in one packet: at most {MAX_LANES}"
+                )))
+            }
+        });
+    }
+    Ok(batches)
+}
+
 /// What a rendering method is given: the scene, the camera and its views, the
-/// options, the sample grid, and whom to tell of finished rows.
+/// options, and whom to tell of finished rows.
 struct Job<'a> {
     world: &'a World,
     camera: &'a Camera,
     rig: &'a Rig,
     opts: &'a RenderOptions,
-    grid: &'a Grid,
     progress: &'a (dyn Fn(u64, u64) + Sync),
 }
 
-/// Per-view samples (row-major, one `Vec` per view) and the work counted.
-type Samples = (Vec<Vec<Color>>, TraceCounts);
-
-/// The sample positions of one view, in pixel units of its image.
-struct Grid {
-    width: usize,
-    height: usize,
-    /// Added to the integer sample index: 0 for centres, -0.5 for corners.
-    offset: f32,
+/// Some consecutive views of the rig that a method traces together.
+trait ViewBatch: Sync {
+    fn view_count(&self) -> usize;
+    /// A worker for one thread (its scratch space is reused from row to row).
+    fn worker(&self) -> Box<dyn RowWorker + '_>;
 }
 
-impl Grid {
-    fn for_camera(camera: &Camera, sampling: Sampling) -> Grid {
-        let (w, h) = (camera.width as usize, camera.height as usize);
-        match sampling {
-            Sampling::Centers => Grid {
-                width: w,
-                height: h,
-                offset: 0.0,
-            },
-            Sampling::Corners => Grid {
-                width: w + 1,
-                height: h + 1,
-                offset: -0.5,
-            },
+/// Traces rows of samples for the views of its batch.
+trait RowWorker {
+    /// `out[v][i]`: the colour of the batch's view `v` through sample `i` of
+    /// `row` (`out` has one entry per view of the batch, each `row.len()` long).
+    fn trace(&mut self, tracer: &mut Tracer, row: &SampleRow, out: &mut [RowColors]);
+}
+
+/// One thread's workers, one per batch: traces a row for every view.
+struct RowContext<'b> {
+    workers: Vec<(usize, Box<dyn RowWorker + 'b>)>,
+}
+
+impl RowContext<'_> {
+    /// `out[v][i]`: view `v`'s colour of sample `i` of `row`, every view.
+    fn trace(&mut self, tracer: &mut Tracer, row: &SampleRow, out: &mut Vec<RowColors>) {
+        let views: usize = self.workers.iter().map(|(n, _)| n).sum();
+        out.resize_with(views, Vec::new);
+        for o in out.iter_mut() {
+            o.clear();
+            o.resize(row.len(), Color::ZERO);
+        }
+        let mut first = 0;
+        for (n, worker) in &mut self.workers {
+            worker.trace(tracer, row, &mut out[first..first + *n]);
+            first += *n;
+        }
+    }
+}
+
+/// The images of a sampling, with what it cost.
+struct Sampled {
+    images: Vec<Image>,
+    counts: TraceCounts,
+    samples_per_view: u64,
+    max_per_pixel: u32,
+    refined: u64,
+}
+
+/// Rows of pixels one task samples (`--samples N`, `--adaptive`): a fixed
+/// number, so that the film's sums do not depend on the thread count; the
+/// adaptive refinement traces the edges its rows share once.
+const BAND_ROWS: usize = 8;
+
+/// One render: the job, its batches of views, the image size and the progress.
+struct Run<'j, 'a> {
+    job: &'j Job<'a>,
+    batches: &'j [Box<dyn ViewBatch + 'a>],
+    views: usize,
+    width: usize,
+    height: usize,
+    done: AtomicU64,
+    total: AtomicU64,
+}
+
+impl Run<'_, '_> {
+    /// Runs `task(context, tracer, i)` for `i` in `0..count`, in parallel, a
+    /// fresh tracer per task (so that no task's caches depend on which thread
+    /// ran what before); returns the results in order and the work counted.
+    fn tasks<T: Send>(
+        &self,
+        count: usize,
+        task: impl Fn(&mut RowContext, &mut Tracer, usize) -> T + Sync,
+    ) -> (Vec<T>, TraceCounts) {
+        let world = self.job.world;
+        let settings = self.job.opts.trace;
+        let context = || RowContext {
+            workers: self
+                .batches
+                .iter()
+                .map(|b| (b.view_count(), b.worker()))
+                .collect(),
+        };
+        let results: Vec<(T, TraceCounts)> = (0..count)
+            .into_par_iter()
+            .map_init(context, |ctx, i| {
+                let mut tracer = Tracer::new(world, settings);
+                let result = task(ctx, &mut tracer, i);
+                let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+                (self.job.progress)(done, self.total.load(Ordering::Relaxed));
+                (result, tracer.finish())
+            })
+            .collect();
+        let mut counts = TraceCounts::default();
+        let mut out = Vec::with_capacity(results.len());
+        for (r, c) in results {
+            counts.add(&c);
+            out.push(r);
+        }
+        (out, counts)
+    }
+
+    /// Tells the progress how many tasks the whole render has.
+    fn plan(&self, tasks: usize) {
+        self.total.store(tasks as u64, Ordering::Relaxed);
+    }
+
+    /// Every row of a lattice of `columns` x `rows` samples at `pattern(row)`:
+    /// per view, the colours row-major.
+    fn lattice(
+        &self,
+        columns: usize,
+        rows: usize,
+        pattern: impl Fn(usize) -> Pattern + Sync,
+    ) -> (Vec<Vec<Color>>, TraceCounts) {
+        let (per_row, counts) = self.tasks(rows, |ctx, tracer, j| {
+            let row = SampleRow::full(columns, pattern(j));
+            let mut out = Vec::new();
+            ctx.trace(tracer, &row, &mut out);
+            out
+        });
+        let mut grids = vec![Vec::with_capacity(columns * rows); self.views];
+        for row in per_row {
+            for (g, r) in grids.iter_mut().zip(row) {
+                g.extend(r);
+            }
+        }
+        (grids, counts)
+    }
+
+    /// One ray through each pixel centre.
+    fn centers(&self) -> Sampled {
+        let (w, h) = (self.width, self.height);
+        self.plan(h);
+        let (grids, counts) = self.lattice(w, h, |j| Pattern::Fixed {
+            dx: 0.0,
+            y: j as f32,
+        });
+        Sampled {
+            images: grids
+                .into_iter()
+                .map(|pixels| Image {
+                    width: w as u32,
+                    height: h as u32,
+                    pixels,
+                })
+                .collect(),
+            counts,
+            samples_per_view: (w * h) as u64,
+            max_per_pixel: 1,
+            refined: 0,
         }
     }
 
-    /// Turns one view's samples into its image (pixel centres: the samples
-    /// themselves, not copied, which keeps the peak memory down).
-    fn resolve(&self, samples: Vec<Color>, camera: &Camera) -> Image {
-        let (w, h) = (camera.width, camera.height);
-        if self.offset == 0.0 {
-            return Image {
-                width: w,
-                height: h,
-                pixels: samples,
-            };
+    /// The pixel corners, traced once each (every pixel row shares its edges).
+    fn corner_lattice(&self) -> (Vec<Vec<Color>>, TraceCounts) {
+        self.lattice(self.width + 1, self.height + 1, |j| Pattern::Fixed {
+            dx: -0.5,
+            y: j as f32 - 0.5,
+        })
+    }
+
+    /// The SPD procedure: each pixel the mean of its four corners.
+    fn corners(&self) -> Sampled {
+        let (w, h) = (self.width, self.height);
+        self.plan(h + 1);
+        let (grids, counts) = self.corner_lattice();
+        let images = grids
+            .iter()
+            .map(|corners| {
+                let mut img = Image::new(w as u32, h as u32);
+                for y in 0..h {
+                    for x in 0..w {
+                        let s = |i: usize, j: usize| corners[j * (w + 1) + i];
+                        let c = (s(x, y) + s(x + 1, y) + s(x, y + 1) + s(x + 1, y + 1)) * 0.25;
+                        img.pixels[y * w + x] = c;
+                    }
+                }
+                img
+            })
+            .collect();
+        Sampled {
+            images,
+            counts,
+            samples_per_view: ((w + 1) * (h + 1)) as u64,
+            max_per_pixel: 4,
+            refined: 0,
         }
-        let mut img = Image::new(w, h);
-        for y in 0..h as usize {
-            for x in 0..w as usize {
-                let s = |i: usize, j: usize| samples[j * self.width + i];
-                let c = (s(x, y) + s(x + 1, y) + s(x, y + 1) + s(x + 1, y + 1)) * 0.25;
-                img.pixels[y * w as usize + x] = c;
+    }
+
+    /// `samples` points of each pixel's sequence, filtered into the film.
+    fn stratified(&self, samples: u32, filter: Filter, seed: u32) -> Sampled {
+        let (w, h) = (self.width, self.height);
+        let bands = h.div_ceil(BAND_ROWS);
+        self.plan(bands);
+        let (bands, counts) = self.tasks(bands, |ctx, tracer, b| {
+            let rows = b * BAND_ROWS..((b + 1) * BAND_ROWS).min(h);
+            let mut band = FilmBand::new(self.views, (w, h), rows.clone(), filter);
+            let mut colors = Vec::new();
+            for y in rows {
+                for index in 0..samples {
+                    let pattern = Pattern::Sobol {
+                        row: y as u32,
+                        index,
+                        seed,
+                    };
+                    let row = SampleRow::full(w, pattern);
+                    ctx.trace(tracer, &row, &mut colors);
+                    band.splat(filter, &row, &colors);
+                }
             }
+            band
+        });
+        let mut film = Film::new(self.views, w, h);
+        for band in &bands {
+            film.add(band);
         }
-        img
+        Sampled {
+            images: film.images(),
+            counts,
+            samples_per_view: (w * h) as u64 * u64::from(samples),
+            max_per_pixel: samples,
+            refined: 0,
+        }
+    }
+
+    /// Section 2.6: the corners, then each pixel row refined where its
+    /// cells' corners differ (in any view).
+    fn adaptive(&self, threshold: f32, max_samples: u32) -> Sampled {
+        let (w, h) = (self.width, self.height);
+        self.plan(h + 1 + h.div_ceil(BAND_ROWS));
+        let (corners, mut counts) = self.corner_lattice();
+        let corner = |v: usize, x: usize, y: usize| corners[v][y * (w + 1) + x];
+        let bands = h.div_ceil(BAND_ROWS);
+        let (bands, refine_counts) = self.tasks(bands, |ctx, tracer, b| {
+            let mut refiner = Refiner::new(self.views, w, threshold, max_samples);
+            let mut trace = |row: &SampleRow, colors: &mut Vec<RowColors>| {
+                ctx.trace(tracer, row, colors);
+            };
+            (b * BAND_ROWS..((b + 1) * BAND_ROWS).min(h))
+                .map(|y| {
+                    let mut out = vec![Vec::new(); self.views];
+                    let report = refiner.refine_row(
+                        y,
+                        |v, x, top| corner(v, x, if top { y } else { y + 1 }),
+                        &mut trace,
+                        &mut out,
+                    );
+                    (out, report)
+                })
+                .collect::<Vec<_>>()
+        });
+        let rows = bands.into_iter().flatten();
+        counts.add(&refine_counts);
+        let mut images: Vec<Image> = (0..self.views)
+            .map(|_| Image {
+                width: w as u32,
+                height: h as u32,
+                pixels: Vec::with_capacity(w * h),
+            })
+            .collect();
+        let mut total = RowRefinement::default();
+        for (row, report) in rows {
+            for (img, r) in images.iter_mut().zip(row) {
+                img.pixels.extend(r);
+            }
+            total.added += report.added;
+            total.refined += report.refined;
+            total.max_per_pixel = total.max_per_pixel.max(report.max_per_pixel);
+        }
+        Sampled {
+            images,
+            counts,
+            samples_per_view: ((w + 1) * (h + 1)) as u64 + total.added,
+            max_per_pixel: total.max_per_pixel,
+            refined: total.refined,
+        }
     }
 }

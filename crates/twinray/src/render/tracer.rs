@@ -46,7 +46,7 @@ pub struct Tracer<'a> {
     pub counts: TraceCounts,
     traversal: TraversalStats,
     /// Per light and lane, the opaque primitive that last blocked a shadow ray
-    /// toward the light (index `light * MAX_VIEWS + lane`).
+    /// toward the light (index `light * MAX_LANES + lane`).
     shadow_cache: Vec<Option<u32>>,
     /// The paper's section 2.4 (approximate): lanes whose hits lie on one planar
     /// surface trace one reflected (refracted) ray for all, from the midpoint.
@@ -97,7 +97,7 @@ impl<'a> Tracer<'a> {
             settings,
             counts: TraceCounts::default(),
             traversal: TraversalStats::default(),
-            shadow_cache: vec![None; world.scene.lights.len() * super::MAX_VIEWS],
+            shadow_cache: vec![None; world.scene.lights.len() * super::MAX_LANES],
             merge_secondary: false,
             tree_coefficient: 0.0,
         }
@@ -465,7 +465,7 @@ impl<'a> Tracer<'a> {
             lanes &= lanes - 1;
             let cached = self
                 .shadow_cache
-                .get(i * super::MAX_VIEWS + l)
+                .get(i * super::MAX_LANES + l)
                 .copied()
                 .flatten();
             if let Some(prim) = cached {
@@ -484,7 +484,7 @@ impl<'a> Tracer<'a> {
                 lanes &= lanes - 1;
                 through[l] = found[l];
                 if let Some(b) = blocker[l] {
-                    if let Some(slot) = self.shadow_cache.get_mut(i * super::MAX_VIEWS + l) {
+                    if let Some(slot) = self.shadow_cache.get_mut(i * super::MAX_LANES + l) {
                         *slot = Some(b);
                     }
                 }

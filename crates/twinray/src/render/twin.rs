@@ -1,8 +1,11 @@
 //! The twin-object method (the paper's sections 2–2.2, and its approximations
 //! of sections 2.4–2.5 on request), row by row in named stages:
 //!
-//! 1. **Eye pass** (`eye_pass`): one packet per sample position `x`, lane `v`
-//!    holding view `v`'s ray through it (camera column `x + shift_v`) — the
+//! The unit of work is a row of samples (`SampleRow`: one sub-pixel position
+//! in each pixel of a row, the same in every view).
+//!
+//! 1. **Eye pass** (`eye_pass`): one packet per sample, lane `v` holding view
+//!    `v`'s ray through it (camera column `x + shift_v` plus the sample's offset) — the
 //!    paper's one eye ray through the twin objects, returning the nearest hit
 //!    of every view.
 //! 2. **Grouping** (`grouping::group_row`): each sample of view 0 that hit
@@ -21,20 +24,17 @@
 //!    and secondary colour when they see the same surface point and its shading
 //!    tree is diffuse) or as the paper published it (`reproject_forward`).
 
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-use rayon::prelude::*;
-
 use super::grouping::{group_row, nearest_sample, Group};
+use super::sampler::{RowColors, SampleRow};
 use super::tracer::Donor;
-use super::{Grid, Job, ReprojectMode, Reprojection, Samples, Tracer};
+use super::{Job, ReprojectMode, Reprojection, RowWorker, Tracer, ViewBatch};
 use crate::bvh::{Packet, PacketHits};
 use crate::camera::Camera;
 use crate::math::{Color, Vec3};
 use crate::rig::Rig;
 use crate::shapes::SurfaceHit;
-use crate::stats::TraceCounts;
 use crate::world::World;
 
 const NONE: SurfaceHit = SurfaceHit {
@@ -43,17 +43,21 @@ const NONE: SurfaceHit = SurfaceHit {
     v: 0.0,
 };
 
-/// What every row of a render shares: the rig's eyes and camera columns.
-struct RowSetup<'a, const K: usize> {
+/// What every row of a batch of views shares: the scene, the batch's views
+/// (a rig of their own: its view 0 leads the groups) and their eyes.
+pub(super) struct RowSetup<'a, const K: usize> {
     world: &'a World,
     camera: &'a Camera,
-    rig: &'a Rig,
-    grid: &'a Grid,
+    rig: Rig,
     views: usize,
+    /// Index of the batch's view 0 in the whole rig (for the per-view counts).
+    first_view: usize,
     origins: [Vec3; K],
     shifts: Vec<i32>,
-    /// Lowest camera column any view's sample looks along.
-    first_column: i32,
+    min_shift: i32,
+    max_shift: i32,
+    reproject: Option<Reprojection>,
+    merge_secondary: bool,
 }
 
 /// Paper-mode reprojection: the depth of the nearest point of view 0 that
@@ -61,17 +65,20 @@ struct RowSetup<'a, const K: usize> {
 type Received = (f32, Option<Color>);
 
 /// A row's eye rays and hits, kept per worker thread from row to row.
-struct RowScratch<const K: usize> {
-    /// Ray directions of the row, by camera column from `first_column`.
-    dirs: Vec<Vec3>,
+#[derive(Default)]
+pub(super) struct RowScratch<const K: usize> {
+    /// `dirs[v][i]`: view `v`'s eye ray direction through sample `i`.
+    dirs: Vec<Vec<Vec3>>,
     /// `hits[v][i]`: the nearest hit of view `v`'s sample `i`.
     hits: Vec<Vec<(u32, SurfaceHit)>>,
     /// `points[v][i]`: where it is (`None` also for hits beyond a cut).
     points: Vec<Vec<Option<Vec3>>>,
     /// With a cut: `far[v][i]`, whether the hit lies beyond it; per camera
-    /// column, the nearest hit beyond it of the centre's ray, and its colour.
+    /// column from `first_column`, the rig centre's ray along it, its
+    /// nearest hit beyond the cut, and that hit's colour.
     far: Vec<Vec<bool>>,
-    far_hits: Vec<(u32, SurfaceHit)>,
+    first_column: i32,
+    far_rays: Vec<Option<(Vec3, u32, SurfaceHit)>>,
     far_colors: Vec<Option<Color>>,
     claimed: Vec<Vec<bool>>,
     groups: Vec<Group<K>>,
@@ -82,59 +89,106 @@ struct RowScratch<const K: usize> {
     received: Vec<Vec<Option<Received>>>,
 }
 
-impl<const K: usize> RowSetup<'_, K> {
-    fn dir(&self, dirs: &[Vec3], view: usize, sample: usize) -> Vec3 {
-        dirs[self.column(view, sample)]
+impl<const K: usize> RowScratch<K> {
+    /// Sizes the buffers for `views` views of a row of `len` samples.
+    fn reset(&mut self, views: usize, len: usize) {
+        fn fit<T: Clone>(v: &mut Vec<Vec<T>>, views: usize, len: usize, fill: T) {
+            v.resize_with(views, Vec::new);
+            for row in v.iter_mut() {
+                row.clear();
+                row.resize(len, fill.clone());
+            }
+        }
+        fit(&mut self.dirs, views, len, Vec3::Z);
+        fit(&mut self.hits, views, len, (PacketHits::<K>::NO_HIT, NONE));
+        fit(&mut self.points, views, len, None);
+        fit(&mut self.far, views, len, false);
+        fit(&mut self.claimed, views, len, false);
+        fit(&mut self.received, views, len, None);
+    }
+}
+
+impl<'a, const K: usize> RowSetup<'a, K> {
+    /// The setup of the views `first_view..first_view + rig.views.len()` of a
+    /// job, `rig` holding just them.
+    pub(super) fn new(job: &Job<'a>, rig: Rig, first_view: usize) -> RowSetup<'a, K> {
+        let camera = job.camera;
+        let n = rig.views.len();
+        let mut origins = [camera.eye; K];
+        for (v, view) in rig.views.iter().enumerate() {
+            origins[v] = camera.eye_at(view.offset);
+        }
+        let shifts: Vec<i32> = rig.views.iter().map(|v| v.shift).collect();
+        RowSetup {
+            world: job.world,
+            camera,
+            views: n,
+            first_view,
+            origins,
+            min_shift: shifts.iter().copied().min().unwrap_or(0),
+            max_shift: shifts.iter().copied().max().unwrap_or(0),
+            shifts,
+            rig,
+            reproject: job.opts.approx.reproject,
+            merge_secondary: job.opts.approx.merge_secondary,
+        }
+    }
+
+    fn dir(&self, s: &RowScratch<K>, view: usize, sample: usize) -> Vec3 {
+        s.dirs[view][sample]
     }
 
     fn has_hit(s: &RowScratch<K>, view: usize, sample: usize) -> bool {
         s.hits[view][sample].0 != PacketHits::<K>::NO_HIT
     }
 
-    /// Stage 1: the nearest hit of every view's sample of row `row`, one
-    /// descent for the views' rays through the same sample position. With a
-    /// cut (section 2.3), the objects beyond it are tested once per camera
-    /// column, by the ray of the rig's centre: every view sees them as the
-    /// centre does (their parallax is that of objects at infinity).
-    fn eye_pass(&self, tracer: &mut Tracer, row: usize, s: &mut RowScratch<K>) {
-        let (camera, grid, n) = (self.camera, self.grid, self.views);
-        let y = row as f32 + grid.offset;
-        let (lo, hi) = self.rig.column_range(grid.width as u32);
-        s.dirs.clear();
-        s.dirs
-            .extend((lo..=hi).map(|c| camera.direction(c as f32 + grid.offset, y)));
-        let cut = self.world.far.is_some();
-        s.far_hits.clear();
-        if cut {
-            for &dir in &s.dirs {
-                let h = tracer.eye_hits_split(&self.centre_ray(dir), false);
-                s.far_hits.push((h.prim[0], h.hit[0]));
+    /// View `v`'s eye ray direction through sample `i` of `row`.
+    fn sample_dir(&self, row: &SampleRow, v: usize, i: usize) -> Vec3 {
+        let (column, y) = row.camera_point(i, self.shifts[v]);
+        self.camera.direction(column, y)
+    }
+
+    /// Stage 1: the nearest hit of every view's sample of `row`, one descent
+    /// for the views' rays through the same sample position. With a cut
+    /// (section 2.3), the objects beyond it are tested once per camera column,
+    /// by the ray of the rig's centre: every view sees them as the centre does
+    /// (their parallax is that of objects at infinity).
+    fn eye_pass(&self, tracer: &mut Tracer, row: &SampleRow, s: &mut RowScratch<K>) {
+        let n = self.views;
+        s.reset(n, row.len());
+        for v in 0..n {
+            for i in 0..row.len() {
+                s.dirs[v][i] = self.sample_dir(row, v, i);
             }
         }
+        let cut = self.world.far.is_some();
+        if cut {
+            s.first_column = row.pixels.first().copied().unwrap_or(0) + self.min_shift;
+            let last = row.pixels.last().copied().unwrap_or(0) + self.max_shift;
+            let columns = (last - s.first_column + 1).max(0) as usize;
+            s.far_rays.clear();
+            s.far_rays.resize(columns, None);
+        }
         let all = if n == 32 { u32::MAX } else { (1u32 << n) - 1 };
-        let view_of_lane: [usize; K] = std::array::from_fn(|l| l);
-        for i in 0..grid.width {
+        let view_of_lane: [usize; K] = std::array::from_fn(|l| self.first_view + l);
+        for i in 0..row.len() {
             let mut packet = Packet {
                 origins: self.origins,
-                dirs: std::array::from_fn(|v| {
-                    if v < n {
-                        self.dir(&s.dirs, v, i)
-                    } else {
-                        Vec3::Z
-                    }
-                }),
-                t_min: camera.hither,
+                dirs: std::array::from_fn(|v| if v < n { s.dirs[v][i] } else { Vec3::Z }),
+                t_min: self.camera.hither,
                 t_max: [f32::INFINITY; K],
                 mask: all,
             };
             let h = if cut {
-                for v in 0..n {
-                    packet.t_max[v] = s.far_hits[self.column(v, i)].1.t;
+                let mut far = [(PacketHits::<K>::NO_HIT, NONE); K];
+                for (v, slot) in far.iter_mut().enumerate().take(n) {
+                    let (_, prim, hit) = self.far_ray(tracer, row, s, v, i);
+                    *slot = (prim, hit);
+                    packet.t_max[v] = hit.t;
                 }
                 let mut h = tracer.eye_hits_split(&packet, true);
-                for v in 0..n {
+                for (v, &(prim, hit)) in far.iter().enumerate().take(n) {
                     s.far[v][i] = false;
-                    let (prim, hit) = s.far_hits[self.column(v, i)];
                     if !h.has_hit(v) && prim != PacketHits::<K>::NO_HIT {
                         (h.prim[v], h.hit[v]) = (prim, hit);
                         s.far[v][i] = true;
@@ -153,31 +207,62 @@ impl<const K: usize> RowSetup<'_, K> {
         }
     }
 
+    /// With a cut: the rig centre's ray along the camera column of view `v`'s
+    /// sample `i` (through the row's pattern in that column, as the centre's
+    /// own sample), and its nearest hit beyond the cut; traced once per column.
+    fn far_ray(
+        &self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        s: &mut RowScratch<K>,
+        v: usize,
+        i: usize,
+    ) -> (Vec3, u32, SurfaceHit) {
+        let c = self.column(s, row, v, i);
+        if let Some(known) = s.far_rays[c] {
+            return known;
+        }
+        let (column, y) = row.centre_point(s.first_column + c as i32);
+        let dir = self.camera.direction(column, y);
+        let h = tracer.eye_hits_split(&self.centre_ray(dir), false);
+        let known = (dir, h.prim[0], h.hit[0]);
+        s.far_rays[c] = Some(known);
+        known
+    }
+
     /// Camera column (from `first_column`) that view `view`'s sample `i` looks along.
-    fn column(&self, view: usize, i: usize) -> usize {
-        (i as i32 + self.shifts[view] - self.first_column) as usize
+    fn column(&self, s: &RowScratch<K>, row: &SampleRow, view: usize, i: usize) -> usize {
+        (row.pixels[i] + self.shifts[view] - s.first_column) as usize
     }
 
     /// With a cut: the samples whose nearest hit lies beyond it take the shading
     /// of the rig centre's ray along their camera column, computed once per
     /// column for all views (the paper's "one lane, one shading").
-    fn shade_cut(&self, tracer: &mut Tracer, s: &mut RowScratch<K>, out: &mut [Vec<Color>]) {
+    fn shade_cut(
+        &self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        s: &mut RowScratch<K>,
+        out: &mut [RowColors],
+    ) {
         if self.world.far.is_none() {
             return;
         }
         s.far_colors.clear();
-        s.far_colors.resize(s.dirs.len(), None);
+        s.far_colors.resize(s.far_rays.len(), None);
         for (v, view_out) in out.iter_mut().enumerate().take(self.views) {
             for (i, sample_out) in view_out.iter_mut().enumerate() {
                 if !s.far[v][i] {
                     continue;
                 }
-                let c = self.column(v, i);
+                let c = self.column(s, row, v, i);
                 let color = match s.far_colors[c] {
                     Some(color) => color,
                     None => {
-                        let (prim, hit) = s.far_hits[c];
-                        let centre = self.centre_ray(s.dirs[c]);
+                        let Some((dir, prim, hit)) = s.far_rays[c] else {
+                            continue; // not reached: a far sample traced its column
+                        };
+                        let centre = self.centre_ray(dir);
                         let hits = PacketHits {
                             prim: [prim],
                             hit: [hit],
@@ -194,11 +279,11 @@ impl<const K: usize> RowSetup<'_, K> {
     }
 
     /// Stage 2: the groups of samples that see one point.
-    fn group(&self, s: &mut RowScratch<K>) {
-        let (camera, grid, rig) = (self.camera, self.grid, self.rig);
+    fn group(&self, row: &SampleRow, s: &mut RowScratch<K>) {
+        let (camera, rig) = (self.camera, &self.rig);
         group_row(
             &s.points,
-            |v, p| nearest_sample(camera, grid, &rig.views[v], p),
+            |v, p| nearest_sample(camera, row, &rig.views[v], p),
             &mut s.claimed,
             &mut s.groups,
         );
@@ -220,7 +305,7 @@ impl<const K: usize> RowSetup<'_, K> {
         for (v, sample) in group.iter().enumerate() {
             if let Some(i) = *sample {
                 packet.mask |= 1 << v;
-                packet.dirs[v] = self.dir(&s.dirs, v, i);
+                packet.dirs[v] = self.dir(s, v, i);
                 (hits.prim[v], hits.hit[v]) = s.hits[v][i];
             }
         }
@@ -236,17 +321,12 @@ impl<const K: usize> RowSetup<'_, K> {
     ) -> (Packet<1>, PacketHits<1>) {
         let (prim, hit) = s.hits[view][i];
         (
-            self.sample_ray(s, view, i),
+            self.eye_ray(self.origins[view], self.dir(s, view, i)),
             PacketHits {
                 prim: [prim],
                 hit: [hit],
             },
         )
-    }
-
-    /// View `view`'s eye ray through sample `i` of the row, as a packet of one lane.
-    fn sample_ray(&self, s: &RowScratch<K>, view: usize, i: usize) -> Packet<1> {
-        self.eye_ray(self.origins[view], self.dir(&s.dirs, view, i))
     }
 
     /// The rig centre's eye ray along `dir` (what every view sees beyond a cut).
@@ -271,7 +351,7 @@ impl<const K: usize> RowSetup<'_, K> {
         tracer: &mut Tracer,
         s: &RowScratch<K>,
         group: &Group<K>,
-        out: &mut [Vec<Color>],
+        out: &mut [RowColors],
     ) {
         // Samples whose hit lies beyond a cut are shaded already (`shade_cut`).
         let mut group = *group;
@@ -303,7 +383,7 @@ impl<const K: usize> RowSetup<'_, K> {
     }
 
     /// Stage 3: every group shaded as one packet (exact).
-    fn shade_groups(&self, tracer: &mut Tracer, s: &RowScratch<K>, out: &mut [Vec<Color>]) {
+    fn shade_groups(&self, tracer: &mut Tracer, s: &RowScratch<K>, out: &mut [RowColors]) {
         for group in &s.groups {
             self.shade_group(tracer, s, group, out);
         }
@@ -320,7 +400,7 @@ impl<const K: usize> RowSetup<'_, K> {
         if prim != prim0 && !self.world.coplanar(prim0, prim) {
             return false;
         }
-        let d = self.dir(&s.dirs, v, k);
+        let d = self.dir(s, v, k);
         let shape = &self.world.scene.shapes[prim as usize];
         let cos = shape.geometric_normal(p).dot(d).abs().max(0.05);
         let footprint = self.camera.pixel_size * hit.t / cos;
@@ -352,12 +432,13 @@ impl<const K: usize> RowSetup<'_, K> {
         tracer: &mut Tracer,
         s: &mut RowScratch<K>,
         threshold: f32,
-        out: &mut [Vec<Color>],
+        out: &mut [RowColors],
     ) {
         let lights = self.world.scene.lights.len();
+        let width = s.hits[0].len();
         let mut donor = std::mem::take(&mut s.donor);
         let mut kept = std::mem::take(&mut s.kept);
-        kept.reset(self.grid.width, lights);
+        kept.reset(width, lights);
         for group in &s.groups {
             // A group none of whose other samples sees view 0's point keeps its
             // shared descents: it is shaded as one packet.
@@ -418,25 +499,23 @@ impl<const K: usize> RowSetup<'_, K> {
     fn reproject_forward(
         &self,
         tracer: &mut Tracer,
-        row: usize,
+        row: &SampleRow,
         s: &mut RowScratch<K>,
         threshold: f32,
-        out: &mut [Vec<Color>],
+        out: &mut [RowColors],
     ) {
         let n = self.views;
+        s.reset(n, row.len());
         let mut donor = std::mem::take(&mut s.donor);
-        for r in s.received.iter_mut() {
-            r.fill(None);
+        for v in 0..n {
+            for i in 0..row.len() {
+                s.dirs[v][i] = self.sample_dir(row, v, i);
+            }
         }
         // View 0's eye rays, one at a time (a mono render of view 0).
-        let y = row as f32 + self.grid.offset;
-        let (lo, hi) = self.rig.column_range(self.grid.width as u32);
-        s.dirs.clear();
-        s.dirs
-            .extend((lo..=hi).map(|c| self.camera.direction(c as f32 + self.grid.offset, y)));
         for (i, sample_out) in out[0].iter_mut().enumerate() {
-            let packet = self.sample_ray(s, 0, i);
-            let hits = tracer.eye_hits(&packet, &[0]);
+            let packet = self.eye_ray(self.origins[0], s.dirs[0][i]);
+            let hits = tracer.eye_hits(&packet, &[self.first_view]);
             s.hits[0][i] = (hits.prim[0], hits.hit[0]);
             if !hits.has_hit(0) {
                 *sample_out = self.world.scene.background;
@@ -454,7 +533,7 @@ impl<const K: usize> RowSetup<'_, K> {
             let point = packet.origins[0] + packet.dirs[0] * hits.hit[0].t;
             for v in 1..n {
                 let view = &self.rig.views[v];
-                let Some(k) = nearest_sample(self.camera, self.grid, view, point) else {
+                let Some(k) = nearest_sample(self.camera, row, view, point) else {
                     continue;
                 };
                 let depth = self.camera.depth_of(point, view.offset);
@@ -471,8 +550,8 @@ impl<const K: usize> RowSetup<'_, K> {
                     tracer.counts.reprojected += 1;
                     continue;
                 }
-                let packet = self.sample_ray(s, v, k);
-                let hits = tracer.eye_hits(&packet, &[v]);
+                let packet = self.eye_ray(self.origins[v], s.dirs[v][k]);
+                let hits = tracer.eye_hits(&packet, &[self.first_view + v]);
                 *sample_out = if hits.has_hit(0) {
                     tracer.shade_eye(&packet, &hits)[0]
                 } else {
@@ -482,6 +561,69 @@ impl<const K: usize> RowSetup<'_, K> {
             }
         }
         s.donor = donor;
+    }
+
+    /// Every stage for one row of samples: `out[v][i]` is view `v`'s colour
+    /// of sample `i`.
+    fn trace_row(
+        &self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        s: &mut RowScratch<K>,
+        out: &mut [RowColors],
+    ) {
+        tracer.merge_secondary = self.merge_secondary;
+        let start = Instant::now();
+        let paper = matches!(self.reproject, Some(r) if r.mode == ReprojectMode::Paper);
+        if !paper {
+            self.eye_pass(tracer, row, s);
+        }
+        let eye_pass = start.elapsed();
+        self.shade_cut(tracer, row, s, out);
+        match self.reproject {
+            None => {
+                self.group(row, s);
+                self.shade_groups(tracer, s, out);
+            }
+            Some(Reprojection {
+                mode: ReprojectMode::Safe,
+                threshold,
+            }) => {
+                self.group(row, s);
+                self.share_groups(tracer, s, threshold, out);
+            }
+            Some(Reprojection {
+                mode: ReprojectMode::Paper,
+                threshold,
+            }) => self.reproject_forward(tracer, row, s, threshold, out),
+        }
+        tracer.counts.eye_pass_ns += eye_pass.as_nanos() as u64;
+        tracer.counts.shading_pass_ns += (start.elapsed() - eye_pass).as_nanos() as u64;
+    }
+}
+
+/// The twin method's worker: a batch's setup and its scratch space.
+struct TwinWorker<'s, 'a, const K: usize> {
+    setup: &'s RowSetup<'a, K>,
+    scratch: RowScratch<K>,
+}
+
+impl<const K: usize> RowWorker for TwinWorker<'_, '_, K> {
+    fn trace(&mut self, tracer: &mut Tracer, row: &SampleRow, out: &mut [RowColors]) {
+        self.setup.trace_row(tracer, row, &mut self.scratch, out);
+    }
+}
+
+impl<const K: usize> ViewBatch for RowSetup<'_, K> {
+    fn view_count(&self) -> usize {
+        self.views
+    }
+
+    fn worker(&self) -> Box<dyn RowWorker + '_> {
+        Box::new(TwinWorker {
+            setup: self,
+            scratch: RowScratch::<K>::default(),
+        })
     }
 }
 
@@ -534,100 +676,12 @@ impl KeptShading {
     }
 }
 
-/// Renders every view of the job's rig by the twin method (see the module).
-pub(super) fn render<const K: usize>(job: &Job) -> Samples {
-    let Job {
-        world,
-        camera,
-        rig,
-        opts,
-        grid,
-        progress,
-    } = *job;
-    let n = rig.views.len();
-    let mut origins = [camera.eye; K];
-    for (v, view) in rig.views.iter().enumerate() {
-        origins[v] = camera.eye_at(view.offset);
-    }
-    let (lo, hi) = rig.column_range(grid.width as u32);
-    let setup = RowSetup::<K> {
-        world,
-        camera,
-        rig,
-        grid,
-        views: n,
-        origins,
-        shifts: rig.views.iter().map(|v| v.shift).collect(),
-        first_column: lo,
-    };
-    let width = grid.width;
-    let total = grid.height as u64;
-    let done = AtomicU64::new(0);
-    let scratch = || RowScratch::<K> {
-        dirs: Vec::with_capacity((hi - lo + 1) as usize),
-        hits: vec![vec![(PacketHits::<K>::NO_HIT, NONE); width]; n],
-        points: vec![vec![None; width]; n],
-        far: vec![vec![false; width]; n],
-        far_hits: Vec::new(),
-        far_colors: Vec::new(),
-        claimed: vec![vec![false; width]; n],
-        groups: Vec::with_capacity(width * n),
-        donor: Donor::default(),
-        kept: KeptShading::default(),
-        received: vec![vec![None; width]; n],
-    };
-    let rows: Vec<(Vec<Vec<Color>>, TraceCounts)> = (0..grid.height)
-        .into_par_iter()
-        .map_init(scratch, |s, j| {
-            let mut tracer = Tracer::new(world, opts.trace);
-            tracer.merge_secondary = opts.approx.merge_secondary;
-            let start = Instant::now();
-            let paper = matches!(opts.approx.reproject, Some(r) if r.mode == ReprojectMode::Paper);
-            if !paper {
-                setup.eye_pass(&mut tracer, j, s);
-            }
-            let eye_pass = start.elapsed();
-            let mut out = vec![vec![Color::ZERO; width]; n];
-            setup.shade_cut(&mut tracer, s, &mut out);
-            match opts.approx.reproject {
-                None => {
-                    setup.group(s);
-                    setup.shade_groups(&mut tracer, s, &mut out);
-                }
-                Some(Reprojection {
-                    mode: ReprojectMode::Safe,
-                    threshold,
-                }) => {
-                    setup.group(s);
-                    setup.share_groups(&mut tracer, s, threshold, &mut out);
-                }
-                Some(Reprojection {
-                    mode: ReprojectMode::Paper,
-                    threshold,
-                }) => setup.reproject_forward(&mut tracer, j, s, threshold, &mut out),
-            }
-            tracer.counts.eye_pass_ns += eye_pass.as_nanos() as u64;
-            tracer.counts.shading_pass_ns += (start.elapsed() - eye_pass).as_nanos() as u64;
-            progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
-            (out, tracer.finish())
-        })
-        .collect();
-    let mut grids = vec![Vec::with_capacity(grid.width * grid.height); n];
-    let mut counts = TraceCounts::default();
-    for (per_view, c) in rows {
-        for (g, r) in grids.iter_mut().zip(per_view) {
-            g.extend(r);
-        }
-        counts.add(&c);
-    }
-    (grids, counts)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::loaders::{load_scene, LoadOptions};
-    use crate::render::{RenderOptions, Sampling};
+    use crate::render::sampler::Pattern;
+    use crate::render::RenderOptions;
 
     /// Under a strongly converged rig (image shifts of many pixels), the
     /// samples the grouping puts together see the same surface point: the
@@ -648,41 +702,30 @@ mod tests {
             "{:?}",
             rig.views
         );
-        let grid = Grid::for_camera(&camera, Sampling::Centers);
-        let (lo, _) = rig.column_range(grid.width as u32);
-        let mut origins = [camera.eye; 2];
-        for (v, view) in rig.views.iter().enumerate() {
-            origins[v] = camera.eye_at(view.offset);
-        }
-        let setup = RowSetup::<2> {
-            world: &world,
+        let world_ref = &world;
+        let opts = RenderOptions::default();
+        let job = Job {
+            world: world_ref,
             camera: &camera,
             rig: &rig,
-            grid: &grid,
-            views: 2,
-            origins,
-            shifts: rig.views.iter().map(|v| v.shift).collect(),
-            first_column: lo,
+            opts: &opts,
+            progress: &|_, _| {},
         };
-        let width = grid.width;
-        let mut s = RowScratch::<2> {
-            dirs: Vec::new(),
-            hits: vec![vec![(PacketHits::<2>::NO_HIT, NONE); width]; 2],
-            points: vec![vec![None; width]; 2],
-            far: vec![vec![false; width]; 2],
-            far_hits: Vec::new(),
-            far_colors: Vec::new(),
-            claimed: vec![vec![false; width]; 2],
-            groups: Vec::new(),
-            donor: Donor::default(),
-            kept: KeptShading::default(),
-            received: vec![vec![None; width]; 2],
-        };
+        let setup = RowSetup::<2>::new(&job, rig.clone(), 0);
+        let width = camera.width as usize;
+        let mut s = RowScratch::<2>::default();
         let mut tracer = Tracer::new(&world, RenderOptions::default().trace);
         let (mut pairs, mut same) = (0, 0);
-        for row in 0..grid.height {
-            setup.eye_pass(&mut tracer, row, &mut s);
-            setup.group(&mut s);
+        for y in 0..camera.height {
+            let row = SampleRow::full(
+                width,
+                Pattern::Fixed {
+                    dx: 0.0,
+                    y: y as f32,
+                },
+            );
+            setup.eye_pass(&mut tracer, &row, &mut s);
+            setup.group(&row, &mut s);
             for group in &s.groups {
                 if let [Some(i), Some(k)] = *group {
                     pairs += 1;
@@ -692,7 +735,7 @@ mod tests {
                 }
             }
         }
-        assert!(pairs > width * grid.height / 2, "{pairs} pairs");
+        assert!(pairs > width * camera.height as usize / 2, "{pairs} pairs");
         assert!(
             same * 100 >= pairs * 95,
             "{same} of {pairs} pairs see one point"
