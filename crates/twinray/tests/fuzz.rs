@@ -176,3 +176,16 @@ fn mutated_shipped_scenes_load_or_fail_with_a_location_and_never_panic() {
     );
     assert_eq!(loaded + refused, mutants);
 }
+
+/// Mutant 20,939 of `scripts/fuzz.sh 100000 1`: `shelf.nff` cut short, one
+/// glass sphere's radius set to 99,999,999 (it encloses the camera and the
+/// scene). A shadow ray from that sphere's wall, 1e8 away, misses a cone by 5
+/// units, but the cone's test reports a hit (its f32 quadratic cancels). The
+/// traversal never tests the cone (the ray misses its box); the shadow cache
+/// tested it directly and trusted it, so one pixel of view R depended on the
+/// cache's history and twin differed from independent (docs/reliability.md).
+#[test]
+fn huge_enclosing_sphere_mutant_twin_equals_independent() {
+    let text = include_str!("data/fuzz/twin-differs-huge-sphere.nff");
+    check(text).unwrap_or_else(|why| panic!("twin-differs-huge-sphere.nff: {why}"));
+}

@@ -36,14 +36,7 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
         .iter()
         .enumerate()
         .map(|(i, b)| {
-            let b = if b.is_empty() {
-                Aabb {
-                    min: Vec3::ZERO,
-                    max: Vec3::ZERO,
-                }
-            } else {
-                b.padded()
-            };
+            let b = primitive_box(b);
             PrimRef {
                 bounds: b,
                 centroid: b.center(),
@@ -59,6 +52,21 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     };
     flatten(&tree, &mut bvh.nodes, 0);
     bvh
+}
+
+/// The box a primitive with bounds `b` is filed under: `b` padded so that the
+/// slab test stays conservative under rounding (an empty `b`: the origin). The
+/// boxes of the nodes above it are unions of such boxes, so they contain it
+/// exactly.
+pub fn primitive_box(b: &Aabb) -> Aabb {
+    if b.is_empty() {
+        Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ZERO,
+        }
+    } else {
+        b.padded()
+    }
 }
 
 #[derive(Clone, Copy)]

@@ -9,9 +9,10 @@
 mod build;
 mod traverse;
 
-pub use build::{build, BuildOptions};
+pub use build::{build, primitive_box, BuildOptions};
 pub use traverse::{
-    AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats,
+    segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
+    TraversalStats,
 };
 
 use crate::math::Aabb;

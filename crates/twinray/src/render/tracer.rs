@@ -8,7 +8,10 @@
 //! lane's numbers are its own throughout, so every lane gets exactly what its
 //! view's reference render gets.
 
-use crate::bvh::{Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats};
+use crate::bvh::{
+    primitive_box, segment_enters, Bvh, NearestTest, Packet, PacketHits, SegmentPacket,
+    TraversalStats,
+};
 use crate::math::{reflect, refract, Color, Ray, Vec3};
 use crate::shading::{
     ambient, blocks, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint,
@@ -469,7 +472,16 @@ impl<'a> Tracer<'a> {
                 .copied()
                 .flatten();
             if let Some(prim) = cached {
-                if blocks(world, prim, seg.origins[l], seg.dirs[l], seg.t_max[l]) {
+                // Trusted only where the traversal would find it too: it tests a
+                // primitive only if the segment enters its box, and a primitive's
+                // test can report a hit outside its box where its arithmetic
+                // breaks down (a cone seen from 1e8 away). The traversal's
+                // answer must not depend on what the cache holds.
+                let (o, d, t) = (seg.origins[l], seg.dirs[l], seg.t_max[l]);
+                let shape = &world.scene.shapes[prim as usize];
+                if blocks(world, prim, o, d, t)
+                    && segment_enters(&primitive_box(&shape.bounds()), o, d, t)
+                {
                     through[l] = 0.0;
                     seg.mask &= !(1 << l);
                 }
