@@ -456,14 +456,7 @@ fn bad_sampling_values_are_refused_with_the_flag_named() {
         (vec!["--spd", "--samples", "4"], "--spd"),
         (vec!["--samples", "1", "--filter", "gaussian"], "--filter"),
     ] {
-        let mut args = vec![
-            "render",
-            s(&example),
-            "-o",
-            s(&out),
-            "--size",
-            "8x8",
-        ];
+        let mut args = vec!["render", s(&example), "-o", s(&out), "--size", "8x8"];
         args.extend(flags.iter().copied());
         let r = twinray(&args);
         assert_ne!(r.code, Some(0), "{flags:?} accepted");

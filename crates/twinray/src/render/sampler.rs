@@ -330,6 +330,32 @@ mod tests {
     }
 
     #[test]
+    fn every_view_samples_its_pixels_at_the_same_points() {
+        // Locked sampling: view v's sample of pixel x lies at the same point
+        // of that pixel whatever the view's image shift.
+        let row = SampleRow::full(
+            9,
+            Pattern::Sobol {
+                row: 4,
+                index: 2,
+                seed: 0,
+            },
+        );
+        for i in 0..row.len() {
+            let (c0, y0) = row.camera_point(i, 0);
+            for shift in [-7, 3, 40] {
+                let (c, y) = row.camera_point(i, shift);
+                // (Up to the rounding of the larger column number.)
+                assert!(
+                    (c - shift as f32 - c0).abs() < 1e-4,
+                    "sample {i}, shift {shift}"
+                );
+                assert_eq!(y, y0);
+            }
+        }
+    }
+
+    #[test]
     fn neighbouring_pixels_have_different_patterns() {
         let a = Pattern::Sobol {
             row: 2,
