@@ -7,7 +7,7 @@ configuration, the eye samples per pixel, the PSNR against the reference and
 the render time, as a Markdown table, and writes the rows as CSV.
 
     bench/antialias.py [--size 512] [--reference 256] [--thresholds 0.0625,0.03125]
-                       [--csv docs/antialias-bench.csv] [SCENE.nff ...]
+                       [--csv docs/antialias-bench.csv] [--refs DIR] [SCENE.nff ...]
 
 Default scenes: ../shared/scenes/spd/*.nff (the SPD set) beside the repository.
 The mono renders are enough for the quality: the sample positions are the same
@@ -55,6 +55,7 @@ def main():
     p.add_argument("--samples", default="1,4,16")
     p.add_argument("--thresholds", default="0.0625,0.03125")
     p.add_argument("--csv")
+    p.add_argument("--refs", help="keep the references in this directory and reuse them")
     args = p.parse_args()
     scenes = args.scenes or [os.path.join(ROOT, "..", "shared", "scenes", "spd", f"{s}.nff")
                              for s in SPD]
@@ -64,10 +65,15 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for scene in scenes:
             name = os.path.splitext(os.path.basename(scene))[0]
-            ref = os.path.join(tmp, f"{name}-ref.exr")
+            refs = args.refs or tmp
+            os.makedirs(refs, exist_ok=True)
+            ref = os.path.join(refs, f"{name}-{args.size}-ref{args.reference}.exr")
             st = os.path.join(tmp, "stats.json")
-            ref_s, _ = render(scene, ref, args.size, ["--samples", str(args.reference), "--seed", "1"], st)
-            print(f"{name}: reference {args.reference} samples in {ref_s:.1f} s", file=sys.stderr)
+            if not os.path.exists(ref):
+                ref_s, _ = render(scene, ref, args.size,
+                                  ["--samples", str(args.reference), "--seed", "1"], st)
+                print(f"{name}: reference {args.reference} samples in {ref_s:.1f} s",
+                      file=sys.stderr)
             for label, flags in configs:
                 img = os.path.join(tmp, f"{name}.exr")
                 seconds, facts = render(scene, img, args.size, flags, st)

@@ -56,7 +56,7 @@ pub struct BenchArgs {
     /// Views of the rig (2: a stereo pair), spaced by each --interaxial.
     #[arg(long, default_value_t = 2)]
     views: usize,
-    /// Twin method: most views per packet (default: all up to 32, then 8).
+    /// Twin method: most views per packet (default 4).
     #[arg(long, value_name = "N")]
     views_per_batch: Option<usize>,
     /// Sampling of both methods (default here: one ray per pixel centre, as

@@ -197,8 +197,8 @@ struct RenderArgs {
     #[arg(long, value_enum)]
     interlace: Option<InterlaceArg>,
 
-    /// Twin method: most views traced as one packet (default: all, up to 32;
-    /// batches of 8 neighbouring views beyond).
+    /// Twin method: most views traced as one packet, 1 to 32 (default 4:
+    /// more views are traced in batches of 4 neighbours).
     #[arg(long, value_name = "N")]
     views_per_batch: Option<usize>,
 

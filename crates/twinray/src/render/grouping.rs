@@ -21,19 +21,23 @@ pub(super) type Group<const K: usize> = [Option<usize>; K];
 /// View `v`'s sample of pixel `x` looks along camera column `x + shift_v`
 /// (plus its offset in the pixel), so a point that projects to camera column
 /// `c` falls in the view's image column `c - shift_v`.
+/// `source` is the sample (of another view) that saw `point`: see
+/// [`SampleRow::nearest_to_sample`].
 pub(super) fn nearest_sample(
     camera: &Camera,
     row: &SampleRow,
     view: &View,
     point: Vec3,
+    source: usize,
 ) -> Option<usize> {
     let (column, _) = camera.project(point, view.offset)?;
-    row.nearest(column - view.shift as f64)
+    row.nearest_to_sample(column - view.shift as f64, source)
 }
 
 /// Groups the samples of one row. `points[v][i]` is where view `v`'s sample
-/// `i` hit (`None`: it hit nothing); `project(v, p)` is the sample of view
-/// `v`'s row nearest to where `p` projects (`nearest_sample`).
+/// `i` hit (`None`: it hit nothing); `project(v, i, p)` is the sample of view
+/// `v`'s row nearest to where `p`, seen by view 0's sample `i`, projects
+/// (`nearest_sample`).
 ///
 /// Every sample of view 0 leads a group; its hit is projected into each other
 /// view and the sample found there joins the group if it hit something and no
@@ -42,7 +46,7 @@ pub(super) fn nearest_sample(
 /// `claimed` is scratch space (one `Vec<bool>` per view, any content).
 pub(super) fn group_row<const K: usize>(
     points: &[Vec<Option<Vec3>>],
-    project: impl Fn(usize, Vec3) -> Option<usize>,
+    project: impl Fn(usize, usize, Vec3) -> Option<usize>,
     claimed: &mut [Vec<bool>],
     groups: &mut Vec<Group<K>>,
 ) {
@@ -56,7 +60,9 @@ pub(super) fn group_row<const K: usize>(
         group[0] = Some(i);
         if let Some(point) = *hit {
             for v in 1..views {
-                let Some(k) = project(v, point) else { continue };
+                let Some(k) = project(v, i, point) else {
+                    continue;
+                };
                 if !claimed[v][k] && points[v][k].is_some() {
                     claimed[v][k] = true;
                     group[v] = Some(k);
@@ -85,8 +91,8 @@ mod tests {
     }
 
     /// A projection that moves every point `d` samples (a flat disparity).
-    fn shifted(d: i64, width: usize) -> impl Fn(usize, Vec3) -> Option<usize> {
-        move |_, p| {
+    fn shifted(d: i64, width: usize) -> impl Fn(usize, usize, Vec3) -> Option<usize> {
+        move |_, _, p| {
             let k = p.x.round() as i64 + d;
             (k >= 0 && (k as usize) < width).then_some(k as usize)
         }

@@ -19,8 +19,9 @@
 //! compute every ray from the same positions with the same arithmetic, so
 //! their images are equal for every sampling.
 //!
-//! More views than a packet holds ([`MAX_LANES`]) are traced in batches of
-//! neighbouring views, each a twin packet of its own.
+//! The twin method traces the views in batches of neighbouring views
+//! ([`DEFAULT_VIEWS_PER_BATCH`], at most [`MAX_LANES`]), each a twin packet of
+//! its own.
 
 mod adaptive;
 mod film;
@@ -164,13 +165,17 @@ impl Default for RenderOptions {
     }
 }
 
-/// The twin method's batch size for `views` views when none is asked for:
-/// all views in one packet up to [`MAX_LANES`], else batches of 8 neighbouring
-/// views (docs/benchmarks.md#views measures the choice).
+/// Views per batch when none is asked for: more than 4 neighbouring views in
+/// one packet group worse than they share (8 views in one packet cost 1.04–1.23
+/// of 8 independent renders on the SPD scenes, in batches of 4 0.67–0.98:
+/// docs/benchmarks.md#views).
+pub const DEFAULT_VIEWS_PER_BATCH: usize = 4;
+
+/// The twin method's batch size for `views` views: `asked`, or when that is 0
+/// all views up to [`DEFAULT_VIEWS_PER_BATCH`], else batches of that many.
 pub fn views_per_batch(views: usize, asked: usize) -> usize {
     match asked {
-        0 if views <= MAX_LANES => views.max(1),
-        0 => 8,
+        0 => views.clamp(1, DEFAULT_VIEWS_PER_BATCH),
         n => n.min(MAX_LANES),
     }
 }

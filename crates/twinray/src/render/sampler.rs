@@ -283,12 +283,27 @@ impl SampleRow {
 
     /// The sample nearest to image column `u` of a view (integers are pixel
     /// centres), if the row has one in that pixel.
-    pub(super) fn nearest(&self, u: f64) -> Option<usize> {
+    #[cfg(test)]
+    fn nearest(&self, u: f64) -> Option<usize> {
         let dx = match self.pattern {
             Pattern::Fixed { dx, .. } => dx as f64,
             Pattern::Sobol { .. } => 0.0,
         };
-        let p = (u - dx).round();
+        self.sample_of_pixel((u - dx).round())
+    }
+
+    /// The sample of the pixel that a point seen by sample `source` (of another
+    /// view) falls in, at image column `u`, counted as if it lay at `source`'s
+    /// own offset in its pixel: the pixels of the two views then match one to
+    /// one where the disparity is smooth, also when the samples' offsets differ
+    /// from pixel to pixel (`--samples N`), so no two samples claim one.
+    pub(super) fn nearest_to_sample(&self, u: f64, source: usize) -> Option<usize> {
+        let dx = self.offsets.get(source).map_or(0.0, |&(dx, _)| dx as f64);
+        self.sample_of_pixel((u - dx).round())
+    }
+
+    /// The sample in pixel `p` (a whole number), if the row has one.
+    fn sample_of_pixel(&self, p: f64) -> Option<usize> {
         let first = *self.pixels.first()? as f64;
         if self.contiguous {
             let k = p - first;

@@ -283,7 +283,7 @@ impl<'a, const K: usize> RowSetup<'a, K> {
         let (camera, rig) = (self.camera, &self.rig);
         group_row(
             &s.points,
-            |v, p| nearest_sample(camera, row, &rig.views[v], p),
+            |v, i, p| nearest_sample(camera, row, &rig.views[v], p, i),
             &mut s.claimed,
             &mut s.groups,
         );
@@ -533,7 +533,7 @@ impl<'a, const K: usize> RowSetup<'a, K> {
             let point = packet.origins[0] + packet.dirs[0] * hits.hit[0].t;
             for v in 1..n {
                 let view = &self.rig.views[v];
-                let Some(k) = nearest_sample(self.camera, row, view, point) else {
+                let Some(k) = nearest_sample(self.camera, row, view, point, i) else {
                     continue;
                 };
                 let depth = self.camera.depth_of(point, view.offset);
