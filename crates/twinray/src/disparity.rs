@@ -32,9 +32,10 @@ pub const EYE_SEPARATION_M: f64 = 0.065;
 /// television (Sky's budget is written for television).
 pub const DEFAULT_SCREEN_WIDTH_M: f64 = 1.2;
 
-/// At most this many columns are sampled by the report's depth passes
-/// (`depth::stride_for`): about 2 % of a render's eye rays at 640×480.
-pub const REPORT_COLUMNS: u32 = 256;
+/// At most this many columns are sampled by the depth passes of the rig's
+/// choice and of the report (`depth::stride_for`; every 4th pixel at 512 to
+/// 640 wide): at most 5 passes of a sixteenth of a view's eye rays each.
+pub const REPORT_COLUMNS: u32 = 160;
 
 /// Disparities within this many pixels of the budget count as inside it.
 const BUDGET_TOLERANCE_PX: f64 = 0.01;
