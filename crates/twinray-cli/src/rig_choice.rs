@@ -194,7 +194,7 @@ pub fn settle(
         rig,
         choice,
         passes,
-    } = plan_rig(world, camera, request, stride).context("--interaxial and --convergence")?;
+    } = plan_rig(world, camera, request, stride).context("choosing the rig")?;
     let passes = match passes {
         Some(p) => p,
         None => OuterPasses::measure(world, camera, &rig, stride),

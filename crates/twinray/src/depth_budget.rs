@@ -295,6 +295,18 @@ pub fn choose_rig(
     }
     // Largest total shift Rig::multi_view accepts: ceil(T / 2) < width.
     let max_total = (2 * i64::from(camera.width) - 2).max(0);
+    if let Spacing::ViewCone(cone) = req.spacing {
+        // Whatever the convergence, the outer views are shifted
+        // 2·f·tan(cone/2) pixels apart.
+        let total = (2.0 * f * (cone.to_radians() / 2.0).tan()).round();
+        if total.is_nan() || total > max_total as f64 {
+            return Err(Error::Invalid(format!(
+                "a {cone}° view cone shifts the outer views {total} pixels apart, more than \
+                 a {}-pixel-wide image allows ({max_total}): use a narrower cone",
+                camera.width
+            )));
+        }
+    }
     let convergence_from = match req.convergence {
         Convergence::Auto => "auto",
         Convergence::Nearest => "near",
@@ -791,6 +803,12 @@ mod tests {
             None
         )
         .is_err());
+        let wide = choose_rig(
+            &cam,
+            &request(2, Spacing::ViewCone(179.0), Convergence::Auto),
+            None,
+        );
+        assert!(wide.unwrap_err().to_string().contains("narrower cone"));
         // Auto convergence: the range in the budget's proportions.
         let range = DepthRange {
             near: 5.0,
