@@ -1,6 +1,8 @@
 //! The `twinray` command: parses arguments, shows progress, calls the library.
 
 mod bench;
+mod rig_choice;
+mod view_outputs;
 mod sampling;
 
 use std::io::IsTerminal;
@@ -40,7 +42,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene (NFF, OBJ, glTF) to an image, or a stereo pair / view set in a layout.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Time stereo pairs: the twin method against two independent renders (the paper's tables 2.1, 2.2).
     BenchStereo(bench::BenchArgs),
     /// Compare two images: PSNR, largest difference, differing pixels. Exits 1 when
@@ -84,6 +86,8 @@ enum LayoutArg {
     Interlace,
     Mpo,
     Multiview,
+    /// Looking Glass quilt of N views (--quilt): view 0 bottom-left, the last top-right.
+    Quilt,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -173,11 +177,14 @@ struct RenderArgs {
     /// Render N views for a multi-view display (spaced --interaxial apart).
     #[arg(long)]
     views: Option<usize>,
-    /// Distance between the eyes, in scene units.
-    #[arg(long, allow_negative_numbers = true)]
-    interaxial: Option<f32>,
-    /// Zero-parallax distance: a number, or "inf" for parallel cameras (default: distance to the NFF 'at' point).
-    #[arg(long, allow_negative_numbers = true)]
+    /// Distance between adjacent views (the eyes), in scene units, or "auto": the
+    /// largest that fits the visible depths into --depth-budget (the default).
+    #[arg(long, allow_negative_numbers = true, value_name = "B|auto")]
+    interaxial: Option<rig_choice::InteraxialArg>,
+    /// Zero-parallax distance: a number, "inf" (parallel cameras), "auto" (fitted
+    /// to --depth-budget) or "near" (the nearest visible point). Default: auto, or
+    /// the distance to the scene's 'at' point when --interaxial is a number.
+    #[arg(long, allow_negative_numbers = true, value_name = "D|inf|auto|near")]
     convergence: Option<String>,
     /// How the views are computed.
     #[arg(long, value_enum, default_value_t = MethodArg::Twin)]
@@ -204,6 +211,9 @@ struct RenderArgs {
 
     #[command(flatten)]
     sampling: sampling::SamplingArgs,
+
+    #[command(flatten)]
+    depth: rig_choice::DepthArgs,
 
     #[command(flatten)]
     approx: ApproxArgs,
@@ -467,11 +477,16 @@ fn run_compare(args: &CompareArgs) -> Result<()> {
 /// How many views, how far apart, converging where: checked before any work.
 struct ViewPlan {
     count: usize,
+    /// The rig's spacing and convergence, final once the rig is settled
+    /// (`rig_choice::settle`).
     interaxial: f32,
     convergence: Option<f64>,
+    /// What the flags ask of the rig (several views only).
+    request: Option<twinray::depth_budget::RigRequest>,
 }
 
 fn plan_views(args: &RenderArgs, default_convergence: f64) -> Result<ViewPlan> {
+    let quilt = args.depth.quilt.filter(|_| args.layout == LayoutArg::Quilt);
     let count = match (args.stereo, args.views) {
         (true, Some(n)) if n != 2 => {
             bail!("--stereo renders 2 views; use --views {n} alone for a multi-view set")
@@ -482,31 +497,44 @@ fn plan_views(args: &RenderArgs, default_convergence: f64) -> Result<ViewPlan> {
         }
         (_, Some(n)) => n,
         (true, None) => 2,
-        (false, None) => 1,
+        (false, None) => quilt.map_or(1, |q| q.layout.tiles()),
     };
-    let interaxial = match args.interaxial {
-        Some(b) if !(b.is_finite() && b >= 0.0) => bail!("--interaxial must be a finite distance >= 0, got {b}"),
-        Some(b) => b,
-        None if count > 1 => bail!("--interaxial B is required with --stereo or --views (distance between the eyes, in scene units)"),
-        None => 0.0,
-    };
-    let convergence = match args.convergence.as_deref() {
-        None => Some(default_convergence),
-        Some("inf") | Some("infinity") => None,
-        Some(s) => {
-            let c: f64 = s
-                .parse()
-                .with_context(|| format!("--convergence '{s}' is neither a distance nor 'inf'"))?;
-            if !(c.is_finite() && c > 0.0) {
-                bail!("--convergence must be a distance > 0 or 'inf', got {s}");
-            }
-            Some(c)
+    if let Some(q) = quilt {
+        let (c, r) = (q.layout.columns, q.layout.rows);
+        if count > render::MAX_VIEWS {
+            bail!(
+                "--quilt {c}x{r} takes {count} views: at most {} views (--views N renders fewer, the other tiles black)",
+                render::MAX_VIEWS
+            );
         }
+        if count > q.layout.tiles() {
+            bail!(
+                "--views {count} do not fit a {c}x{r} quilt ({} tiles)",
+                q.layout.tiles()
+            );
+        }
+    }
+    let request = if count > 1 {
+        Some(rig_choice::rig_request(
+            args.interaxial,
+            args.convergence.as_deref(),
+            &args.depth,
+            quilt.is_some(),
+            count,
+            default_convergence,
+        )?)
+    } else {
+        None
     };
     if count == 1 && args.layout != LayoutArg::Separate {
         bail!("--layout needs --stereo (or --views)");
     }
-    if count != 2 && !matches!(args.layout, LayoutArg::Separate | LayoutArg::Multiview) {
+    if count != 2
+        && !matches!(
+            args.layout,
+            LayoutArg::Separate | LayoutArg::Multiview | LayoutArg::Quilt
+        )
+    {
         bail!(
             "--layout {} takes exactly two views",
             args.layout
@@ -518,8 +546,9 @@ fn plan_views(args: &RenderArgs, default_convergence: f64) -> Result<ViewPlan> {
     check_layout_format(args.layout, &args.output)?;
     Ok(ViewPlan {
         count,
-        interaxial,
-        convergence,
+        interaxial: 0.0,
+        convergence: None,
+        request,
     })
 }
 
@@ -548,7 +577,9 @@ fn check_layout_format(layout: LayoutArg, out: &Path) -> Result<()> {
 /// Flag combinations that would be silently ignored or coerced, and values
 /// the library refuses, found before the scene is read.
 fn check_flags(args: &RenderArgs) -> Result<()> {
-    let several_views = args.stereo || args.views.is_some_and(|n| n > 1);
+    let several_views = args.stereo
+        || args.views.is_some_and(|n| n > 1)
+        || (args.layout == LayoutArg::Quilt && args.views.is_none());
     if !several_views {
         if args.interaxial.is_some() {
             bail!("--interaxial needs --stereo or --views N (N > 1)");
@@ -573,6 +604,14 @@ fn check_flags(args: &RenderArgs) -> Result<()> {
     }
     if args.spd && args.min_weight.is_some() {
         bail!("--spd traces every ray (no cut-off): --min-weight does not apply");
+    }
+    let quilt_layout = args.layout == LayoutArg::Quilt;
+    rig_choice::check_flags(&args.depth, several_views || quilt_layout, quilt_layout)?;
+    if args.depth.depth {
+        view_outputs::check_depth_output(
+            &args.output,
+            matches!(args.layout, LayoutArg::Separate | LayoutArg::Multiview),
+        )?;
     }
     if let Some(n) = args.threads {
         twinray::job::check_threads(n).context("--threads")?;
@@ -638,6 +677,8 @@ fn plan_outputs(
     let mut files = if plan.count == 1 {
         output::check_image_target(out, w, h)?;
         vec![out.clone()]
+    } else if let (LayoutArg::Quilt, Some(spec)) = (args.layout, &args.depth.quilt) {
+        vec![view_outputs::quilt_target(out, spec, width, height)?]
     } else if args.layout == LayoutArg::Multiview {
         output::check_stereo_targets(
             out,
@@ -704,10 +745,12 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
             args.scene.display()
         );
     }
-    let (width, height) = match (args.size, args.spd) {
-        (Some(s), _) => s,
-        (None, true) => (512, 512),
-        (None, false) => (scene.viewpoint.width, scene.viewpoint.height),
+    let preset = args.depth.quilt.and_then(|q| q.preset);
+    let (width, height) = match (args.size, args.spd, preset) {
+        (Some(s), _, _) => s,
+        (None, _, Some(p)) => (p.view_width, p.view_height),
+        (None, true, None) => (512, 512),
+        (None, false, None) => (scene.viewpoint.width, scene.viewpoint.height),
     };
     if width > args.max_resolution || height > args.max_resolution {
         bail!(
@@ -717,13 +760,16 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     }
     let camera = Camera::new(&scene.viewpoint, width, height);
     let default_convergence = (scene.viewpoint.at - scene.viewpoint.from).length() as f64;
-    let plan = plan_views(args, default_convergence)?;
-    let rig = if plan.count == 1 {
-        Rig::mono()
-    } else {
-        Rig::multi_view(&camera, plan.count, plan.interaxial, plan.convergence)
-            .context("--interaxial and --convergence")?
+    let mut plan = plan_views(args, default_convergence)?;
+    // The rig, or with an automatic spacing or convergence a stand-in until
+    // the depth pass on the built scene (rig_choice::settle).
+    let (mut rig, explicit_choice) = match &plan.request {
+        None => (Rig::mono(), None),
+        Some(request) => rig_choice::rig_before_depths(&camera, request)?,
     };
+    if let Some(c) = &explicit_choice {
+        (plan.interaxial, plan.convergence) = (c.interaxial, c.convergence);
+    }
     let trace = trace_settings(args);
     let opts = RenderOptions {
         trace,
@@ -735,13 +781,24 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
         approx: args.approx.approximations()?,
         views_per_batch: args.views_per_batch.unwrap_or(0),
     };
-    let cut = args.approx.cut(&camera, &rig)?;
+    let mut cut = args.approx.cut(&camera, &rig)?;
     let approximate = !opts.approx.is_exact() || cut.is_some();
     if approximate && (plan.count == 1 || opts.method == Method::Independent) {
         bail!("the approximations (--fast, --merge-secondary, --reproject, --cut-*) need --stereo or --views and the twin method");
     }
     let files = plan_outputs(args, &plan, &rig, (width, height))?;
-    let needed = twinray::job::estimate_render_memory(width, height, plan.count, opts.sampling);
+    let quilt_tiles = match (args.layout, &args.depth.quilt) {
+        (LayoutArg::Quilt, Some(q)) => q.layout.tiles(),
+        _ => 0,
+    };
+    let needed = twinray::job::estimate_render_memory(width, height, plan.count, opts.sampling)
+        .saturating_add(view_outputs::extra_memory(
+            width,
+            height,
+            plan.count,
+            quilt_tiles,
+            args.depth.depth,
+        ));
     twinray::job::check_memory(
         needed,
         twinray::job::available_memory(),
@@ -757,8 +814,30 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
         b.build().context("cannot start worker threads")?
     };
     let t_build = Instant::now();
-    let world = pool.install(|| World::with_cut(scene, cut));
-    let build_s = t_build.elapsed().as_secs_f64();
+    let mut world = pool.install(|| World::with_cut(scene, cut));
+    let mut build_s = t_build.elapsed().as_secs_f64();
+    let settled =
+        match &plan.request {
+            Some(request) => Some(pool.install(|| {
+                rig_choice::settle(&world, &camera, request, args.depth.screen_width)
+            })?),
+            None => None,
+        };
+    if let (Some(s), None) = (&settled, &explicit_choice) {
+        // The rig fitted to the depths: its outputs checked again (an MPO's
+        // baseline), and the cut that depends on it made now.
+        rig = s.rig.clone();
+        (plan.interaxial, plan.convergence) = (s.choice.interaxial, s.choice.convergence);
+        plan_outputs(args, &plan, &rig, (width, height))?;
+        let fitted_cut = args.approx.cut(&camera, &rig)?;
+        if fitted_cut.is_some() {
+            let t = Instant::now();
+            let scene = std::mem::take(&mut world.scene);
+            world = pool.install(|| World::with_cut(scene, fitted_cut));
+            build_s += t.elapsed().as_secs_f64();
+            cut = fitted_cut;
+        }
+    }
     if args.verbose {
         eprintln!(
             "scene: {} primitives, {} lights, hierarchy {} nodes (depth {}), built in {:.3} s",
@@ -769,6 +848,9 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
             build_s
         );
         describe_rig(&rig, &camera, &plan);
+        if let Some(s) = &settled {
+            rig_choice::print_report(s);
+        }
         if let Some(c) = cut {
             eprintln!(
                 "cut (section 2.3): {} of {} primitives beyond depth {:.3}",
@@ -796,11 +878,44 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
         bar.set_length(total);
         bar.set_position(done);
     };
-    let result = pool.install(|| render::render(&world, &camera, &rig, &opts, &progress))?;
+    if let Some(s) = &settled {
+        rig_choice::print_warnings(s);
+    }
+    let mut result = pool.install(|| render::render(&world, &camera, &rig, &opts, &progress))?;
     bar.finish_and_clear();
+    if let (Some(s), true) = (&settled, args.depth.floating_window) {
+        output::apply_floating_window(&mut result.images, &s.report.floating_window);
+        if args.verbose {
+            let w = s.report.floating_window;
+            eprintln!(
+                "floating window: {} px masked at the left edge, {} px at the right",
+                w.left_px, w.right_px
+            );
+        }
+    }
+    let depth_channels = args
+        .depth
+        .depth
+        .then(|| pool.install(|| view_outputs::measure_depth(&world, &camera, &rig)));
 
     let t_write = Instant::now();
-    let mut written = write_outputs(args, &result.images, &plan, &rig)?;
+    let mut written = match (&depth_channels, args.layout, &args.depth.quilt) {
+        (Some(depth), layout, _) => view_outputs::write_with_depth(
+            (layout == LayoutArg::Multiview && plan.count > 1).then_some(args.output.as_path()),
+            &files,
+            &result.images,
+            depth,
+            plan.interaxial,
+            rig.effective_convergence,
+        )?,
+        (None, LayoutArg::Quilt, Some(spec)) => view_outputs::write_quilt(
+            &files[0],
+            spec,
+            &result.images,
+            &WriteOptions { srgb: args.srgb },
+        )?,
+        _ => write_outputs(args, &result.images, &plan, &rig)?,
+    };
     let write_s = t_write.elapsed().as_secs_f64();
 
     if args.verbose {
@@ -867,6 +982,11 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
         };
         report.fill_counts(&result.counts, rig.views.len());
         report.cut_depth = cut.map(|c| c.depth);
+        if let Some(s) = settled {
+            report.time.depth_s = Some(s.depth_seconds);
+            report.rig_choice = Some(s.choice);
+            report.disparity = Some(s.report);
+        }
         report.cut_primitives = world.cut_primitives();
         if plan.count > 1 {
             report.interaxial = Some(plan.interaxial);
@@ -971,7 +1091,8 @@ fn write_outputs(
 
 fn stereo_layout(args: &RenderArgs) -> Layout {
     match args.layout {
-        LayoutArg::Separate => Layout::Separate,
+        // A quilt is written by view_outputs, never as a pair.
+        LayoutArg::Separate | LayoutArg::Quilt => Layout::Separate,
         LayoutArg::Sbs => Layout::SideBySide,
         LayoutArg::Cross => Layout::Cross,
         LayoutArg::Tb => Layout::TopBottom,

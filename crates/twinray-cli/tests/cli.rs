@@ -625,7 +625,67 @@ fn degenerate_geometry_warns_and_renders() {
 fn parameter_errors_are_one_line_and_write_nothing() {
     let stereo = ["--stereo", "--interaxial", "0.4"];
     let cases: Vec<(&str, Vec<&str>, &str)> = vec![
-        ("x.png", vec!["--stereo"], "--interaxial"),
+        (
+            "x.png",
+            vec!["--stereo", "--interaxial", "abc"],
+            "--interaxial",
+        ),
+        (
+            "x.png",
+            vec!["--stereo", "--depth-budget", "1%,2%"],
+            "depth budget",
+        ),
+        (
+            "x.png",
+            vec!["--stereo", "--depth-budget=-1%"],
+            "depth budget",
+        ),
+        (
+            "x.png",
+            vec!["--stereo", "--convergence", "far"],
+            "--convergence",
+        ),
+        ("x.png", vec!["--floating-window"], "--floating-window"),
+        ("x.png", vec!["--depth-budget=-1%,2%"], "--depth-budget"),
+        ("x.png", vec!["--view-cone", "35"], "--view-cone"),
+        (
+            "x.png",
+            vec!["--stereo", "--view-cone", "35", "--interaxial", "0.1"],
+            "--view-cone",
+        ),
+        (
+            "x.png",
+            vec!["--stereo", "--view-cone", "35", "--convergence", "inf"],
+            "--view-cone",
+        ),
+        (
+            "x.png",
+            vec!["--stereo", "--view-cone", "190"],
+            "--view-cone",
+        ),
+        (
+            "x.png",
+            vec!["--stereo", "--screen-width", "0"],
+            "--screen-width",
+        ),
+        ("x.png", vec!["--stereo", "--quilt", "2x1"], "--quilt"),
+        ("x.png", vec!["--layout", "quilt"], "--quilt"),
+        (
+            "x.png",
+            vec!["--layout", "quilt", "--quilt", "0x2"],
+            "--quilt",
+        ),
+        (
+            "x.png",
+            vec!["--layout", "quilt", "--quilt", "2x2", "--views", "5"],
+            "do not fit",
+        ),
+        ("x.png", vec!["--stereo", "--depth"], "--depth"),
+        (
+            "x.exr",
+            vec!["--stereo", "--depth", "--layout", "sbs"],
+            "--depth",
+        ),
         (
             "x.png",
             vec!["--stereo", "--interaxial", "-1"],
@@ -1154,4 +1214,181 @@ fn bad_camera_options_and_bad_meshes_are_one_line_and_write_nothing() {
     assert!(!out.exists());
     let entries: Vec<String> = entries(dir.path());
     assert_eq!(entries, vec!["bad.gltf".to_string(), "bad.obj".to_string()]);
+}
+
+// ---------------------------------------------------------------------------
+// Depth budget, automatic rig, floating window, depth channels, quilts
+// ---------------------------------------------------------------------------
+
+fn number(v: &Value, pointer: &str) -> f64 {
+    v.pointer(pointer)
+        .unwrap_or_else(|| panic!("no {pointer} in {v}"))
+        .as_f64()
+        .unwrap_or_else(|| panic!("{pointer} is not a number in {v}"))
+}
+
+#[test]
+fn stereo_without_an_interaxial_fits_the_depth_budget() {
+    let dir = tmp();
+    let json = dir.path().join("s.json");
+    let run = render(
+        &scene("example.nff"),
+        &dir.path().join("pair.png"),
+        &["--size", "160x120", "--stereo", "-v", "--stats", s(&json)],
+    );
+    run.ok();
+    for line in [
+        "rig choice: ",
+        "depth: nearest",
+        "disparity: ",
+        "budget -1%,+2%",
+    ] {
+        assert!(run.stderr.contains(line), "no '{line}' in:\n{}", run.stderr);
+    }
+    assert!(!run.stderr.contains("warning"), "{}", run.stderr);
+    let st = stats(&json);
+    assert_eq!(st["rig_choice"]["interaxial_from"], "auto");
+    assert_eq!(st["rig_choice"]["convergence_from"], "auto");
+    assert_eq!(st["disparity"]["within_budget"], true);
+    let near = number(&st, "/disparity/adjacent_percent/near");
+    let far = number(&st, "/disparity/adjacent_percent/far");
+    assert!((-1.01..=-0.9).contains(&near), "near {near} %");
+    assert!(far <= 2.01 && far > 1.0, "far {far} %");
+    assert!(number(&st, "/interaxial") > 0.0);
+    assert!(number(&st, "/time/depth_s") >= 0.0);
+    // A render with -v lists the window violations it found, or none.
+    assert!(run.stderr.contains("window violation"), "{}", run.stderr);
+}
+
+#[test]
+fn an_explicit_rig_beyond_the_budget_is_warned_about_and_rendered() {
+    let dir = tmp();
+    let out = dir.path().join("pair.png");
+    let run = render(
+        &scene("example.nff"),
+        &out,
+        &["--size", SIZE, "--stereo", "--interaxial", "3"],
+    );
+    run.ok();
+    assert!(
+        run.stderr
+            .contains("twinray: warning: the rig's disparities")
+            && run.stderr.contains("exceed the depth budget -1%,+2%"),
+        "{}",
+        run.stderr
+    );
+    assert!(run.stderr.contains("far points diverge"), "{}", run.stderr);
+    assert_eq!(entries(dir.path()), ["pair_L.png", "pair_R.png"]);
+    // Inside the budget: no warning.
+    let run = render(
+        &scene("example.nff"),
+        &out,
+        &["--size", SIZE, "--stereo", "--interaxial", "0.02"],
+    );
+    run.ok();
+    assert!(!run.stderr.contains("warning"), "{}", run.stderr);
+}
+
+#[test]
+fn floating_window_masks_the_violating_edges() {
+    let dir = tmp();
+    let d = |name: &str| dir.path().join(name);
+    let common = ["--size", "64x48", "--stereo", "--depth-budget=-4%,+4%"];
+    let json = d("s.json");
+    let mut args = common.to_vec();
+    args.extend(["--floating-window", "--stats", s(&json)]);
+    render(&scene("example.nff"), &d("f.pfm"), &args).ok();
+    render(&scene("example.nff"), &d("plain.pfm"), &common).ok();
+    let st = stats(&json);
+    let left = count(&st, "/disparity/floating_window/left_px") as usize;
+    let right = count(&st, "/disparity/floating_window/right_px") as usize;
+    assert!(
+        left > 0 && right > 0,
+        "the floor at the bottom corners violates: {st}"
+    );
+    let (l, r) = (read_pfm(&d("f_L.pfm")), read_pfm(&d("f_R.pfm")));
+    let plain = read_pfm(&d("plain_L.pfm"));
+    let black_column = |img: &Pfm, x: usize| (0..img.height).all(|y| img.get(x, y) == [0.0; 3]);
+    for x in 0..left {
+        assert!(black_column(&l, x), "left view, column {x} not masked");
+    }
+    for x in r.width - right..r.width {
+        assert!(black_column(&r, x), "right view, column {x} not masked");
+    }
+    // Only there: the left view's right edge and the right view's left edge
+    // are not masked, and without the flag nothing is.
+    assert!(!black_column(&l, left));
+    assert!(!black_column(&l, l.width - 1));
+    assert!(!black_column(&r, 0));
+    assert!(!black_column(&plain, 0));
+}
+
+#[test]
+fn quilt_holds_the_views_bottom_left_to_top_right() {
+    let dir = tmp();
+    let d = |name: &str| dir.path().join(name);
+    let rig = [
+        "--size",
+        "32x24",
+        "--interaxial",
+        "0.1",
+        "--convergence",
+        "6",
+    ];
+    let mut args = rig.to_vec();
+    args.extend(["--layout", "quilt", "--quilt", "3x2"]);
+    render(&scene("example.nff"), &d("q.pfm"), &args).ok();
+    let mut args = rig.to_vec();
+    args.extend(["--views", "6"]);
+    render(&scene("example.nff"), &d("v.pfm"), &args).ok();
+    let quilt = read_pfm(&d("q_qs3x2a1.3333.pfm"));
+    assert_eq!((quilt.width, quilt.height), (96, 48));
+    for v in 0..6 {
+        let view = read_pfm(&d(&format!("v_{v}.pfm")));
+        let (x0, y0) = ((v % 3) * 32, (1 - v / 3) * 24);
+        for y in 0..24 {
+            for x in 0..32 {
+                assert_eq!(
+                    quilt.get(x0 + x, y0 + y),
+                    view.get(x, y),
+                    "view {v} ({x}, {y})"
+                );
+            }
+        }
+    }
+    // A preset names the file after the device's grid; fewer views than
+    // tiles leave the last tiles black.
+    let run = render(
+        &scene("example.nff"),
+        &d("p.png"),
+        &[
+            "--layout", "quilt", "--quilt", "portrait", "--views", "4", "--size", "6x8",
+        ],
+    );
+    run.ok();
+    assert_eq!(png_size(&d("p_qs8x6a0.75.png")), (48, 48));
+}
+
+#[test]
+fn depth_adds_z_and_disparity_channels_to_exr_outputs() {
+    let dir = tmp();
+    let d = |name: &str| dir.path().join(name);
+    let pair = ["--size", SIZE, "--stereo", "--interaxial", "0.2"];
+    let mut args = pair.to_vec();
+    args.push("--depth");
+    render(&scene("example.nff"), &d("d.exr"), &args).ok();
+    render(&scene("example.nff"), &d("plain.exr"), &pair).ok();
+    let has = |p: &Path, name: &str| {
+        let key = format!("{name}\0");
+        read(p).windows(key.len()).any(|w| w == key.as_bytes())
+    };
+    for eye in ["d_L.exr", "d_R.exr"] {
+        assert!(has(&d(eye), "Z") && has(&d(eye), "disparity"), "{eye}");
+    }
+    assert!(!has(&d("plain_L.exr"), "disparity"));
+    // The colours are the same with and without the channels.
+    assert_eq!(psnr(&d("d_L.exr"), &d("plain_L.exr")), f64::INFINITY);
+    args.extend(["--layout", "multiview"]);
+    render(&scene("example.nff"), &d("mv.exr"), &args).ok();
+    assert!(has(&d("mv.exr"), "right.disparity") && has(&d("mv.exr"), "right.Z"));
 }

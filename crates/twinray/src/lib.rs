@@ -6,6 +6,9 @@
 
 pub mod bvh;
 pub mod camera;
+pub mod depth;
+pub mod depth_budget;
+pub mod disparity;
 pub mod error;
 pub mod image;
 pub mod job;
@@ -21,6 +24,7 @@ pub mod shapes;
 pub mod stats;
 pub mod texture;
 pub mod view;
+pub mod window;
 pub mod world;
 
 pub use error::{Error, Result};

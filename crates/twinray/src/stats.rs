@@ -99,6 +99,10 @@ pub struct Timings {
     pub eye_pass_cpu_s: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shading_pass_cpu_s: Option<f64>,
+    /// Stereo and multi-view: the depth passes of the rig's choice and of the
+    /// disparity report (wall seconds).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub depth_s: Option<f64>,
 }
 
 #[derive(Clone, Debug, Default, Serialize)]
@@ -166,6 +170,13 @@ pub struct Report {
     pub convergence: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub effective_convergence: Option<f64>,
+    /// Stereo and multi-view: how the interaxial and convergence were chosen.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rig_choice: Option<crate::depth_budget::RigChoice>,
+    /// Stereo and multi-view: visible depths, disparities against the depth
+    /// budget, window violations (see `disparity::DisparityReport`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub disparity: Option<crate::disparity::DisparityReport>,
 }
 
 impl Report {

@@ -7,7 +7,7 @@ use twinray::camera::Camera;
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::render::{render, Method, RenderOptions, RenderOutput, Sampling, TraceSettings};
 use twinray::rig::Rig;
-use twinray::World;
+use twinray::{Image, World};
 
 pub fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -61,4 +61,23 @@ pub fn mono(world: &World, width: u32, height: u32) -> twinray::Image {
 /// The distance from the eye to the NFF `at` point: the default convergence.
 pub fn default_convergence(world: &World) -> f64 {
     (world.scene.viewpoint.at - world.scene.viewpoint.from).length() as f64
+}
+
+/// Intensity-weighted centroid of the blob around `(x, y)` (pixel units),
+/// within `radius` + 3 pixels.
+pub fn centroid(img: &Image, x: f64, y: f64, radius: f64) -> Option<(f64, f64)> {
+    let (mut sw, mut sx, mut sy) = (0.0, 0.0, 0.0);
+    let r = radius.ceil() as i64 + 3;
+    for j in (y.round() as i64 - r)..=(y.round() as i64 + r) {
+        for i in (x.round() as i64 - r)..=(x.round() as i64 + r) {
+            if i < 0 || j < 0 || i >= img.width as i64 || j >= img.height as i64 {
+                continue;
+            }
+            let w = img.get(i as u32, j as u32).element_sum() as f64;
+            sw += w;
+            sx += w * i as f64;
+            sy += w * j as f64;
+        }
+    }
+    (sw > 0.0).then(|| (sx / sw, sy / sw))
 }

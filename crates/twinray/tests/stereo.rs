@@ -9,25 +9,7 @@ use twinray::math::Vec3;
 use twinray::render::{Method, Sampling};
 use twinray::rig::Rig;
 use twinray::shapes::Shape;
-use twinray::{Image, World};
-
-/// Intensity-weighted centroid of the blob around `(x, y)` (pixel units).
-fn centroid(img: &Image, x: f64, y: f64, radius: f64) -> Option<(f64, f64)> {
-    let (mut sw, mut sx, mut sy) = (0.0, 0.0, 0.0);
-    let r = radius.ceil() as i64 + 3;
-    for j in (y.round() as i64 - r)..=(y.round() as i64 + r) {
-        for i in (x.round() as i64 - r)..=(x.round() as i64 + r) {
-            if i < 0 || j < 0 || i >= img.width as i64 || j >= img.height as i64 {
-                continue;
-            }
-            let w = img.get(i as u32, j as u32).element_sum() as f64;
-            sw += w;
-            sx += w * i as f64;
-            sy += w * j as f64;
-        }
-    }
-    (sw > 0.0).then(|| (sx / sw, sy / sw))
-}
+use twinray::World;
 
 struct Probe {
     center: Vec3,

@@ -7,6 +7,9 @@
 //! * [`mpo`]: the stereo-camera Multi-Picture Object ([`write_mpo`]).
 //! * [`multiview_exr`]: every view in one EXR ([`write_multiview_exr`]).
 //! * [`compare`](mod@compare): [`compare()`] and [`difference_image`].
+//! * [`quilt`]: Looking Glass quilts ([`compose_quilt`], [`quilt_path`]).
+//! * [`floating_window`]: masks at the frame's edges ([`apply_floating_window`]).
+//! * [`depth_channels`]: `Z` and `disparity` channels in EXR files.
 //! * [`write_stereo`] ties them together for a [`Layout`] name.
 //!
 //! **Atomic writes.** Every file is first written to a temporary file in the
@@ -26,10 +29,13 @@
 pub mod anaglyph;
 mod atomic;
 pub mod compare;
+pub mod depth_channels;
 pub mod encode;
+pub mod floating_window;
 pub mod layouts;
 pub mod mpo;
 pub mod multiview_exr;
+pub mod quilt;
 pub mod targets;
 
 use std::fmt;
@@ -39,10 +45,13 @@ use std::str::FromStr;
 pub use anaglyph::{anaglyph, AnaglyphMethod};
 pub use atomic::{commit_all, remove_temporary_files, write_text, Staged};
 pub use compare::{compare, difference_image, Difference};
+pub use depth_channels::{stage_exr_with_depth, DepthChannels};
 pub use encode::{read_image, stage_image, write_image, ImageFormat, WriteOptions};
+pub use floating_window::{apply_floating_window, mask_edges};
 pub use layouts::{cross, interlace, separate_paths, side_by_side, top_bottom, InterlaceMode};
 pub use mpo::write_mpo;
-pub use multiview_exr::write_multiview_exr;
+pub use multiview_exr::{write_multiview_exr, write_multiview_exr_with_depth};
+pub use quilt::{compose_quilt, quilt_path, QuiltLayout, QuiltPreset, QuiltSpec};
 pub use targets::{check_distinct, check_file_target, check_image_target, check_stereo_targets};
 
 use crate::{Error, Image, Result};

@@ -23,6 +23,7 @@ use exr::prelude::{
 
 use crate::output::atomic::write_atomically;
 use crate::output::check_image;
+use crate::output::depth_channels::DepthChannels;
 use crate::output::encode::exr_failure;
 use crate::{Error, Image, Result};
 
@@ -45,6 +46,36 @@ pub const CONVERGENCE_ATTRIBUTE: &str = "convergenceDistance";
 pub fn write_multiview_exr(
     path: &std::path::Path,
     views: &[(&str, &Image)],
+    interocular: f32,
+    convergence: Option<f32>,
+) -> Result<()> {
+    write_views(path, views, None, interocular, convergence)
+}
+
+/// [`write_multiview_exr`] with each view's `Z` and `disparity` channels
+/// (`depth[i]` for `views[i]`; `right.Z`, `right.disparity` for a view that
+/// is not the first), see [`DepthChannels`].
+pub fn write_multiview_exr_with_depth(
+    path: &std::path::Path,
+    views: &[(&str, &Image)],
+    depth: &[DepthChannels],
+    interocular: f32,
+    convergence: Option<f32>,
+) -> Result<()> {
+    if depth.len() != views.len() {
+        return Err(Error::Invalid(format!(
+            "{} views but {} depth channel sets",
+            views.len(),
+            depth.len()
+        )));
+    }
+    write_views(path, views, Some(depth), interocular, convergence)
+}
+
+fn write_views(
+    path: &std::path::Path,
+    views: &[(&str, &Image)],
+    depth: Option<&[DepthChannels]>,
     interocular: f32,
     convergence: Option<f32>,
 ) -> Result<()> {
@@ -104,6 +135,15 @@ pub fn write_multiview_exr(
                 text(&format!("{prefix}{channel}"))?,
                 FlatSamples::F32(samples),
             ));
+        }
+        if let Some(d) = depth.and_then(|d| d.get(i)) {
+            d.check(img, name)?;
+            for (channel, samples) in d.named() {
+                channels.push(AnyChannel::new(
+                    text(&format!("{prefix}{channel}"))?,
+                    FlatSamples::F32(samples.to_vec()),
+                ));
+            }
         }
     }
 

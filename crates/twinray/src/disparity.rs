@@ -1,0 +1,275 @@
+//! The disparity report: how far in front of and behind the screen a stereo
+//! or multi-view render puts what is visible, against the depth budget.
+//!
+//! Measured on depth passes of the rig's two outer views (eye rays only, every
+//! `stride`-th pixel, see `depth.rs`): the visible depths and their
+//! percentiles, the disparities of the nearest and farthest points between
+//! adjacent views (what the budget limits) and between the outer views, in
+//! pixels and per cent of the width, whether far points diverge on a screen of
+//! a given width, and the window violations (`window.rs`).
+//!
+//! Disparity is `x_b − x_a` for view `b` right of view `a`: negative in front
+//! of the screen, positive behind it. Between views `a` and `b` a point at
+//! depth `z` has `(shift_a − shift_b) − f·(offset_b − offset_a)/z`
+//! ([`pair_disparity`]). "Adjacent" is the outer views' disparity divided by
+//! the N − 1 gaps: the mean over the adjacent pairs, whose whole-pixel shifts
+//! differ by at most a pixel.
+
+use serde::Serialize;
+
+use crate::camera::Camera;
+use crate::depth::{depth_pass, DepthPass, DepthStats};
+use crate::depth_budget::{DepthBudget, DepthRange};
+use crate::rig::{Rig, View};
+use crate::window::{find_violations, FloatingWindow, WindowViolation};
+use crate::world::World;
+
+/// The eyes' separation that far points must not exceed on the screen, in
+/// metres (the adult mean is about 63 mm; 65 mm is the figure stereographers use).
+pub const EYE_SEPARATION_M: f64 = 0.065;
+
+/// The screen assumed for the divergence check: 1.2 m wide, a 55-inch 16:9
+/// television (Sky's budget is written for television).
+pub const DEFAULT_SCREEN_WIDTH_M: f64 = 1.2;
+
+/// At most this many columns are sampled by the depth passes of the rig's
+/// choice and of the report (`depth::stride_for`; every 4th pixel at 512 to
+/// 640 wide): at most 5 passes of a sixteenth of a view's eye rays each.
+pub const REPORT_COLUMNS: u32 = 160;
+
+/// Disparities within this many pixels of the budget count as inside it.
+const BUDGET_TOLERANCE_PX: f64 = 0.01;
+
+/// The disparity `x_b − x_a` of a point at `depth` between views `a` and `b`.
+pub fn pair_disparity(camera: &Camera, a: View, b: View, depth: f64) -> f64 {
+    f64::from(a.shift)
+        - f64::from(b.shift)
+        - camera.focal_pixels() * f64::from(b.offset - a.offset) / depth
+}
+
+/// The depth passes of a rig's leftmost and rightmost views.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OuterPasses {
+    pub left: DepthPass,
+    pub right: DepthPass,
+    pub stride: u32,
+}
+
+impl OuterPasses {
+    /// Runs both passes (every `stride`-th pixel).
+    pub fn measure(world: &World, camera: &Camera, rig: &Rig, stride: u32) -> OuterPasses {
+        let first = rig.views.first().copied().unwrap_or(View {
+            offset: 0.0,
+            shift: 0,
+        });
+        let last = rig.views.last().copied().unwrap_or(first);
+        OuterPasses {
+            left: depth_pass(world, camera, first, stride),
+            right: depth_pass(world, camera, last, stride),
+            stride,
+        }
+    }
+
+    /// The visible depth range of both views (`None`: nothing visible).
+    pub fn range(&self) -> Option<DepthRange> {
+        DepthRange::of(self.left.finite_depths().chain(self.right.finite_depths()))
+    }
+}
+
+/// Near and far ends of a range of disparities.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Span {
+    pub near: f64,
+    pub far: f64,
+}
+
+/// The report of `-v` and of `--stats` (`disparity`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DisparityReport {
+    /// The views whose depth passes were measured: the outer two.
+    pub views_measured: [usize; 2],
+    /// Every `sample_stride`-th pixel was sampled, in both directions.
+    pub sample_stride: u32,
+    pub samples_per_view: usize,
+    /// Depths of both views' samples (`None`: nothing visible).
+    pub depth: Option<DepthStats>,
+    /// Disparity of the nearest and farthest visible points between adjacent
+    /// views, in pixels and in per cent of the image width.
+    pub adjacent_px: Option<Span>,
+    pub adjacent_percent: Option<Span>,
+    /// The same between the outer views (equal to `adjacent_px` for a pair).
+    pub outer_px: Option<Span>,
+    /// The disparity of points at infinity between adjacent views (the
+    /// convergence shift; 0 for parallel cameras).
+    pub infinity_px: f64,
+    pub budget: DepthBudget,
+    pub budget_px: Span,
+    pub within_budget: bool,
+    /// The divergence check: the far disparity on a screen this wide.
+    pub screen_width_m: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub far_on_screen_mm: Option<f64>,
+    /// Far points need the eyes to turn outwards (more than 65 mm apart on the screen).
+    pub diverges: bool,
+    pub window_violations: Vec<WindowViolation>,
+    /// The masks `--floating-window` applies (or would apply) to cure them.
+    pub floating_window: FloatingWindow,
+}
+
+/// The report for `rig` from its outer views' depth passes.
+pub fn report(
+    camera: &Camera,
+    rig: &Rig,
+    budget: &DepthBudget,
+    screen_width_m: f64,
+    passes: &OuterPasses,
+) -> DisparityReport {
+    let n = rig.views.len().max(1);
+    let gaps = (n.max(2) - 1) as f64;
+    let first = rig.views.first().copied().unwrap_or(View {
+        offset: 0.0,
+        shift: 0,
+    });
+    let last = rig.views.last().copied().unwrap_or(first);
+    let width = f64::from(camera.width.max(1));
+    let depth = DepthStats::of(
+        passes
+            .left
+            .depth
+            .iter()
+            .chain(passes.right.depth.iter())
+            .copied(),
+    );
+    let outer = depth.map(|d| Span {
+        near: pair_disparity(camera, first, last, f64::from(d.nearest)),
+        far: pair_disparity(camera, first, last, f64::from(d.farthest)),
+    });
+    let adjacent = outer.map(|o| Span {
+        near: o.near / gaps,
+        far: o.far / gaps,
+    });
+    let (near_px, far_px) = budget.pixels(camera.width);
+    let within_budget = adjacent.is_none_or(|a| {
+        a.near >= near_px - BUDGET_TOLERANCE_PX && a.far <= far_px + BUDGET_TOLERANCE_PX
+    });
+    let far_on_screen_mm = adjacent.map(|a| a.far / width * screen_width_m * 1000.0);
+    let violations = find_violations(camera, rig, &passes.left, &passes.right);
+    DisparityReport {
+        views_measured: [0, n - 1],
+        sample_stride: passes.stride,
+        samples_per_view: passes.left.depth.len(),
+        depth,
+        adjacent_px: adjacent,
+        adjacent_percent: adjacent.map(|a| Span {
+            near: a.near / width * 100.0,
+            far: a.far / width * 100.0,
+        }),
+        outer_px: outer,
+        infinity_px: f64::from(first.shift - last.shift) / gaps,
+        budget: *budget,
+        budget_px: Span {
+            near: near_px,
+            far: far_px,
+        },
+        within_budget,
+        screen_width_m,
+        far_on_screen_mm,
+        diverges: far_on_screen_mm.is_some_and(|mm| mm > EYE_SEPARATION_M * 1000.0),
+        floating_window: FloatingWindow::for_violations(&violations),
+        window_violations: violations,
+    }
+}
+
+impl DisparityReport {
+    /// The report as lines for `-v`.
+    pub fn lines(&self) -> Vec<String> {
+        let [a, b] = self.views_measured;
+        let mut out = vec![format!(
+            "depth pass: views {a} and {b}, every {} pixel(s) ({} samples each)",
+            self.sample_stride, self.samples_per_view
+        )];
+        let (Some(d), Some(adj), Some(pct), Some(outer)) = (
+            self.depth,
+            self.adjacent_px,
+            self.adjacent_percent,
+            self.outer_px,
+        ) else {
+            out.push("depth: nothing visible".into());
+            return out;
+        };
+        out.push(format!(
+            "depth: nearest {:.4}, 1% {:.4}, median {:.4}, 99% {:.4}, farthest {:.4}; {:.1}% of the samples hit",
+            d.nearest, d.p1, d.median, d.p99, d.farthest, d.hit_fraction * 100.0
+        ));
+        let pair = if b == 1 {
+            "disparity".to_string()
+        } else {
+            "disparity between adjacent views (mean)".to_string()
+        };
+        out.push(format!(
+            "{pair}: {:+.2} px ({:+.2}% of the width) to {:+.2} px ({:+.2}%); budget {} ({:+.2} to {:+.2} px): {}",
+            adj.near,
+            pct.near,
+            adj.far,
+            pct.far,
+            self.budget,
+            self.budget_px.near,
+            self.budget_px.far,
+            if self.within_budget { "within" } else { "EXCEEDED" }
+        ));
+        if b > 1 {
+            out.push(format!(
+                "disparity between views 0 and {b}: {:+.2} to {:+.2} px",
+                outer.near, outer.far
+            ));
+        }
+        if let Some(mm) = self.far_on_screen_mm {
+            out.push(format!(
+                "far points on a {} m screen: {mm:+.1} mm apart{}",
+                self.screen_width_m,
+                if self.diverges {
+                    " (diverge: more than the eyes' 65 mm)"
+                } else {
+                    ""
+                }
+            ));
+        }
+        if self.window_violations.is_empty() {
+            out.push("window violations: none".into());
+        }
+        for v in &self.window_violations {
+            out.push(format!(
+                "window violation: {} edge of view {}, rows {}-{} (nearest depth {:.4}, disparity {:+.2} px): --floating-window masks {} px",
+                v.edge.name(),
+                v.view,
+                v.first_row,
+                v.last_row,
+                v.nearest_depth,
+                v.disparity_px,
+                v.mask_px
+            ));
+        }
+        out
+    }
+
+    /// Warnings: the budget exceeded, far points diverging.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let (Some(pct), Some(d), false) = (self.adjacent_percent, self.depth, self.within_budget)
+        {
+            out.push(format!(
+                "the rig's disparities {:+.2}% to {:+.2}% of the width exceed the depth budget {} \
+                 (visible depths {:.4} to {:.4}); --interaxial auto fits them",
+                pct.near, pct.far, self.budget, d.nearest, d.farthest
+            ));
+        }
+        if let (Some(mm), true) = (self.far_on_screen_mm, self.diverges) {
+            out.push(format!(
+                "far points diverge: {mm:.0} mm apart on a {} m screen, more than the eyes' 65 mm \
+                 (a smaller interaxial or a nearer convergence helps; --screen-width sets the screen)",
+                self.screen_width_m
+            ));
+        }
+        out
+    }
+}
