@@ -2,8 +2,8 @@
 
 mod bench;
 mod rig_choice;
-mod view_outputs;
 mod sampling;
+mod view_outputs;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};

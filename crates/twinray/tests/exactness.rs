@@ -139,11 +139,13 @@ fn multi_view_twin_equals_independent() {
                 &format!("{count} views, view {v}"),
             );
         }
-        // One descent serves the eye rays of every view through a sample.
+        // One descent serves the eye rays of every view of a batch through a
+        // sample (batches of 4 neighbouring views by default).
+        let batches = count.div_ceil(twinray::render::views_per_batch(count, 0)) as u64;
         assert_eq!(
             twin.counts.eye_traversals * count as u64,
-            twin.counts.rays.eye,
-            "{count} views: one eye-ray descent per sample"
+            twin.counts.rays.eye * batches,
+            "{count} views: one eye-ray descent per sample and batch"
         );
     }
 }
