@@ -104,20 +104,6 @@ impl Sampling {
             } => format!("adaptive {threshold}, at most {max_samples}"),
         }
     }
-
-    /// Eye samples one view takes at most per pixel (corners shared with the
-    /// neighbours count whole), for the memory estimate and the report.
-    pub fn max_samples_per_pixel(&self) -> u32 {
-        match *self {
-            Sampling::Centers => 1,
-            Sampling::Corners => 4,
-            Sampling::Stratified { samples, .. } => samples,
-            Sampling::Adaptive { max_samples, .. } => {
-                let side = (max_samples as f64).sqrt() as u32 + 1;
-                side * side
-            }
-        }
-    }
 }
 
 /// The reconstruction filter of `--samples N`: how much a sample at offset
