@@ -46,6 +46,21 @@ pub fn run(world: &World, camera: &Camera, rig: &Rig, opts: &RenderOptions) -> R
     render(world, camera, rig, opts, &|_, _| {}).expect("render")
 }
 
+/// `run` on a pool of `threads` worker threads.
+pub fn run_on_threads(
+    threads: usize,
+    world: &World,
+    camera: &Camera,
+    rig: &Rig,
+    opts: &RenderOptions,
+) -> RenderOutput {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("pool");
+    pool.install(|| run(world, camera, rig, opts))
+}
+
 /// One mono image of `world` by the reference method, pixel centres.
 pub fn mono(world: &World, width: u32, height: u32) -> twinray::Image {
     let cam = camera(world, width, height);

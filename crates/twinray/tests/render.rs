@@ -166,13 +166,8 @@ fn same_image_for_any_thread_count() {
     let cam = camera(&world, 80, 60);
     let rig = Rig::stereo(&cam, 0.3, Some(default_convergence(&world))).unwrap();
     for method in [Method::Independent, Method::Twin] {
-        let render_with = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .expect("pool");
-            pool.install(|| run(&world, &cam, &rig, &options(method, Sampling::Centers)))
-        };
+        let opts = options(method, Sampling::Centers);
+        let render_with = |threads| run_on_threads(threads, &world, &cam, &rig, &opts);
         let one = render_with(1);
         for threads in [2, 3, 7] {
             let many = render_with(threads);

@@ -272,13 +272,8 @@ fn same_images_for_any_thread_count_with_every_sampling() {
     let rig = Rig::stereo(&cam, 0.3, Some(default_convergence(&world))).expect("rig");
     for sampling in [FOUR_GAUSSIAN, ADAPTIVE] {
         for method in [Method::Independent, Method::Twin] {
-            let render_with = |threads: usize| {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .expect("pool");
-                pool.install(|| run(&world, &cam, &rig, &with_sampling(method, sampling)))
-            };
+            let opts = with_sampling(method, sampling);
+            let render_with = |threads| run_on_threads(threads, &world, &cam, &rig, &opts);
             let one = render_with(1);
             for threads in [2, 5] {
                 let many = render_with(threads);
