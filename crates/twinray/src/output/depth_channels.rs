@@ -119,27 +119,10 @@ pub fn stage_exr_with_depth(path: &Path, img: &Image, depth: &DepthChannels) -> 
 mod tests {
     use super::*;
     use crate::math::Color;
-    use exr::prelude::{ReadChannels, ReadLayers};
 
     fn channel(path: &Path, name: &str) -> Vec<f32> {
-        let bytes = std::fs::read(path).unwrap();
-        let img = exr::prelude::read()
-            .no_deep_data()
-            .largest_resolution_level()
-            .all_channels()
-            .first_valid_layer()
-            .all_attributes()
-            .from_buffered(std::io::Cursor::new(bytes))
-            .unwrap();
-        img.layer_data
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.eq(name))
-            .unwrap_or_else(|| panic!("no channel {name}"))
-            .sample_data
-            .values_as_f32()
-            .collect()
+        let img = crate::output::multiview_exr::tests::read_back(path);
+        crate::output::multiview_exr::tests::channel(&img, name)
     }
 
     #[test]

@@ -176,7 +176,7 @@ fn write_views(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::math::Color;
     use exr::prelude::{ReadChannels, ReadLayers};
@@ -194,7 +194,8 @@ mod tests {
 
     type ExrImage = exr::prelude::Image<Layer<AnyChannels<FlatSamples>>>;
 
-    fn read_back(path: &std::path::Path) -> ExrImage {
+    /// Reads an EXR file back, every channel (also for `depth_channels`' tests).
+    pub(in crate::output) fn read_back(path: &std::path::Path) -> ExrImage {
         let bytes = std::fs::read(path).unwrap();
         exr::prelude::read()
             .no_deep_data()
@@ -206,7 +207,8 @@ mod tests {
             .unwrap()
     }
 
-    fn channel(img: &ExrImage, name: &str) -> Vec<f32> {
+    /// The samples of channel `name`, as `f32`.
+    pub(in crate::output) fn channel(img: &ExrImage, name: &str) -> Vec<f32> {
         img.layer_data
             .channel_data
             .list
