@@ -7,19 +7,16 @@
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
-use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use twinray::camera::Camera;
+use twinray::job::{
+    ApproximationSpec, CameraSpec, CancelToken, Job, JobSpec, MethodSpec, OutputSpec,
+    ReprojectModeSpec, RigSpec, SamplingSpec, TraceSpec,
+};
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::output::compare;
-use twinray::render::{
-    self, Approximations, Method, RenderOptions, ReprojectMode, Reprojection, Sampling,
-    TraceSettings,
-};
-use twinray::rig::Rig;
-use twinray::world::Cut;
-use twinray::{Scene, World};
+use twinray::render::{RenderOutput, Sampling};
+use twinray::Scene;
 
 #[derive(clap::Args)]
 pub struct BenchArgs {
@@ -87,32 +84,24 @@ impl Approx {
         }
     }
 
-    fn options(self) -> Approximations {
-        let reproject = |mode| {
-            Some(Reprojection {
-                mode,
-                threshold: Reprojection::DEFAULT_THRESHOLD,
-            })
-        };
+    /// The spec's approximations for this configuration.
+    fn spec(self, cut_parallax: f64) -> ApproximationSpec {
+        let mut a = ApproximationSpec::default();
         match self {
-            Approx::None | Approx::Cut => Approximations::default(),
-            Approx::Merge => Approximations {
-                merge_secondary: true,
-                ..Approximations::default()
-            },
-            Approx::Reproject => Approximations {
-                reproject: reproject(ReprojectMode::Safe),
-                ..Approximations::default()
-            },
-            Approx::Paper => Approximations {
-                reproject: reproject(ReprojectMode::Paper),
-                ..Approximations::default()
-            },
-            Approx::Fast => Approximations {
-                merge_secondary: true,
-                reproject: reproject(ReprojectMode::Safe),
-            },
+            Approx::None => {}
+            Approx::Cut => a.cut_parallax = Some(cut_parallax),
+            Approx::Merge => a.merge_secondary = true,
+            Approx::Reproject => a.reproject = true,
+            Approx::Paper => {
+                a.reproject = true;
+                a.reproject_mode = ReprojectModeSpec::Paper;
+            }
+            Approx::Fast => {
+                a.fast = true;
+                a.cut_parallax = Some(cut_parallax);
+            }
         }
+        a
     }
 }
 
@@ -145,13 +134,6 @@ impl Row {
 
 pub fn run(args: BenchArgs) -> Result<()> {
     check_args(&args)?;
-    let pool = {
-        let mut b = rayon::ThreadPoolBuilder::new();
-        if let Some(n) = args.threads {
-            b = b.num_threads(n);
-        }
-        b.build()?
-    };
     let mut rows = Vec::new();
     println!("| scene | size | interaxial | approx | independent (s) | twin (s) | twin / independent | PSNR (dB, worst view) | max abs | eye traversals per eye ray | shared secondary rays | hit samples grouped | merged rays | samples reprojected |");
     println!("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
@@ -163,7 +145,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             .unwrap_or_default();
         for &size in &args.sizes {
             for &b in &args.interaxial {
-                for row in pool.install(|| measure(&scene, &name, size, b, &args))? {
+                for row in measure(&scene, &name, size, b, &args)? {
                     println!(
                         "| {} | {}² | {} | {} | {:.3} | {:.3} | {:.3} | {} | {:.4} | {:.3} | {} of {} | {:.0} % | {} | {} |",
                         row.scene,
@@ -257,49 +239,63 @@ fn check_args(args: &BenchArgs) -> Result<()> {
 
 /// Times the independent renders and every configuration asked for, in turn
 /// (A B C … A B C …), and compares each configuration's images with the
-/// independent ones.
+/// independent ones. Each run is a job of its own on the parsed scene.
 fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Result<Vec<Row>> {
-    let camera = Camera::new(&scene.viewpoint, size, size);
-    let convergence = match args.convergence.as_deref() {
-        None => Some((scene.viewpoint.at - scene.viewpoint.from).length() as f64),
-        Some("inf") => None,
-        Some(s) => Some(s.parse::<f64>()?),
+    let spec = |method, approx: Approx| JobSpec {
+        camera: CameraSpec {
+            size: Some([size, size]),
+            ..CameraSpec::default()
+        },
+        rig: RigSpec {
+            views: Some(args.views),
+            interaxial: Some(b.to_string()),
+            convergence: args.convergence.clone(),
+            method,
+            views_per_batch: args.views_per_batch,
+            ..RigSpec::default()
+        },
+        trace: TraceSpec {
+            threads: args.threads,
+            ..TraceSpec::default()
+        },
+        // The paper's tables trace one ray per pixel centre.
+        sampling: if args.sampling.given() {
+            args.sampling.spec(false)
+        } else {
+            SamplingSpec {
+                samples: Some(1),
+                ..SamplingSpec::default()
+            }
+        },
+        approximations: approx.spec(args.cut_parallax),
+        output: OutputSpec {
+            path: "bench.png".into(),
+            ..OutputSpec::default()
+        },
+        ..JobSpec::default()
     };
-    let rig = Rig::multi_view(&camera, args.views, b, convergence)?;
-    let sampling = if args.sampling.given() {
-        args.sampling.sampling(false)?
-    } else {
-        Sampling::Centers
-    };
-    let opts = |method, approx: Approx| RenderOptions {
-        trace: TraceSettings::default(),
-        method,
-        sampling,
-        approx: approx.options(),
-        views_per_batch: args.views_per_batch.unwrap_or(0),
-    };
-    let cut_depth = rig.cut_depth_for_parallax(&camera, args.cut_parallax);
-    // Build + render, as a user would wait for it (the file is already parsed).
-    let timed = |o: RenderOptions, a: Approx| -> Result<(f64, render::RenderOutput)> {
-        let cut = match (a, cut_depth) {
-            (Approx::Cut | Approx::Fast, Some(d)) => Some(Cut::at_depth(&camera, d as f32)),
-            _ => None,
-        };
-        let start = Instant::now();
-        let world = World::with_cut(scene.clone(), cut);
-        let out = render::render(&world, &camera, &rig, &o, &|_, _| {})?;
-        Ok((start.elapsed().as_secs_f64(), out))
+    // Build + render, as a user would wait for it (the file is already
+    // parsed; the disparity report's depth pass is not counted).
+    let timed = |method, a: Approx| -> Result<(f64, RenderOutput)> {
+        let job = Job::check(spec(method, a))?;
+        let loaded = job.prepare(scene.clone())?;
+        let plan = job.plan(&loaded)?;
+        let rendered = job.render(&plan, &|_, _| {}, &CancelToken::new())?;
+        Ok((
+            plan.build_seconds + rendered.output.seconds,
+            rendered.output,
+        ))
     };
     let mut independent = Vec::new();
     let mut times = vec![Vec::new(); args.approx.len()];
-    let mut outputs: Vec<Option<render::RenderOutput>> = args.approx.iter().map(|_| None).collect();
+    let mut outputs: Vec<Option<RenderOutput>> = args.approx.iter().map(|_| None).collect();
     let mut reference = None;
     for _ in 0..args.runs {
-        let (t, out) = timed(opts(Method::Independent, Approx::None), Approx::None)?;
+        let (t, out) = timed(MethodSpec::Independent, Approx::None)?;
         independent.push(t);
         reference = Some(out);
         for (k, &a) in args.approx.iter().enumerate() {
-            let (t, out) = timed(opts(Method::Twin, a), a)?;
+            let (t, out) = timed(MethodSpec::Twin, a)?;
             times[k].push(t);
             outputs[k] = Some(out);
         }

@@ -1,8 +1,7 @@
 //! The anti-aliasing flags, shared by `render` and `bench-stereo`.
 
-use anyhow::{bail, Result};
 use clap::ValueEnum;
-use twinray::render::{Filter, Sampling};
+use twinray::job::{FilterSpec, SamplingSpec};
 
 #[derive(clap::Args, Clone, Debug, Default)]
 #[command(next_help_heading = "Anti-aliasing (default: --adaptive)")]
@@ -40,59 +39,24 @@ pub enum FilterArg {
 }
 
 impl SamplingArgs {
-    /// The sampling asked for, checked; `spd` (the SPD procedure's corners)
-    /// takes none of these flags.
     /// Whether any of the flags is given.
     pub fn given(&self) -> bool {
         self.samples.is_some() || self.adaptive.is_some() || self.max_samples.is_some()
     }
 
-    pub fn sampling(&self, spd: bool) -> Result<Sampling> {
-        let given = self.given();
-        if spd {
-            if given {
-                bail!("--spd samples the pixel corners: --samples, --adaptive and --max-samples do not apply");
-            }
-            return Ok(Sampling::Corners);
+    /// The flags as the job spec's sampling (checked by `Job::check`).
+    pub fn spec(&self, spd: bool) -> SamplingSpec {
+        SamplingSpec {
+            spd,
+            samples: self.samples,
+            filter: self.filter.map(|f| match f {
+                FilterArg::Box => FilterSpec::Box,
+                FilterArg::Tent => FilterSpec::Tent,
+                FilterArg::Gaussian => FilterSpec::Gaussian,
+            }),
+            seed: self.seed,
+            adaptive: self.adaptive,
+            max_samples: self.max_samples,
         }
-        let sampling = match (self.samples, self.adaptive) {
-            (Some(0), _) => bail!("--samples must be at least 1"),
-            (Some(1), _) if self.filter.is_some_and(|f| f != FilterArg::Box) => {
-                bail!("--samples 1 traces the pixel centre alone: a --filter needs more samples")
-            }
-            (Some(1), _) if self.seed.is_some() => {
-                bail!("--samples 1 traces the pixel centre: --seed needs more samples")
-            }
-            (Some(1), _) => Sampling::Centers,
-            (Some(samples), _) => Sampling::Stratified {
-                samples,
-                seed: self.seed.unwrap_or(0),
-                filter: match self.filter.unwrap_or(FilterArg::Box) {
-                    FilterArg::Box => Filter::Box,
-                    FilterArg::Tent => Filter::Tent,
-                    FilterArg::Gaussian => Filter::Gaussian,
-                },
-            },
-            // The default: the paper's adaptive refinement (section 2.6) —
-            // anti-aliased edges for about one ray per pixel where the image is
-            // smooth (docs/benchmarks.md#anti-aliasing compares it with --samples N).
-            (None, threshold) => Sampling::Adaptive {
-                threshold: threshold.unwrap_or(Sampling::DEFAULT_THRESHOLD),
-                max_samples: self.max_samples.unwrap_or(Sampling::DEFAULT_MAX_SAMPLES),
-            },
-        };
-        sampling.validate().map_err(|e| {
-            let flag = match sampling {
-                Sampling::Adaptive { threshold, .. }
-                    if !(threshold.is_finite() && threshold >= 0.0) =>
-                {
-                    "--adaptive"
-                }
-                Sampling::Adaptive { .. } => "--max-samples",
-                _ => "--samples",
-            };
-            anyhow::anyhow!("{flag}: {e}")
-        })?;
-        Ok(sampling)
     }
 }

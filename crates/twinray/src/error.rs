@@ -22,6 +22,9 @@ pub enum Error {
     Invalid(String),
     #[error("{}: cannot encode image: {message}", path.display())]
     Encode { path: PathBuf, message: String },
+    /// The caller cancelled the work (a `CancelToken`) before it finished.
+    #[error("cancelled")]
+    Cancelled,
 }
 
 pub type Result<T> = std::result::Result<T, Error>;

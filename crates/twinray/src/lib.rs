@@ -2,7 +2,8 @@
 //!
 //! Data flows one way: load a scene (`loaders`) → build the hierarchy (`bvh`) →
 //! trace the views of a rig (`render`, with `camera`, `rig` and `shading`) →
-//! compose and write images (`output`).
+//! compose and write images (`output`). A whole render, as front ends run
+//! it, is a [`job::Job`] made from a serialisable [`job::JobSpec`].
 
 pub mod bvh;
 pub mod camera;
@@ -18,6 +19,7 @@ pub mod math;
 pub mod output;
 pub mod render;
 pub mod rig;
+pub mod rig_choice;
 pub mod scene;
 pub mod shading;
 pub mod shapes;
@@ -29,5 +31,6 @@ pub mod world;
 
 pub use error::{Error, Result};
 pub use image::Image;
+pub use job::{Job, JobSpec};
 pub use scene::Scene;
 pub use world::World;

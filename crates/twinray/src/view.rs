@@ -4,7 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::math::Vec3;
-use crate::scene::{AngleSpan, Scene};
+use crate::scene::{AngleSpan, Scene, Viewpoint};
 
 /// What the command line asks of the viewpoint; `None` keeps the file's.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -20,6 +20,19 @@ pub struct ViewOverrides {
 
 /// Applies `o` to `scene.viewpoint`, checking that the result is a camera.
 pub fn apply(scene: &mut Scene, o: &ViewOverrides) -> Result<()> {
+    let (viewpoint, given) = resolve(scene, o)?;
+    scene.viewpoint = viewpoint;
+    scene.viewpoint_given = given;
+    Ok(())
+}
+
+/// The viewpoint `o` asks of `scene` (its current viewpoint, or one of its
+/// cameras, with the overrides on top), checked, and whether it is one the
+/// file or the overrides chose (rather than the loader's framing). The scene
+/// is left as it is, so one loaded scene serves many viewpoints.
+pub fn resolve(scene: &Scene, o: &ViewOverrides) -> Result<(Viewpoint, bool)> {
+    let mut given = scene.viewpoint_given;
+    let mut vp = scene.viewpoint.clone();
     if let Some(wanted) = &o.camera {
         let names: Vec<&str> = scene.cameras.iter().map(|c| c.name.as_str()).collect();
         if names.is_empty() {
@@ -44,10 +57,9 @@ pub fn apply(scene: &mut Scene, o: &ViewOverrides) -> Result<()> {
                     .join(", ")
             )));
         };
-        scene.viewpoint = scene.cameras[i].viewpoint.clone();
-        scene.viewpoint_given = true;
+        vp = scene.cameras[i].viewpoint.clone();
+        given = true;
     }
-    let vp = &mut scene.viewpoint;
     for (name, v) in [("--from", o.from), ("--at", o.at), ("--up", o.up)] {
         if v.is_some_and(|v| !v.is_finite()) {
             return Err(Error::Invalid(format!("{name} must be finite numbers")));
@@ -87,7 +99,7 @@ pub fn apply(scene: &mut Scene, o: &ViewOverrides) -> Result<()> {
             "the camera's up direction (--up) is zero or parallel to the viewing direction".into(),
         ));
     }
-    Ok(())
+    Ok((vp, given))
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //! complete mono render of its own camera, its rays traced one at a time.
 
 use super::sampler::{RowColors, SampleRow};
-use super::{Job, RowWorker, Tracer, ViewBatch};
+use super::{RenderInputs, RowWorker, Tracer, ViewBatch};
 use crate::bvh::Packet;
 use crate::camera::Camera;
 use crate::rig::View;
@@ -14,7 +14,7 @@ pub(super) struct Independent<'a> {
 }
 
 impl<'a> Independent<'a> {
-    pub(super) fn new(job: &Job<'a>) -> Independent<'a> {
+    pub(super) fn new(job: &RenderInputs<'a>) -> Independent<'a> {
         Independent {
             camera: job.camera,
             views: job.rig.views.clone(),

@@ -34,7 +34,8 @@ mod twin;
 pub use sampler::{Filter, SampleRow, Sampling};
 pub use tracer::{Donor, TraceSettings, Tracer};
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -193,6 +194,26 @@ pub struct RenderOutput {
     pub refined_pixels: u64,
 }
 
+/// A flag a caller raises to stop a render in flight (a preview whose
+/// parameters changed, an interrupted command). Clones share the flag.
+#[derive(Clone, Debug, Default)]
+pub struct CancelToken(Arc<AtomicBool>);
+
+impl CancelToken {
+    pub fn new() -> CancelToken {
+        CancelToken::default()
+    }
+
+    /// Asks every render holding this token (or a clone) to stop.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
 /// Renders every view of `rig`. `progress(done, total)` is called from worker
 /// threads as sample rows complete.
 pub fn render(
@@ -201,6 +222,19 @@ pub fn render(
     rig: &Rig,
     opts: &RenderOptions,
     progress: &(dyn Fn(u64, u64) + Sync),
+) -> crate::Result<RenderOutput> {
+    render_cancellable(world, camera, rig, opts, progress, &CancelToken::new())
+}
+
+/// [`render`], stopping early with [`Error::Cancelled`](crate::Error::Cancelled)
+/// once `cancel` is raised: no new row or band of samples starts after that.
+pub fn render_cancellable(
+    world: &World,
+    camera: &Camera,
+    rig: &Rig,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    cancel: &CancelToken,
 ) -> crate::Result<RenderOutput> {
     opts.trace.validate()?;
     let views = rig.views.len();
@@ -231,12 +265,13 @@ pub fn render(
     }
     opts.sampling.validate()?;
     let start = Instant::now();
-    let job = Job {
+    let job = RenderInputs {
         world,
         camera,
         rig,
         opts,
         progress,
+        cancel,
     };
     let batches = match opts.method {
         Method::Independent => {
@@ -265,7 +300,8 @@ pub fn render(
             threshold,
             max_samples,
         } => run.adaptive(threshold, max_samples),
-    };
+    }
+    .ok_or(crate::Error::Cancelled)?;
     Ok(RenderOutput {
         images: sampled.images,
         counts: sampled.counts,
@@ -278,7 +314,10 @@ pub fn render(
 
 /// The views of the rig in batches of `size` neighbours, each traced by the
 /// twin method as packets of its own (its first view leads its groups).
-fn twin_batches<'a>(job: &Job<'a>, size: usize) -> crate::Result<Vec<Box<dyn ViewBatch + 'a>>> {
+fn twin_batches<'a>(
+    job: &RenderInputs<'a>,
+    size: usize,
+) -> crate::Result<Vec<Box<dyn ViewBatch + 'a>>> {
     let mut batches: Vec<Box<dyn ViewBatch + 'a>> = Vec::new();
     for (b, views) in job.rig.views.chunks(size.max(1)).enumerate() {
         let rig = Rig {
@@ -305,12 +344,13 @@ fn twin_batches<'a>(job: &Job<'a>, size: usize) -> crate::Result<Vec<Box<dyn Vie
 
 /// What a rendering method is given: the scene, the camera and its views, the
 /// options, and whom to tell of finished rows.
-struct Job<'a> {
+struct RenderInputs<'a> {
     world: &'a World,
     camera: &'a Camera,
     rig: &'a Rig,
     opts: &'a RenderOptions,
     progress: &'a (dyn Fn(u64, u64) + Sync),
+    cancel: &'a CancelToken,
 }
 
 /// Some consecutive views of the rig that a method traces together.
@@ -365,7 +405,7 @@ const BAND_ROWS: usize = 8;
 
 /// One render: the job, its batches of views, the image size and the progress.
 struct Run<'j, 'a> {
-    job: &'j Job<'a>,
+    job: &'j RenderInputs<'a>,
     batches: &'j [Box<dyn ViewBatch + 'a>],
     views: usize,
     width: usize,
@@ -377,12 +417,13 @@ struct Run<'j, 'a> {
 impl Run<'_, '_> {
     /// Runs `task(context, tracer, i)` for `i` in `0..count`, in parallel, a
     /// fresh tracer per task (so that no task's caches depend on which thread
-    /// ran what before); returns the results in order and the work counted.
+    /// ran what before); returns the results in order and the work counted,
+    /// or `None` when the render was cancelled.
     fn tasks<T: Send>(
         &self,
         count: usize,
         task: impl Fn(&mut RowContext, &mut Tracer, usize) -> T + Sync,
-    ) -> (Vec<T>, TraceCounts) {
+    ) -> Option<(Vec<T>, TraceCounts)> {
         let world = self.job.world;
         let settings = self.job.opts.trace;
         let context = || RowContext {
@@ -392,23 +433,27 @@ impl Run<'_, '_> {
                 .map(|b| (b.view_count(), b.worker()))
                 .collect(),
         };
+        let cancel = self.job.cancel;
         let results: Vec<(T, TraceCounts)> = (0..count)
             .into_par_iter()
             .map_init(context, |ctx, i| {
+                if cancel.is_cancelled() {
+                    return None;
+                }
                 let mut tracer = Tracer::new(world, settings);
                 let result = task(ctx, &mut tracer, i);
                 let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
                 (self.job.progress)(done, self.total.load(Ordering::Relaxed));
-                (result, tracer.finish())
+                Some((result, tracer.finish()))
             })
-            .collect();
+            .collect::<Option<_>>()?;
         let mut counts = TraceCounts::default();
         let mut out = Vec::with_capacity(results.len());
         for (r, c) in results {
             counts.add(&c);
             out.push(r);
         }
-        (out, counts)
+        Some((out, counts))
     }
 
     /// Tells the progress how many tasks the whole render has.
@@ -423,31 +468,31 @@ impl Run<'_, '_> {
         columns: usize,
         rows: usize,
         pattern: impl Fn(usize) -> Pattern + Sync,
-    ) -> (Vec<Vec<Color>>, TraceCounts) {
+    ) -> Option<(Vec<Vec<Color>>, TraceCounts)> {
         let (per_row, counts) = self.tasks(rows, |ctx, tracer, j| {
             let row = SampleRow::full(columns, pattern(j));
             let mut out = Vec::new();
             ctx.trace(tracer, &row, &mut out);
             out
-        });
+        })?;
         let mut grids = vec![Vec::with_capacity(columns * rows); self.views];
         for row in per_row {
             for (g, r) in grids.iter_mut().zip(row) {
                 g.extend(r);
             }
         }
-        (grids, counts)
+        Some((grids, counts))
     }
 
     /// One ray through each pixel centre.
-    fn centers(&self) -> Sampled {
+    fn centers(&self) -> Option<Sampled> {
         let (w, h) = (self.width, self.height);
         self.plan(h);
         let (grids, counts) = self.lattice(w, h, |j| Pattern::Fixed {
             dx: 0.0,
             y: j as f32,
-        });
-        Sampled {
+        })?;
+        Some(Sampled {
             images: grids
                 .into_iter()
                 .map(|pixels| Image {
@@ -460,11 +505,11 @@ impl Run<'_, '_> {
             samples_per_view: (w * h) as u64,
             max_per_pixel: 1,
             refined: 0,
-        }
+        })
     }
 
     /// The pixel corners, traced once each (every pixel row shares its edges).
-    fn corner_lattice(&self) -> (Vec<Vec<Color>>, TraceCounts) {
+    fn corner_lattice(&self) -> Option<(Vec<Vec<Color>>, TraceCounts)> {
         self.lattice(self.width + 1, self.height + 1, |j| Pattern::Fixed {
             dx: -0.5,
             y: j as f32 - 0.5,
@@ -472,10 +517,10 @@ impl Run<'_, '_> {
     }
 
     /// The SPD procedure: each pixel the mean of its four corners.
-    fn corners(&self) -> Sampled {
+    fn corners(&self) -> Option<Sampled> {
         let (w, h) = (self.width, self.height);
         self.plan(h + 1);
-        let (grids, counts) = self.corner_lattice();
+        let (grids, counts) = self.corner_lattice()?;
         let images = grids
             .iter()
             .map(|corners| {
@@ -490,17 +535,17 @@ impl Run<'_, '_> {
                 img
             })
             .collect();
-        Sampled {
+        Some(Sampled {
             images,
             counts,
             samples_per_view: ((w + 1) * (h + 1)) as u64,
             max_per_pixel: 4,
             refined: 0,
-        }
+        })
     }
 
     /// `samples` points of each pixel's sequence, filtered into the film.
-    fn stratified(&self, samples: u32, filter: Filter, seed: u32) -> Sampled {
+    fn stratified(&self, samples: u32, filter: Filter, seed: u32) -> Option<Sampled> {
         let (w, h) = (self.width, self.height);
         let bands = h.div_ceil(BAND_ROWS);
         self.plan(bands);
@@ -521,26 +566,26 @@ impl Run<'_, '_> {
                 }
             }
             band
-        });
+        })?;
         let mut film = Film::new(self.views, w, h);
         for band in &bands {
             film.add(band);
         }
-        Sampled {
+        Some(Sampled {
             images: film.images(),
             counts,
             samples_per_view: (w * h) as u64 * u64::from(samples),
             max_per_pixel: samples,
             refined: 0,
-        }
+        })
     }
 
     /// Section 2.6: the corners, then each pixel row refined where its
     /// cells' corners differ (in any view).
-    fn adaptive(&self, threshold: f32, max_samples: u32) -> Sampled {
+    fn adaptive(&self, threshold: f32, max_samples: u32) -> Option<Sampled> {
         let (w, h) = (self.width, self.height);
         self.plan(h + 1 + h.div_ceil(BAND_ROWS));
-        let (corners, mut counts) = self.corner_lattice();
+        let (corners, mut counts) = self.corner_lattice()?;
         let corner = |v: usize, x: usize, y: usize| corners[v][y * (w + 1) + x];
         let bands = h.div_ceil(BAND_ROWS);
         let (bands, refine_counts) = self.tasks(bands, |ctx, tracer, b| {
@@ -560,7 +605,7 @@ impl Run<'_, '_> {
                     (out, report)
                 })
                 .collect::<Vec<_>>()
-        });
+        })?;
         let rows = bands.into_iter().flatten();
         counts.add(&refine_counts);
         let mut images: Vec<Image> = (0..self.views)
@@ -579,12 +624,12 @@ impl Run<'_, '_> {
             total.refined += report.refined;
             total.max_per_pixel = total.max_per_pixel.max(report.max_per_pixel);
         }
-        Sampled {
+        Some(Sampled {
             images,
             counts,
             samples_per_view: ((w + 1) * (h + 1)) as u64 + total.added,
             max_per_pixel: total.max_per_pixel,
             refined: total.refined,
-        }
+        })
     }
 }

@@ -29,7 +29,7 @@ use std::time::Instant;
 use super::grouping::{group_row, nearest_sample, Group};
 use super::sampler::{RowColors, SampleRow};
 use super::tracer::Donor;
-use super::{Job, ReprojectMode, Reprojection, RowWorker, Tracer, ViewBatch};
+use super::{RenderInputs, ReprojectMode, Reprojection, RowWorker, Tracer, ViewBatch};
 use crate::bvh::{Packet, PacketHits};
 use crate::camera::Camera;
 use crate::math::{Color, Vec3};
@@ -111,7 +111,7 @@ impl<const K: usize> RowScratch<K> {
 impl<'a, const K: usize> RowSetup<'a, K> {
     /// The setup of the views `first_view..first_view + rig.views.len()` of a
     /// job, `rig` holding just them.
-    pub(super) fn new(job: &Job<'a>, rig: Rig, first_view: usize) -> RowSetup<'a, K> {
+    pub(super) fn new(job: &RenderInputs<'a>, rig: Rig, first_view: usize) -> RowSetup<'a, K> {
         let camera = job.camera;
         let n = rig.views.len();
         let mut origins = [camera.eye; K];
@@ -704,12 +704,13 @@ mod tests {
         );
         let world_ref = &world;
         let opts = RenderOptions::default();
-        let job = Job {
+        let job = RenderInputs {
             world: world_ref,
             camera: &camera,
             rig: &rig,
             opts: &opts,
             progress: &|_, _| {},
+            cancel: &super::super::CancelToken::new(),
         };
         let setup = RowSetup::<2>::new(&job, rig.clone(), 0);
         let width = camera.width as usize;

@@ -1,0 +1,1040 @@
+//! One render, from a [`JobSpec`] to files, in stages a front end runs one
+//! by one (the command line, the preview server, a distributed driver):
+//!
+//! 1. [`Job::check`]: the spec's values and combinations, the threads: what
+//!    can be known to fail before anything is read.
+//! 2. [`Job::load`]: the scene file (or [`Job::prepare`] for a scene already
+//!    in memory); its hierarchy is built at the first plan and kept, so one
+//!    [`Loaded`] scene serves many plans (a preview re-plans on every change).
+//! 3. [`Job::plan`]: the image size and camera, the rig (a depth pass where
+//!    the rig is automatic, and the disparity report), the cut of the object
+//!    tree, the output files and the memory, all checked before rendering.
+//! 4. [`Job::render`]: the views in memory, with a progress callback and a
+//!    [`CancelToken`].
+//! 5. [`Job::write`]: the files, composed in the layout and written
+//!    atomically as a set; the statistics.
+//!
+//! The stages print nothing: what a user should be told comes back as
+//! [`Message`]s (notes and warnings, and the details a verbose front end
+//! shows), for the front end to print or display.
+//!
+//! Error messages name the command line's flags (`--interaxial`), the names a
+//! spec's fields have on the command line (`rig.interaxial`).
+
+mod outputs;
+pub mod preflight;
+pub mod spec;
+
+pub use outputs::numbered;
+pub use preflight::{
+    available_memory, check_memory, check_threads, estimate_render_memory, human_bytes,
+    lights_warning, MANY_LIGHTS, MAX_THREADS,
+};
+pub use spec::{
+    AnaglyphSpec, ApproximationSpec, CameraSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec,
+    LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, TraceSpec,
+};
+
+pub use crate::render::CancelToken;
+
+use std::path::PathBuf;
+use std::sync::{Arc, OnceLock};
+use std::time::Instant;
+
+use crate::camera::Camera;
+use crate::depth_budget::{DepthBudget, RigRequest};
+use crate::loaders::{load_scene, LoadOptions};
+use crate::math::Vec3;
+use crate::output::{self, DepthChannels, QuiltSpec};
+use crate::render::{
+    self, Approximations, Filter, Method, RenderOptions, RenderOutput, ReprojectMode, Reprojection,
+    Sampling, TraceSettings,
+};
+use crate::rig::Rig;
+use crate::rig_choice::{self, Interaxial, RigFlags, Settled};
+use crate::scene::{SceneFormat, Viewpoint};
+use crate::stats::{Report, SamplingFacts, SceneFacts, Timings};
+use crate::view::{self, ViewOverrides};
+use crate::world::Cut;
+use crate::{Error, Result, Scene, World};
+use outputs::Targets;
+
+/// How much a message matters to the person at the front end.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Level {
+    /// Details for a verbose front end (`-v`): the scene, the rig, timings.
+    Info,
+    /// Something the job chose for the user that they may want to change.
+    Note,
+    /// Something likely wrong that did not stop the job.
+    Warning,
+}
+
+/// Something a stage has to tell the user.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Message {
+    pub level: Level,
+    pub text: String,
+}
+
+impl Message {
+    fn info(text: impl Into<String>) -> Message {
+        Message {
+            level: Level::Info,
+            text: text.into(),
+        }
+    }
+    fn note(text: impl Into<String>) -> Message {
+        Message {
+            level: Level::Note,
+            text: text.into(),
+        }
+    }
+    fn warning(text: impl Into<String>) -> Message {
+        Message {
+            level: Level::Warning,
+            text: text.into(),
+        }
+    }
+}
+
+/// `--fast`'s cut: half a pixel of disparity.
+const FAST_CUT_PARALLAX: f64 = 0.5;
+
+/// A checked job: the spec and what was derived from it.
+pub struct Job {
+    spec: JobSpec,
+    /// Views to render (1, 2, N, or a quilt's tiles).
+    views: usize,
+    quilt: Option<QuiltSpec>,
+    budget: Option<DepthBudget>,
+    interaxial: Option<Interaxial>,
+    options: RenderOptions,
+    pool: Arc<rayon::ThreadPool>,
+    messages: Vec<Message>,
+}
+
+/// A scene read and ready to plan: its hierarchy is built by the first plan
+/// that needs it and kept for the next ones.
+pub struct Loaded {
+    /// The scene as loaded (its own viewpoint, a headlight where it had no lights).
+    pub scene: Arc<Scene>,
+    world: OnceLock<Arc<World>>,
+    pub load_seconds: f64,
+    pub messages: Vec<Message>,
+}
+
+impl Loaded {
+    /// The scene with its whole hierarchy (no cut), built once.
+    pub fn world(&self, pool: &rayon::ThreadPool) -> Arc<World> {
+        self.world
+            .get_or_init(|| Arc::new(pool.install(|| World::new((*self.scene).clone()))))
+            .clone()
+    }
+}
+
+/// Everything decided before rendering.
+pub struct Plan {
+    pub width: u32,
+    pub height: u32,
+    pub camera: Camera,
+    pub rig: Rig,
+    /// The rig's interaxial (0 for one view) and the convergence asked for.
+    pub interaxial: f32,
+    pub convergence: Option<f64>,
+    /// The rig fitted to the scene's depths and its disparity report (several views).
+    pub settled: Option<Settled>,
+    pub cut: Option<Cut>,
+    /// The scene with the hierarchy the render traces (cut or whole).
+    pub world: Arc<World>,
+    /// The files the job will write, checked.
+    pub files: Vec<PathBuf>,
+    pub build_seconds: f64,
+    pub messages: Vec<Message>,
+}
+
+/// The views rendered, in memory.
+pub struct Rendered {
+    pub output: RenderOutput,
+    /// Each view's depth and disparity channels (`output.depth`).
+    pub depth: Option<Vec<DepthChannels>>,
+    pub messages: Vec<Message>,
+}
+
+impl Job {
+    /// Checks the spec: every value and combination that can be refused
+    /// before the scene is read, and the worker threads.
+    pub fn check(spec: JobSpec) -> Result<Job> {
+        let checked = Checked::of(&spec)?;
+        let mut pool = rayon::ThreadPoolBuilder::new().stack_size(8 << 20);
+        // Worker stacks of 8 MiB (reserved, not used): room beyond the depth cap.
+        if let Some(n) = spec.trace.threads {
+            pool = pool.num_threads(n);
+        }
+        let pool = pool
+            .build()
+            .map_err(|e| Error::Invalid(format!("cannot start worker threads: {e}")))?;
+        let mut messages = Vec::new();
+        let ext = spec
+            .output
+            .path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        if spec.output.srgb && matches!(ext.as_str(), "exr" | "pfm") {
+            messages.push(Message::warning(format!(
+                "--srgb applies to 8-bit outputs; the .{ext} file stays linear"
+            )));
+        }
+        Ok(Job {
+            spec,
+            views: checked.views,
+            quilt: checked.quilt,
+            budget: checked.budget,
+            interaxial: checked.interaxial,
+            options: checked.options,
+            pool: Arc::new(pool),
+            messages,
+        })
+    }
+
+    pub fn spec(&self) -> &JobSpec {
+        &self.spec
+    }
+
+    /// What checking the spec found worth telling (no errors: those refused it).
+    pub fn messages(&self) -> &[Message] {
+        &self.messages
+    }
+
+    /// The options the renderer gets (sampling, method, approximations, limits).
+    pub fn render_options(&self) -> &RenderOptions {
+        &self.options
+    }
+
+    /// Views the job renders.
+    pub fn views(&self) -> usize {
+        self.views
+    }
+
+    /// The worker threads every stage runs on.
+    pub fn pool(&self) -> &rayon::ThreadPool {
+        &self.pool
+    }
+
+    /// Reads the scene file.
+    pub fn load(&self) -> Result<Loaded> {
+        let start = Instant::now();
+        let limits = &self.spec.limits;
+        let scene = load_scene(
+            &self.spec.scene,
+            &LoadOptions {
+                max_resolution: limits.max_resolution,
+                max_vertices: limits.max_vertices,
+                max_triangles: limits.max_triangles,
+            },
+        )?;
+        let load_seconds = start.elapsed().as_secs_f64();
+        let mut loaded = self.prepare(scene)?;
+        loaded.load_seconds = load_seconds;
+        Ok(loaded)
+    }
+
+    /// Readies a scene already in memory (as [`Job::load`] does after reading
+    /// it): its warnings become messages; a mesh file without lights gets a
+    /// headlight at the camera the spec asks for.
+    pub fn prepare(&self, mut scene: Scene) -> Result<Loaded> {
+        let mut messages: Vec<Message> = scene
+            .warnings
+            .iter()
+            .chain(&lights_warning(scene.lights.len()))
+            .map(|w| Message::warning(w.clone()))
+            .collect();
+        let (viewpoint, given) = view::resolve(&scene, &self.view_overrides())?;
+        let path = self.spec.scene.display();
+        if !given && self.spec.camera.from.is_none() {
+            messages.push(Message::note(format!(
+                "{path} has no camera: looking at the whole scene from the front (set one with --from, --at, --up, --fov)"
+            )));
+        }
+        if scene.format != SceneFormat::Nff && scene.lights.is_empty() {
+            let file_viewpoint = std::mem::replace(&mut scene.viewpoint, viewpoint);
+            scene.add_headlight_if_dark();
+            scene.viewpoint = file_viewpoint;
+            messages.push(Message::warning(format!(
+                "{path} has no lights: added a white point light at the camera"
+            )));
+        }
+        Ok(Loaded {
+            scene: Arc::new(scene),
+            world: OnceLock::new(),
+            load_seconds: 0.0,
+            messages,
+        })
+    }
+
+    fn view_overrides(&self) -> ViewOverrides {
+        let c = &self.spec.camera;
+        ViewOverrides {
+            camera: c.camera.clone(),
+            from: c.from.map(Vec3::from),
+            at: c.at.map(Vec3::from),
+            up: c.up.map(Vec3::from),
+            fov_deg: c.fov,
+        }
+    }
+
+    /// The image size: the spec's, the SPD procedure's, a quilt preset's or
+    /// the scene's.
+    fn size(&self, viewpoint: &Viewpoint) -> Result<(u32, u32)> {
+        let preset = self.quilt.and_then(|q| q.preset);
+        let (width, height) = match (self.spec.camera.size, self.spec.sampling.spd, preset) {
+            (Some([w, h]), _, _) => (w, h),
+            (None, _, Some(p)) => (p.view_width, p.view_height),
+            (None, true, None) => (512, 512),
+            (None, false, None) => (viewpoint.width, viewpoint.height),
+        };
+        let max = self.spec.limits.max_resolution;
+        if width > max || height > max {
+            return Err(Error::Invalid(format!(
+                "--size {width}x{height} exceeds the limit of {max} per side (raise it with --max-resolution)"
+            )));
+        }
+        Ok((width, height))
+    }
+
+    /// Decides everything before rendering: size, camera, rig, cut, files.
+    pub fn plan(&self, loaded: &Loaded) -> Result<Plan> {
+        let (viewpoint, _) = view::resolve(&loaded.scene, &self.view_overrides())?;
+        let (width, height) = self.size(&viewpoint)?;
+        let camera = Camera::new(&viewpoint, width, height);
+        let at_distance = f64::from((viewpoint.at - viewpoint.from).length());
+        let request = self.rig_request(at_distance)?;
+        // The rig, or with an automatic spacing or convergence a stand-in
+        // until the depth pass on the built scene.
+        let (mut rig, explicit) = match &request {
+            None => (Rig::mono(), None),
+            Some(r) => rig_choice::rig_before_depths(&camera, r)?,
+        };
+        let (mut interaxial, mut convergence) = explicit
+            .as_ref()
+            .map_or((0.0, None), |c| (c.interaxial, c.convergence));
+        let mut files = self
+            .targets(&rig, interaxial)
+            .plan((width, height), &self.spec.scene)?;
+        self.check_memory(width, height)?;
+
+        let mut build_seconds = 0.0;
+        let mut cut = self.cut(&camera, &rig)?;
+        let mut world = self.world_for(loaded, cut, &mut build_seconds);
+        let settled =
+            match &request {
+                Some(r) => Some(self.pool.install(|| {
+                    rig_choice::settle(&world, &camera, r, self.spec.rig.screen_width)
+                })?),
+                None => None,
+            };
+        if let (Some(s), None) = (&settled, &explicit) {
+            // The rig fitted to the depths: its outputs checked again (an
+            // MPO's baseline), and the cut that depends on it made now.
+            rig = s.rig.clone();
+            (interaxial, convergence) = (s.choice.interaxial, s.choice.convergence);
+            files = self
+                .targets(&rig, interaxial)
+                .plan((width, height), &self.spec.scene)?;
+            let fitted = self.cut(&camera, &rig)?;
+            if fitted.is_some() {
+                cut = fitted;
+                world = self.world_for(loaded, cut, &mut build_seconds);
+            }
+        }
+        let mut plan = Plan {
+            width,
+            height,
+            camera,
+            rig,
+            interaxial,
+            convergence,
+            settled,
+            cut,
+            world,
+            files,
+            build_seconds,
+            messages: Vec::new(),
+        };
+        plan.messages = plan_messages(&plan);
+        Ok(plan)
+    }
+
+    /// The rig request of a job of several views.
+    fn rig_request(&self, at_distance: f64) -> Result<Option<RigRequest>> {
+        if self.views < 2 {
+            return Ok(None);
+        }
+        let flags = RigFlags {
+            interaxial: self.interaxial,
+            convergence: self.spec.rig.convergence.as_deref(),
+            view_cone: self.spec.rig.view_cone,
+            budget: self.budget,
+        };
+        rig_choice::rig_request(&flags, self.quilt.is_some(), self.views, at_distance).map(Some)
+    }
+
+    fn targets(&self, rig: &Rig, interaxial: f32) -> Targets<'_> {
+        Targets {
+            output: &self.spec.output,
+            quilt: self.quilt.as_ref(),
+            views: self.views,
+            interaxial,
+            effective_convergence: rig.effective_convergence,
+        }
+    }
+
+    /// Refuses a render the machine has no memory for.
+    fn check_memory(&self, width: u32, height: u32) -> Result<()> {
+        let quilt_tiles = self.quilt.map_or(0, |q| q.layout.tiles());
+        let needed = estimate_render_memory(width, height, self.views, self.options.sampling)
+            .saturating_add(outputs::extra_memory(
+                width,
+                height,
+                self.views,
+                quilt_tiles,
+                self.spec.output.depth,
+            ));
+        check_memory(
+            needed,
+            available_memory(),
+            &format!("rendering {} view(s) of {width}x{height}", self.views),
+        )
+    }
+
+    /// The loaded scene's whole hierarchy, or a new one with `cut`.
+    fn world_for(&self, loaded: &Loaded, cut: Option<Cut>, seconds: &mut f64) -> Arc<World> {
+        let start = Instant::now();
+        let world = match cut {
+            None => loaded.world(&self.pool),
+            Some(cut) => Arc::new(
+                self.pool
+                    .install(|| World::with_cut((*loaded.scene).clone(), Some(cut))),
+            ),
+        };
+        *seconds += if cut.is_none() {
+            world.build_seconds
+        } else {
+            start.elapsed().as_secs_f64()
+        };
+        world
+    }
+
+    /// Where to cut the object tree, if asked (the parallax bound depends on
+    /// the views' spacing).
+    fn cut(&self, camera: &Camera, rig: &Rig) -> Result<Option<Cut>> {
+        let a = &self.spec.approximations;
+        let parallax = a.cut_parallax.or(a.fast.then_some(FAST_CUT_PARALLAX));
+        let depth = match (a.cut_distance, parallax) {
+            (Some(d), _) => f64::from(d),
+            (None, Some(px)) => match rig.cut_depth_for_parallax(camera, px) {
+                Some(d) => d,
+                None => return Ok(None),
+            },
+            (None, None) => return Ok(None),
+        };
+        Ok(Some(Cut::at_depth(camera, depth as f32)))
+    }
+
+    /// Renders the views. `progress(done, total)` is called from worker
+    /// threads; raising `cancel` stops the render with [`Error::Cancelled`].
+    pub fn render(
+        &self,
+        plan: &Plan,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        cancel: &CancelToken,
+    ) -> Result<Rendered> {
+        let mut output = self.pool.install(|| {
+            render::render_cancellable(
+                &plan.world,
+                &plan.camera,
+                &plan.rig,
+                &self.options,
+                progress,
+                cancel,
+            )
+        })?;
+        let mut messages = Vec::new();
+        if let (Some(s), true) = (&plan.settled, self.spec.rig.floating_window) {
+            output::apply_floating_window(&mut output.images, &s.report.floating_window);
+            let w = s.report.floating_window;
+            messages.push(Message::info(format!(
+                "floating window: {} px masked at the left edge, {} px at the right",
+                w.left_px, w.right_px
+            )));
+        }
+        let depth = self.spec.output.depth.then(|| {
+            self.pool
+                .install(|| outputs::measure_depth(&plan.world, &plan.camera, &plan.rig))
+        });
+        messages.extend(self.render_messages(plan, &output));
+        Ok(Rendered {
+            output,
+            depth,
+            messages,
+        })
+    }
+
+    fn render_messages(&self, plan: &Plan, r: &RenderOutput) -> Vec<Message> {
+        let o = &self.options;
+        let pixels = f64::from(plan.width) * f64::from(plan.height);
+        let mut m = vec![
+            Message::info(format!(
+                "rendered {} view(s) {}x{} by {} in {:.3} s; eye rays {}, traversals per eye ray {:.3}",
+                plan.rig.views.len(),
+                plan.width,
+                plan.height,
+                o.method.name(),
+                r.seconds,
+                r.counts.rays.eye,
+                r.counts.eye_traversals as f64 / r.counts.rays.eye.max(1) as f64
+            )),
+            Message::info(format!(
+                "sampling: {}; eye samples per pixel {:.2} (most {}), pixels refined {}",
+                o.sampling.describe(),
+                r.samples_per_view as f64 / pixels,
+                r.max_samples_per_pixel,
+                r.refined_pixels
+            )),
+        ];
+        if self.is_approximate() {
+            let c = &r.counts;
+            m.push(Message::info(format!(
+                "approximations: samples cut {}, secondary rays merged {}, samples reprojected {}, refused {}, traced as holes {}",
+                c.samples_cut, c.merged_rays, c.reprojected, c.reproject_rejected, c.hole_samples
+            )));
+        }
+        m
+    }
+
+    fn is_approximate(&self) -> bool {
+        let a = &self.spec.approximations;
+        !self.options.approx.is_exact()
+            || a.fast
+            || a.cut_distance.is_some()
+            || a.cut_parallax.is_some()
+    }
+
+    /// Writes the files (all or none) and the statistics; returns the files
+    /// written. `loaded` and the seconds of writing feed the statistics.
+    pub fn write(&self, loaded: &Loaded, plan: &Plan, rendered: &Rendered) -> Result<Vec<PathBuf>> {
+        let start = Instant::now();
+        let targets = self.targets(&plan.rig, plan.interaxial);
+        let mut written = targets.write(
+            &rendered.output.images,
+            rendered.depth.as_deref(),
+            &plan.files,
+        )?;
+        let write_s = start.elapsed().as_secs_f64();
+        if let Some(path) = &self.spec.output.stats {
+            let report = self.report(loaded, plan, rendered, write_s);
+            output::write_text(path, &report.to_json())?;
+            written.push(path.clone());
+        }
+        Ok(written)
+    }
+
+    /// The `--stats` report of a finished job.
+    pub fn report(
+        &self,
+        loaded: &Loaded,
+        plan: &Plan,
+        rendered: &Rendered,
+        write_s: f64,
+    ) -> Report {
+        let (width, height) = (plan.width, plan.height);
+        let result = &rendered.output;
+        let world = &plan.world;
+        let views = plan.rig.views.len();
+        let mut report = Report {
+            time: Timings {
+                load_s: loaded.load_seconds,
+                build_s: plan.build_seconds,
+                render_s: result.seconds,
+                write_s,
+                ..Timings::default()
+            },
+            scene: SceneFacts {
+                primitives: world.scene.shapes.len(),
+                lights: world.scene.lights.len(),
+                materials: world.scene.materials.len(),
+                bvh_nodes: world.bvh.nodes.len(),
+                bvh_depth: world.bvh.depth(),
+                memory_bytes: world.memory_bytes(),
+                warnings: world.scene.warnings.len(),
+            },
+            width,
+            height,
+            views,
+            method: if views == 1 {
+                "mono".into()
+            } else {
+                self.options.method.name().to_string()
+            },
+            samples_per_view: result.samples_per_view,
+            sampling: SamplingFacts {
+                mode: self.options.sampling.describe(),
+                eye_samples_per_pixel_mean: result.samples_per_view as f64
+                    / (f64::from(width) * f64::from(height)),
+                eye_samples_per_pixel_max: result.max_samples_per_pixel,
+                refined_pixels: result.refined_pixels,
+            },
+            ..Report::default()
+        };
+        report.fill_counts(&result.counts, views);
+        report.cut_depth = plan.cut.map(|c| c.depth);
+        if let Some(s) = &plan.settled {
+            report.time.depth_s = Some(s.depth_seconds);
+            report.rig_choice = Some(s.choice.clone());
+            report.disparity = Some(s.report.clone());
+        }
+        report.cut_primitives = world.cut_primitives();
+        if self.views > 1 {
+            report.interaxial = Some(plan.interaxial);
+            report.convergence = plan.convergence;
+            report.effective_convergence = plan.rig.effective_convergence;
+        }
+        report
+    }
+
+    /// Every stage in order, for a caller with nothing to show in between:
+    /// returns the files written and every message.
+    pub fn run(
+        spec: JobSpec,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        cancel: &CancelToken,
+    ) -> Result<(Vec<PathBuf>, Vec<Message>)> {
+        let job = Job::check(spec)?;
+        let loaded = job.load()?;
+        let plan = job.plan(&loaded)?;
+        let rendered = job.render(&plan, progress, cancel)?;
+        let written = job.write(&loaded, &plan, &rendered)?;
+        let messages = [
+            job.messages(),
+            &loaded.messages,
+            &plan.messages,
+            &rendered.messages,
+        ]
+        .concat();
+        Ok((written, messages))
+    }
+}
+
+/// The verbose account of a plan: scene, rig, the rig's choice and report,
+/// the cut; and the report's warnings.
+fn plan_messages(plan: &Plan) -> Vec<Message> {
+    let world = &plan.world;
+    let mut m = vec![Message::info(format!(
+        "scene: {} primitives, {} lights, hierarchy {} nodes (depth {}), built in {:.3} s",
+        world.scene.shapes.len(),
+        world.scene.lights.len(),
+        world.bvh.nodes.len(),
+        world.bvh.depth(),
+        plan.build_seconds
+    ))];
+    if plan.rig.views.len() > 1 {
+        let conv = match plan.convergence {
+            Some(c) => format!("{c}"),
+            None => "infinity".into(),
+        };
+        let eff = match plan.rig.effective_convergence {
+            Some(c) => format!("{c:.6}"),
+            None => "infinity (parallel)".into(),
+        };
+        m.push(Message::info(format!(
+            "rig: {} views, interaxial {}, focal length {:.3} px, convergence asked {}, effective {}",
+            plan.rig.views.len(),
+            plan.interaxial,
+            plan.camera.focal_pixels(),
+            conv,
+            eff
+        )));
+        for (i, v) in plan.rig.views.iter().enumerate() {
+            m.push(Message::info(format!(
+                "  view {i}: offset {:+.6} along the right axis, image shift {:+} px",
+                v.offset, v.shift
+            )));
+        }
+    }
+    if let Some(s) = &plan.settled {
+        m.extend(s.report_lines().into_iter().map(Message::info));
+    }
+    if let Some(c) = plan.cut {
+        m.push(Message::info(format!(
+            "cut (section 2.3): {} of {} primitives beyond depth {:.3}",
+            world.cut_primitives(),
+            world.scene.shapes.len(),
+            c.depth
+        )));
+    }
+    if let Some(s) = &plan.settled {
+        m.extend(s.report.warnings().into_iter().map(Message::warning));
+    }
+    m
+}
+
+/// What [`Job::check`] derives from a spec.
+struct Checked {
+    views: usize,
+    quilt: Option<QuiltSpec>,
+    budget: Option<DepthBudget>,
+    interaxial: Option<Interaxial>,
+    options: RenderOptions,
+}
+
+fn invalid(message: impl Into<String>) -> Error {
+    Error::Invalid(message.into())
+}
+
+impl Checked {
+    fn of(spec: &JobSpec) -> Result<Checked> {
+        let (rig, out) = (&spec.rig, &spec.output);
+        let quilt_layout = out.layout == LayoutSpec::Quilt;
+        let several_views =
+            rig.stereo || rig.views.is_some_and(|n| n > 1) || (quilt_layout && rig.views.is_none());
+        check_combinations(spec, several_views)?;
+        let interaxial = rig
+            .interaxial
+            .as_deref()
+            .map(|s| {
+                s.parse::<Interaxial>()
+                    .map_err(|e| invalid(format!("--interaxial {e}")))
+            })
+            .transpose()?;
+        let budget = rig
+            .depth_budget
+            .as_deref()
+            .map(|s| s.parse::<DepthBudget>())
+            .transpose()?;
+        check_rig_flags(spec, several_views || quilt_layout, quilt_layout)?;
+        let quilt = out
+            .quilt
+            .as_deref()
+            .map(str::parse::<QuiltSpec>)
+            .transpose()?;
+        if out.depth {
+            outputs::check_depth_output(
+                &out.path,
+                matches!(out.layout, LayoutSpec::Separate | LayoutSpec::Multiview),
+            )?;
+        }
+        if let Some(n) = spec.trace.threads {
+            check_threads(n).map_err(|e| invalid(format!("--threads: {e}")))?;
+        }
+        let sampling = sampling(&spec.sampling)?;
+        if let Some(n) = rig.views_per_batch {
+            if !(1..=render::MAX_LANES).contains(&n) {
+                return Err(invalid(format!(
+                    "--views-per-batch must be 1 to {}, got {n}",
+                    render::MAX_LANES
+                )));
+            }
+        }
+        let trace = trace_settings(spec);
+        trace.validate().map_err(|e| {
+            let flag = if (1..=render::MAX_DEPTH).contains(&spec.trace.max_depth) {
+                "--min-weight"
+            } else {
+                "--max-depth"
+            };
+            invalid(format!("{flag}: {e}"))
+        })?;
+        let views = view_count(spec, quilt.filter(|_| quilt_layout))?;
+        if views > 1 {
+            // The request's own checks (convergence, view cone), on a stand-in
+            // distance: the scene's is known only once it is loaded.
+            let flags = RigFlags {
+                interaxial,
+                convergence: rig.convergence.as_deref(),
+                view_cone: rig.view_cone,
+                budget,
+            };
+            rig_choice::rig_request(&flags, quilt_layout, views, 1.0)?;
+        }
+        let approx = approximations(&spec.approximations)?;
+        check_cut(&spec.approximations)?;
+        let method = match rig.method {
+            MethodSpec::Independent => Method::Independent,
+            MethodSpec::Twin => Method::Twin,
+        };
+        let a = &spec.approximations;
+        let approximate =
+            !approx.is_exact() || a.fast || a.cut_distance.is_some() || a.cut_parallax.is_some();
+        if approximate && (views == 1 || method == Method::Independent) {
+            return Err(invalid("the approximations (--fast, --merge-secondary, --reproject, --cut-*) need --stereo or --views and the twin method"));
+        }
+        Ok(Checked {
+            views,
+            quilt: quilt.filter(|_| quilt_layout),
+            budget,
+            interaxial,
+            options: RenderOptions {
+                trace,
+                method,
+                sampling,
+                approx,
+                views_per_batch: rig.views_per_batch.unwrap_or(0),
+            },
+        })
+    }
+}
+
+/// Flag combinations that would be silently ignored or coerced.
+fn check_combinations(spec: &JobSpec, several_views: bool) -> Result<()> {
+    let (rig, out) = (&spec.rig, &spec.output);
+    if !several_views {
+        if rig.interaxial.is_some() {
+            return Err(invalid("--interaxial needs --stereo or --views N (N > 1)"));
+        }
+        if rig.convergence.is_some() {
+            return Err(invalid("--convergence needs --stereo or --views N (N > 1)"));
+        }
+    }
+    if out.squeeze
+        && !matches!(
+            out.layout,
+            LayoutSpec::Sbs | LayoutSpec::Cross | LayoutSpec::Tb
+        )
+    {
+        return Err(invalid(
+            "--squeeze applies to --layout sbs, cross or tb only",
+        ));
+    }
+    if out.anaglyph.is_some() && out.layout != LayoutSpec::Anaglyph {
+        return Err(invalid(
+            "--anaglyph chooses the colours of --layout anaglyph; add it or drop --anaglyph",
+        ));
+    }
+    if out.interlace.is_some() && out.layout != LayoutSpec::Interlace {
+        return Err(invalid(
+            "--interlace chooses the pattern of --layout interlace; add it or drop --interlace",
+        ));
+    }
+    if spec.sampling.spd && spec.trace.min_weight.is_some() {
+        return Err(invalid(
+            "--spd traces every ray (no cut-off): --min-weight does not apply",
+        ));
+    }
+    Ok(())
+}
+
+/// The depth-budget, window and quilt settings against the rest.
+fn check_rig_flags(spec: &JobSpec, several_views: bool, quilt_layout: bool) -> Result<()> {
+    let rig = &spec.rig;
+    if !several_views {
+        if rig.floating_window {
+            return Err(invalid(
+                "--floating-window needs --stereo or --views N (N > 1)",
+            ));
+        }
+        if rig.view_cone.is_some() {
+            return Err(invalid(
+                "--view-cone needs --stereo, --views N (N > 1) or --layout quilt",
+            ));
+        }
+        if rig.depth_budget.is_some() {
+            return Err(invalid(
+                "--depth-budget needs --stereo, --views N (N > 1) or --layout quilt",
+            ));
+        }
+    }
+    if rig.view_cone.is_some() && rig.interaxial.is_some() {
+        return Err(invalid(
+            "--view-cone and --interaxial both set the views' spacing: give one",
+        ));
+    }
+    if !(rig.screen_width.is_finite() && rig.screen_width > 0.0) {
+        return Err(invalid(format!(
+            "--screen-width must be a width in metres > 0, got {}",
+            rig.screen_width
+        )));
+    }
+    match (quilt_layout, spec.output.quilt.is_some()) {
+        (true, false) => Err(invalid(
+            "--layout quilt needs --quilt COLSxROWS or a preset (portrait, go, legacy)",
+        )),
+        (false, true) => Err(invalid(
+            "--quilt sets the grid of --layout quilt; add it or drop --quilt",
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// How many views: checked against the layout and the quilt.
+fn view_count(spec: &JobSpec, quilt: Option<QuiltSpec>) -> Result<usize> {
+    let (rig, out) = (&spec.rig, &spec.output);
+    let count = match (rig.stereo, rig.views) {
+        (true, Some(n)) if n != 2 => {
+            return Err(invalid(format!(
+                "--stereo renders 2 views; use --views {n} alone for a multi-view set"
+            )))
+        }
+        (_, Some(0)) => return Err(invalid("--views must be at least 1")),
+        (_, Some(n)) if n > render::MAX_VIEWS => {
+            return Err(invalid(format!(
+                "--views {n}: at most {} views",
+                render::MAX_VIEWS
+            )))
+        }
+        (_, Some(n)) => n,
+        (true, None) => 2,
+        (false, None) => quilt.map_or(1, |q| q.layout.tiles()),
+    };
+    if let Some(q) = quilt {
+        let (c, r) = (q.layout.columns, q.layout.rows);
+        if count > render::MAX_VIEWS {
+            return Err(invalid(format!(
+                "--quilt {c}x{r} takes {count} views: at most {} views (--views N renders fewer, the other tiles black)",
+                render::MAX_VIEWS
+            )));
+        }
+        if count > q.layout.tiles() {
+            return Err(invalid(format!(
+                "--views {count} do not fit a {c}x{r} quilt ({} tiles)",
+                q.layout.tiles()
+            )));
+        }
+    }
+    if count == 1 && out.layout != LayoutSpec::Separate {
+        return Err(invalid("--layout needs --stereo (or --views)"));
+    }
+    if count != 2
+        && !matches!(
+            out.layout,
+            LayoutSpec::Separate | LayoutSpec::Multiview | LayoutSpec::Quilt
+        )
+    {
+        return Err(invalid(format!(
+            "--layout {} takes exactly two views",
+            out.layout.name()
+        )));
+    }
+    outputs::check_layout_format(out.layout, &out.path)?;
+    Ok(count)
+}
+
+fn trace_settings(spec: &JobSpec) -> TraceSettings {
+    TraceSettings {
+        max_depth: spec.trace.max_depth,
+        min_weight: match (spec.sampling.spd, spec.trace.min_weight) {
+            (true, _) => 0.0,
+            (false, Some(w)) => w,
+            (false, None) => TraceSettings::default().min_weight,
+        },
+        spd: spec.sampling.spd,
+    }
+}
+
+/// The sampling asked for, checked; the SPD procedure (the pixel corners)
+/// takes none of the other settings.
+pub fn sampling(s: &SamplingSpec) -> Result<Sampling> {
+    let given = s.samples.is_some() || s.adaptive.is_some() || s.max_samples.is_some();
+    if s.spd {
+        if given {
+            return Err(invalid("--spd samples the pixel corners: --samples, --adaptive and --max-samples do not apply"));
+        }
+        return Ok(Sampling::Corners);
+    }
+    if s.samples.is_some() && (s.adaptive.is_some() || s.max_samples.is_some()) {
+        return Err(invalid(
+            "--samples N takes fixed samples: --adaptive and --max-samples do not apply",
+        ));
+    }
+    if s.samples.is_none() && (s.filter.is_some() || s.seed.is_some()) {
+        return Err(invalid("--filter and --seed need --samples N"));
+    }
+    let sampling = match (s.samples, s.adaptive) {
+        (Some(0), _) => return Err(invalid("--samples must be at least 1")),
+        (Some(1), _) if s.filter.is_some_and(|f| f != FilterSpec::Box) => {
+            return Err(invalid(
+                "--samples 1 traces the pixel centre alone: a --filter needs more samples",
+            ))
+        }
+        (Some(1), _) if s.seed.is_some() => {
+            return Err(invalid(
+                "--samples 1 traces the pixel centre: --seed needs more samples",
+            ))
+        }
+        (Some(1), _) => Sampling::Centers,
+        (Some(samples), _) => Sampling::Stratified {
+            samples,
+            seed: s.seed.unwrap_or(0),
+            filter: match s.filter.unwrap_or(FilterSpec::Box) {
+                FilterSpec::Box => Filter::Box,
+                FilterSpec::Tent => Filter::Tent,
+                FilterSpec::Gaussian => Filter::Gaussian,
+            },
+        },
+        // The default: the paper's adaptive refinement (section 2.6) —
+        // anti-aliased edges for about one ray per pixel where the image is
+        // smooth (docs/benchmarks.md#anti-aliasing compares it with --samples N).
+        (None, threshold) => Sampling::Adaptive {
+            threshold: threshold.unwrap_or(Sampling::DEFAULT_THRESHOLD),
+            max_samples: s.max_samples.unwrap_or(Sampling::DEFAULT_MAX_SAMPLES),
+        },
+    };
+    sampling.validate().map_err(|e| {
+        let flag = match sampling {
+            Sampling::Adaptive { threshold, .. }
+                if !(threshold.is_finite() && threshold >= 0.0) =>
+            {
+                "--adaptive"
+            }
+            Sampling::Adaptive { .. } => "--max-samples",
+            _ => "--samples",
+        };
+        invalid(format!("{flag}: {e}"))
+    })?;
+    Ok(sampling)
+}
+
+/// The approximations asked for, checked.
+fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
+    let threshold = a.reproject_threshold;
+    if !(threshold.is_finite() && threshold >= 0.0) {
+        return Err(invalid(format!(
+            "--reproject-threshold must be a coefficient >= 0, got {threshold}"
+        )));
+    }
+    let reproject = (a.reproject || a.fast).then_some(Reprojection {
+        mode: match a.reproject_mode {
+            ReprojectModeSpec::Safe => ReprojectMode::Safe,
+            ReprojectModeSpec::Paper => ReprojectMode::Paper,
+        },
+        threshold,
+    });
+    Ok(Approximations {
+        merge_secondary: a.merge_secondary || a.fast,
+        reproject,
+    })
+}
+
+/// The cut's values, checked before anything is loaded.
+fn check_cut(a: &ApproximationSpec) -> Result<()> {
+    if a.cut_distance.is_some() && a.cut_parallax.is_some() {
+        return Err(invalid(
+            "--cut-distance and --cut-parallax both place the cut: give one",
+        ));
+    }
+    if let Some(d) = a.cut_distance {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(invalid(format!(
+                "--cut-distance must be a distance > 0, got {d}"
+            )));
+        }
+    }
+    if let Some(px) = a.cut_parallax {
+        if !(px.is_finite() && px > 0.0) {
+            return Err(invalid(format!(
+                "--cut-parallax must be a number of pixels > 0, got {px}"
+            )));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,305 @@
+//! The files of a job: which they are (checked before anything is rendered)
+//! and how the rendered views are composed and written to them, all or none.
+
+use std::path::{Path, PathBuf};
+
+use super::spec::{AnaglyphSpec, InterlaceSpec, LayoutSpec, OutputSpec};
+use crate::camera::Camera;
+use crate::output::{
+    self, AnaglyphMethod, DepthChannels, InterlaceMode, Layout, QuiltSpec, StereoOptions,
+    WriteOptions,
+};
+use crate::rig::Rig;
+use crate::{Error, Image, Result, World};
+
+/// Checks that `out`'s name suits the layout (an MPO's `.mpo`, a multi-view
+/// EXR's `.exr`, an image format otherwise).
+pub(super) fn check_layout_format(layout: LayoutSpec, out: &Path) -> Result<()> {
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default();
+    let refuse = |m: &str| Err(Error::Invalid(m.to_string()));
+    match layout {
+        LayoutSpec::Mpo if ext != "mpo" => Err(Error::Invalid(format!(
+            "--layout mpo writes a .mpo file; got '{}'",
+            out.display()
+        ))),
+        LayoutSpec::Multiview if ext != "exr" => refuse(
+            "--layout multiview writes one multi-view OpenEXR file: the output must end in .exr",
+        ),
+        LayoutSpec::Mpo | LayoutSpec::Multiview => Ok(()),
+        _ if ext == "mpo" => refuse("a .mpo output needs --layout mpo"),
+        _ => output::ImageFormat::from_path(out).map(|_| ()),
+    }
+}
+
+/// `--depth` needs float outputs that hold one view each or all views.
+pub(super) fn check_depth_output(out: &Path, separate_or_multiview: bool) -> Result<()> {
+    let exr = out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !exr || !separate_or_multiview {
+        return Err(Error::Invalid(
+            "--depth writes Z and disparity channels into .exr files of --layout separate or \
+             multiview: use an .exr output and one of those layouts"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The stereo layout of the output settings (a quilt is never written as a pair).
+pub(super) fn stereo_layout(o: &OutputSpec) -> Layout {
+    match o.layout {
+        LayoutSpec::Separate | LayoutSpec::Quilt => Layout::Separate,
+        LayoutSpec::Sbs => Layout::SideBySide,
+        LayoutSpec::Cross => Layout::Cross,
+        LayoutSpec::Tb => Layout::TopBottom,
+        LayoutSpec::Mpo => Layout::Mpo,
+        LayoutSpec::Multiview => Layout::MultiviewExr,
+        LayoutSpec::Anaglyph => {
+            Layout::Anaglyph(match o.anaglyph.unwrap_or(AnaglyphSpec::Dubois) {
+                AnaglyphSpec::Dubois => AnaglyphMethod::Dubois,
+                AnaglyphSpec::Color => AnaglyphMethod::Color,
+                AnaglyphSpec::Gray => AnaglyphMethod::Gray,
+                AnaglyphSpec::GreenMagenta => AnaglyphMethod::GreenMagenta,
+                AnaglyphSpec::YellowBlue => AnaglyphMethod::YellowBlue,
+            })
+        }
+        LayoutSpec::Interlace => {
+            Layout::Interlace(match o.interlace.unwrap_or(InterlaceSpec::Rows) {
+                InterlaceSpec::Rows => InterlaceMode::Rows,
+                InterlaceSpec::Columns => InterlaceMode::Columns,
+                InterlaceSpec::Checker => InterlaceMode::Checker,
+            })
+        }
+    }
+}
+
+/// `NAME_i.ext` beside `out`: view `i` of a set of separate files.
+pub fn numbered(out: &Path, i: usize) -> PathBuf {
+    let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("view");
+    let name = match out.extension().and_then(|e| e.to_str()) {
+        Some(ext) => format!("{stem}_{i}.{ext}"),
+        None => format!("{stem}_{i}"),
+    };
+    out.with_file_name(name)
+}
+
+/// What the writer needs beyond the images: the output settings, the quilt
+/// grid, and the rig's interaxial and convergence (for MPO and EXR metadata).
+pub(super) struct Targets<'a> {
+    pub output: &'a OutputSpec,
+    pub quilt: Option<&'a QuiltSpec>,
+    pub views: usize,
+    pub interaxial: f32,
+    pub effective_convergence: Option<f64>,
+}
+
+impl Targets<'_> {
+    fn write_options(&self) -> WriteOptions {
+        WriteOptions {
+            srgb: self.output.srgb,
+        }
+    }
+
+    fn stereo_options(&self) -> StereoOptions {
+        StereoOptions {
+            image: self.write_options(),
+            squeeze: self.output.squeeze,
+            baseline_m: f64::from(self.interaxial),
+            convergence_m: self.effective_convergence,
+        }
+    }
+
+    /// The files this render will write, checked before rendering: formats,
+    /// size limits, directories, targets that may be replaced, and no output
+    /// that is an input or another output.
+    pub fn plan(&self, (width, height): (u32, u32), scene: &Path) -> Result<Vec<PathBuf>> {
+        let out = &self.output.path;
+        let (w, h) = (u64::from(width), u64::from(height));
+        let mut files = if self.views == 1 {
+            output::check_image_target(out, w, h)?;
+            vec![out.clone()]
+        } else if let (LayoutSpec::Quilt, Some(spec)) = (self.output.layout, self.quilt) {
+            vec![quilt_target(out, spec, width, height)?]
+        } else if self.output.layout == LayoutSpec::Multiview {
+            output::check_stereo_targets(
+                out,
+                Layout::MultiviewExr,
+                width,
+                height,
+                &self.stereo_options(),
+            )?
+        } else if self.views > 2 {
+            let files: Vec<PathBuf> = (0..self.views).map(|i| numbered(out, i)).collect();
+            for f in &files {
+                output::check_image_target(f, w, h)?;
+            }
+            files
+        } else {
+            output::check_stereo_targets(
+                out,
+                stereo_layout(self.output),
+                width,
+                height,
+                &self.stereo_options(),
+            )?
+        };
+        if let Some(stats) = &self.output.stats {
+            output::check_file_target(stats)?;
+            files.push(stats.clone());
+        }
+        output::check_distinct(&files, &[scene])?;
+        Ok(files)
+    }
+
+    /// Writes the images (a set of files: all or none); returns the files
+    /// written (`files` from [`Targets::plan`], for the quilt and depth cases).
+    pub fn write(
+        &self,
+        images: &[Image],
+        depth: Option<&[DepthChannels]>,
+        files: &[PathBuf],
+    ) -> Result<Vec<PathBuf>> {
+        let out = &self.output.path;
+        let multiview = self.output.layout == LayoutSpec::Multiview && images.len() > 1;
+        if let Some(depth) = depth {
+            return write_with_depth(
+                multiview.then_some(out.as_path()),
+                files,
+                images,
+                depth,
+                self.interaxial,
+                self.effective_convergence,
+            );
+        }
+        if let (LayoutSpec::Quilt, Some(spec)) = (self.output.layout, self.quilt) {
+            let quilt = output::compose_quilt(images, spec.layout)?;
+            output::write_image(&files[0], &quilt, &self.write_options())?;
+            return Ok(vec![files[0].clone()]);
+        }
+        let wo = self.write_options();
+        if images.len() == 1 {
+            output::write_image(out, &images[0], &wo)?;
+            return Ok(vec![out.clone()]);
+        }
+        if multiview {
+            let names = view_names(images.len());
+            let views: Vec<(&str, &Image)> = names.iter().map(String::as_str).zip(images).collect();
+            output::write_multiview_exr(
+                out,
+                &views,
+                self.interaxial,
+                self.effective_convergence.map(|c| c as f32),
+            )?;
+            return Ok(vec![out.clone()]);
+        }
+        if images.len() > 2 {
+            // Separate files, one per view: scene_0.png, scene_1.png, ...
+            // encoded first, then put in place together.
+            let staged = images
+                .iter()
+                .enumerate()
+                .map(|(i, img)| output::stage_image(&numbered(out, i), img, &wo))
+                .collect::<Result<Vec<_>>>()?;
+            return output::commit_all(staged);
+        }
+        output::write_stereo(
+            out,
+            stereo_layout(self.output),
+            &images[0],
+            &images[1],
+            &self.stereo_options(),
+        )
+    }
+}
+
+/// The views' names in a multi-view EXR: `left`, `right` for a pair.
+fn view_names(n: usize) -> Vec<String> {
+    match n {
+        2 => vec!["left".into(), "right".into()],
+        n => (0..n).map(|i| format!("view{i}")).collect(),
+    }
+}
+
+/// The quilt file for `out` (`NAME_qsCxRaA.ext`), checked: format, size
+/// limits, directory, a target that may be replaced.
+fn quilt_target(out: &Path, spec: &QuiltSpec, width: u32, height: u32) -> Result<PathBuf> {
+    let path = output::quilt_path(out, spec.layout, width, height);
+    let (w, h) = spec.layout.size(width, height);
+    if w > u64::from(u32::MAX) || h > u64::from(u32::MAX) {
+        return Err(Error::Invalid(format!("a {w}x{h} quilt is too large")));
+    }
+    output::check_image_target(&path, w, h)?;
+    Ok(path)
+}
+
+/// Every view's depth channels (a depth pass at every pixel).
+pub(super) fn measure_depth(world: &World, camera: &Camera, rig: &Rig) -> Vec<DepthChannels> {
+    (0..rig.views.len())
+        .map(|v| DepthChannels::measure(world, camera, rig, v))
+        .collect()
+}
+
+/// Writes the views with their depth channels: one multi-view EXR at `out`,
+/// or one EXR per view at the first `images.len()` of `paths` (all or none).
+fn write_with_depth(
+    multiview: Option<&Path>,
+    paths: &[PathBuf],
+    images: &[Image],
+    depth: &[DepthChannels],
+    interaxial: f32,
+    convergence: Option<f64>,
+) -> Result<Vec<PathBuf>> {
+    if let Some(out) = multiview {
+        let names = view_names(images.len());
+        let views: Vec<(&str, &Image)> = names.iter().map(String::as_str).zip(images).collect();
+        output::write_multiview_exr_with_depth(
+            out,
+            &views,
+            depth,
+            interaxial,
+            convergence.map(|c| c as f32),
+        )?;
+        return Ok(vec![out.to_path_buf()]);
+    }
+    if paths.len() < images.len() {
+        return Err(Error::Invalid(format!(
+            "{} views but {} output files",
+            images.len(),
+            paths.len()
+        )));
+    }
+    let staged = paths
+        .iter()
+        .zip(images)
+        .zip(depth)
+        .map(|((p, img), d)| output::stage_exr_with_depth(p, img, d))
+        .collect::<Result<Vec<_>>>()?;
+    output::commit_all(staged)
+}
+
+/// Memory beyond the renderer's estimate, in bytes: a composed quilt of
+/// `quilt_tiles` tiles (float, and its 8-bit copy) and the depth channels of
+/// `views` views (two floats a pixel).
+pub(super) fn extra_memory(
+    width: u32,
+    height: u32,
+    views: usize,
+    quilt_tiles: usize,
+    depth: bool,
+) -> u64 {
+    let pixels = u64::from(width).saturating_mul(u64::from(height));
+    let quilt_bytes = pixels
+        .saturating_mul(quilt_tiles as u64)
+        .saturating_mul(12 + 3);
+    let depth_bytes = if depth {
+        pixels.saturating_mul(views as u64).saturating_mul(8)
+    } else {
+        0
+    };
+    quilt_bytes.saturating_add(depth_bytes)
+}

@@ -1,0 +1,308 @@
+//! `JobSpec`: a render described as plain data, the same whether it comes
+//! from the command line, a saved JSON file (`twinray render --job`), the
+//! preview server or a distributed driver.
+//!
+//! Every field has the command line's default (`#[serde(default)]`), so a
+//! spec names only what differs, and unknown fields are refused (a typo in a
+//! saved job is an error, not a silent default). Values that the command line
+//! takes as text with a grammar of their own (an interaxial of `auto` or a
+//! distance, a convergence of `near`, a depth budget `-1%,+2%`, a quilt `8x6`)
+//! stay that text here and are parsed by [`Job::check`](super::Job::check),
+//! so a spec reads as the command that made it.
+
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+/// A whole render: what to load, how to look at it, which views, how to
+/// sample and trace them, and what to write.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct JobSpec {
+    /// Scene file: .nff, .obj (with its .mtl), .gltf or .glb.
+    pub scene: PathBuf,
+    pub camera: CameraSpec,
+    pub rig: RigSpec,
+    pub sampling: SamplingSpec,
+    pub approximations: ApproximationSpec,
+    pub trace: TraceSpec,
+    pub output: OutputSpec,
+    pub limits: LimitSpec,
+}
+
+/// The viewpoint and the image size; `None` keeps the file's.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Image size in pixels, `[width, height]` (default: the scene's; 512x512
+    /// with the SPD procedure; a quilt preset's view size).
+    pub size: Option<[u32; 2]>,
+    /// One of a glTF file's cameras: its name or its index.
+    pub camera: Option<String>,
+    pub from: Option<[f32; 3]>,
+    pub at: Option<[f32; 3]>,
+    pub up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees.
+    pub fov: Option<f32>,
+}
+
+/// How many views, and how they are spaced and converged.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RigSpec {
+    /// A stereo pair (the same as `views: 2`).
+    pub stereo: bool,
+    /// Views of a multi-view set (default 1, 2 with `stereo`, a quilt's tiles).
+    pub views: Option<usize>,
+    /// Distance between adjacent views: a number of scene units or `auto`
+    /// (the default: fitted to the depth budget).
+    pub interaxial: Option<String>,
+    /// Zero-parallax distance: a number, `inf`, `auto` or `near`.
+    pub convergence: Option<String>,
+    /// Disparity allowed between adjacent views, `NEAR,FAR` (default `-1%,+2%`).
+    pub depth_budget: Option<String>,
+    /// The angle the outer views span, seen from the convergence point, degrees.
+    pub view_cone: Option<f64>,
+    /// Width of the screen the pair is for, metres (for the divergence check).
+    pub screen_width: f64,
+    /// Black bars where objects in front of the screen touch the frame's edges.
+    pub floating_window: bool,
+    pub method: MethodSpec,
+    /// Twin method: most views traced as one packet (default 4).
+    pub views_per_batch: Option<usize>,
+}
+
+impl Default for RigSpec {
+    fn default() -> Self {
+        RigSpec {
+            stereo: false,
+            views: None,
+            interaxial: None,
+            convergence: None,
+            depth_budget: None,
+            view_cone: None,
+            screen_width: crate::disparity::DEFAULT_SCREEN_WIDTH_M,
+            floating_window: false,
+            method: MethodSpec::Twin,
+            views_per_batch: None,
+        }
+    }
+}
+
+/// How the views are computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MethodSpec {
+    /// Every view a render of its own: the reference.
+    Independent,
+    /// Twin objects (the paper's method): exact, and faster.
+    #[default]
+    Twin,
+}
+
+/// Anti-aliasing. The default is the paper's adaptive refinement.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SamplingSpec {
+    /// The SPD procedure: 512x512, corner rays averaged, every secondary ray.
+    pub spd: bool,
+    /// N stratified samples per pixel (1: the pixel centre).
+    pub samples: Option<u32>,
+    pub filter: Option<FilterSpec>,
+    /// Pattern of `samples` (default 0).
+    pub seed: Option<u32>,
+    /// Adaptive threshold (default 1/32).
+    pub adaptive: Option<f32>,
+    /// Most cells per pixel of adaptive sampling (default 16).
+    pub max_samples: Option<u32>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FilterSpec {
+    Box,
+    Tent,
+    Gaussian,
+}
+
+/// The paper's approximations (sections 2.3–2.5); none by default.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ApproximationSpec {
+    /// Section 2.4: merged reflected/refracted rays of one planar surface.
+    pub merge_secondary: bool,
+    /// Section 2.5: shading reprojected from view 0.
+    pub reproject: bool,
+    pub reproject_mode: ReprojectModeSpec,
+    pub reproject_threshold: f32,
+    /// Section 2.3: no twins beyond this depth.
+    pub cut_distance: Option<f32>,
+    /// Section 2.3, the depth chosen for at most this disparity error (pixels).
+    pub cut_parallax: Option<f64>,
+    /// All three at their defaults.
+    pub fast: bool,
+}
+
+impl Default for ApproximationSpec {
+    fn default() -> Self {
+        ApproximationSpec {
+            merge_secondary: false,
+            reproject: false,
+            reproject_mode: ReprojectModeSpec::Safe,
+            reproject_threshold: crate::render::Reprojection::DEFAULT_THRESHOLD,
+            cut_distance: None,
+            cut_parallax: None,
+            fast: false,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReprojectModeSpec {
+    #[default]
+    Safe,
+    Paper,
+}
+
+/// Limits of the ray tree, and the worker threads.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TraceSpec {
+    /// Deepest ray level (the eye ray is 1).
+    pub max_depth: u32,
+    /// Secondary rays below this weight are not traced (default 1/256).
+    pub min_weight: Option<f32>,
+    /// Worker threads (default: every core). The image does not depend on it.
+    pub threads: Option<usize>,
+}
+
+impl Default for TraceSpec {
+    fn default() -> Self {
+        TraceSpec {
+            max_depth: 5,
+            min_weight: None,
+            threads: None,
+        }
+    }
+}
+
+/// What is written, where, and how.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OutputSpec {
+    /// The output image (several views: `NAME_L`/`NAME_R` or `NAME_0`, …).
+    pub path: PathBuf,
+    pub layout: LayoutSpec,
+    /// Half-width (sbs, cross) or half-height (tb) frames.
+    pub squeeze: bool,
+    pub anaglyph: Option<AnaglyphSpec>,
+    pub interlace: Option<InterlaceSpec>,
+    /// sRGB transfer curve on 8-bit outputs.
+    pub srgb: bool,
+    /// Z and disparity channels in .exr outputs.
+    pub depth: bool,
+    /// Grid of a quilt: `COLSxROWS` or a preset (`portrait`, `go`, `legacy`).
+    pub quilt: Option<String>,
+    /// Statistics as JSON.
+    pub stats: Option<PathBuf>,
+}
+
+/// How the views are delivered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LayoutSpec {
+    #[default]
+    Separate,
+    Sbs,
+    Cross,
+    Tb,
+    Anaglyph,
+    Interlace,
+    Mpo,
+    Multiview,
+    Quilt,
+}
+
+impl LayoutSpec {
+    /// The command line's name of the layout.
+    pub fn name(self) -> &'static str {
+        match self {
+            LayoutSpec::Separate => "separate",
+            LayoutSpec::Sbs => "sbs",
+            LayoutSpec::Cross => "cross",
+            LayoutSpec::Tb => "tb",
+            LayoutSpec::Anaglyph => "anaglyph",
+            LayoutSpec::Interlace => "interlace",
+            LayoutSpec::Mpo => "mpo",
+            LayoutSpec::Multiview => "multiview",
+            LayoutSpec::Quilt => "quilt",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AnaglyphSpec {
+    Dubois,
+    Color,
+    Gray,
+    GreenMagenta,
+    YellowBlue,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum InterlaceSpec {
+    Rows,
+    Columns,
+    Checker,
+}
+
+/// Caps on what a scene file may ask for.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LimitSpec {
+    /// Largest image side.
+    pub max_resolution: u32,
+    /// Most vertices of one polygon or patch.
+    pub max_vertices: usize,
+    /// Most triangles of an OBJ or glTF file.
+    pub max_triangles: u64,
+}
+
+impl Default for LimitSpec {
+    fn default() -> Self {
+        let load = crate::loaders::LoadOptions::default();
+        LimitSpec {
+            max_resolution: load.max_resolution,
+            max_vertices: load.max_vertices,
+            max_triangles: load.max_triangles,
+        }
+    }
+}
+
+impl JobSpec {
+    /// A spec that renders `scene` to `output` with every default.
+    pub fn new(scene: impl Into<PathBuf>, output: impl Into<PathBuf>) -> JobSpec {
+        JobSpec {
+            scene: scene.into(),
+            output: OutputSpec {
+                path: output.into(),
+                ..OutputSpec::default()
+            },
+            ..JobSpec::default()
+        }
+    }
+
+    /// The spec as pretty JSON (what `twinray render --print-job` writes).
+    pub fn to_json(&self) -> String {
+        // Plain data with string keys: serialisation cannot fail.
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// A spec from JSON, with the position of the first error.
+    pub fn from_json(text: &str) -> crate::Result<JobSpec> {
+        serde_json::from_str(text).map_err(|e| crate::Error::Invalid(format!("job spec: {e}")))
+    }
+}
