@@ -1,0 +1,109 @@
+//! `twinray::job` as a front end other than the command line uses it: one
+//! loaded scene planned and rendered with several rigs (what the preview
+//! server does on every change), cancellation, and the spec as JSON.
+
+mod common;
+
+use std::sync::Arc;
+
+use twinray::job::{CancelToken, Job, JobSpec, Level};
+
+fn pair(interaxial: &str) -> JobSpec {
+    let mut spec = JobSpec::new(common::scene_path("example.nff"), "unused.png");
+    spec.camera.size = Some([40, 30]);
+    spec.rig.stereo = true;
+    spec.rig.interaxial = Some(interaxial.into());
+    spec.sampling.samples = Some(1);
+    spec
+}
+
+#[test]
+fn one_loaded_scene_serves_several_rigs() {
+    let first = Job::check(pair("0.1")).unwrap();
+    let loaded = first.load().unwrap();
+    let plan_a = first.plan(&loaded).unwrap();
+    let a = first
+        .render(&plan_a, &|_, _| {}, &CancelToken::new())
+        .unwrap();
+
+    let second = Job::check(pair("0.4")).unwrap();
+    let plan_b = second.plan(&loaded).unwrap();
+    let b = second
+        .render(&plan_b, &|_, _| {}, &CancelToken::new())
+        .unwrap();
+    // The hierarchy was built once and shared by both plans.
+    assert!(Arc::ptr_eq(&plan_a.world, &plan_b.world));
+    assert_eq!(plan_b.interaxial, 0.4);
+    assert_ne!(a.output.images[1].pixels, b.output.images[1].pixels);
+
+    // The second rig rendered on the shared scene equals a fresh job's render.
+    let fresh = Job::check(pair("0.4")).unwrap();
+    let fresh_loaded = fresh.load().unwrap();
+    let fresh_plan = fresh.plan(&fresh_loaded).unwrap();
+    let c = fresh
+        .render(&fresh_plan, &|_, _| {}, &CancelToken::new())
+        .unwrap();
+    for (x, y) in b.output.images.iter().zip(&c.output.images) {
+        assert_eq!(x.pixels, y.pixels);
+    }
+}
+
+#[test]
+fn a_cancelled_render_stops_with_cancelled() {
+    let job = Job::check(pair("0.1")).unwrap();
+    let loaded = job.load().unwrap();
+    let plan = job.plan(&loaded).unwrap();
+    let cancel = CancelToken::new();
+    let rows = std::sync::atomic::AtomicU64::new(0);
+    let progress = |_done: u64, _total: u64| {
+        // Cancel after the first row: the rest must not be traced.
+        if rows.fetch_add(1, std::sync::atomic::Ordering::Relaxed) == 0 {
+            cancel.cancel();
+        }
+    };
+    let err = job.render(&plan, &progress, &cancel).err();
+    assert!(matches!(err, Some(twinray::Error::Cancelled)), "{err:?}");
+    let traced = rows.load(std::sync::atomic::Ordering::Relaxed);
+    assert!(traced < 30, "{traced} rows traced after the cancel");
+}
+
+#[test]
+fn the_stages_report_as_data() {
+    let mut spec = pair("0.1");
+    spec.output.srgb = true;
+    spec.output.path = "pair.exr".into();
+    let job = Job::check(spec).unwrap();
+    assert!(job
+        .messages()
+        .iter()
+        .any(|m| m.level == Level::Warning && m.text.contains("stays linear")));
+    let loaded = job.load().unwrap();
+    let plan = job.plan(&loaded).unwrap();
+    assert!(plan
+        .messages
+        .iter()
+        .any(|m| m.level == Level::Info && m.text.starts_with("rig: 2 views, interaxial 0.1")));
+}
+
+#[test]
+fn specs_read_back_and_refuse_unknown_fields() {
+    let spec = pair("auto");
+    let back = JobSpec::from_json(&spec.to_json()).unwrap();
+    assert_eq!(back, spec);
+    // Everything omitted takes the command line's defaults.
+    let minimal = JobSpec::from_json(r#"{"scene": "a.nff", "output": {"path": "a.png"}}"#).unwrap();
+    assert_eq!(minimal, JobSpec::new("a.nff", "a.png"));
+    let err = JobSpec::from_json(r#"{"scene": "a.nff", "sampling": {"sample": 4}}"#)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("unknown field `sample`"), "{err}");
+    // Values with a grammar of their own are checked by the check stage.
+    let mut bad = pair("0.1");
+    bad.rig.depth_budget = Some("+1%,+2%".into());
+    let err = Job::check(bad).err().map(|e| e.to_string());
+    assert!(
+        err.as_deref()
+            .is_some_and(|e| e.contains("NEAR must be 0 or negative")),
+        "{err:?}"
+    );
+}
