@@ -4,8 +4,6 @@ use std::path::PathBuf;
 
 use clap::ValueEnum;
 
-use twinray::depth_budget::DepthBudget;
-use twinray::disparity;
 use twinray::job::{
     AnaglyphSpec, ApproximationSpec, CameraSpec, InterlaceSpec, JobSpec, LayoutSpec, LimitSpec,
     MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, TraceSpec,
@@ -13,7 +11,9 @@ use twinray::job::{
 use twinray::math::Vec3;
 use twinray::output::QuiltSpec;
 use twinray::render::Reprojection;
-use twinray::rig_choice::Interaxial;
+use twinray::rig::budget::DepthBudget;
+use twinray::rig::choice::Interaxial;
+use twinray::rig::report as disparity;
 
 use crate::sampling::SamplingArgs;
 

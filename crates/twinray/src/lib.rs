@@ -6,10 +6,6 @@
 //! it, is a [`job::Job`] made from a serialisable [`job::JobSpec`].
 
 pub mod bvh;
-pub mod camera;
-pub mod depth;
-pub mod depth_budget;
-pub mod disparity;
 pub mod error;
 pub mod image;
 pub mod job;
@@ -19,14 +15,11 @@ pub mod math;
 pub mod output;
 pub mod render;
 pub mod rig;
-pub mod rig_choice;
 pub mod scene;
 pub mod shading;
 pub mod shapes;
 pub mod stats;
 pub mod texture;
-pub mod view;
-pub mod window;
 pub mod world;
 
 pub use error::{Error, Result};

@@ -172,11 +172,11 @@ pub struct Report {
     pub effective_convergence: Option<f64>,
     /// Stereo and multi-view: how the interaxial and convergence were chosen.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub rig_choice: Option<crate::depth_budget::RigChoice>,
+    pub rig_choice: Option<crate::rig::choice::RigChoice>,
     /// Stereo and multi-view: visible depths, disparities against the depth
     /// budget, window violations (see `disparity::DisparityReport`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub disparity: Option<crate::disparity::DisparityReport>,
+    pub disparity: Option<crate::rig::report::DisparityReport>,
 }
 
 impl Report {

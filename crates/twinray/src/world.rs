@@ -33,7 +33,7 @@ pub struct Cut {
 
 impl Cut {
     /// A cut at `depth` in front of the camera's eye (the rig's centre).
-    pub fn at_depth(camera: &crate::camera::Camera, depth: f32) -> Cut {
+    pub fn at_depth(camera: &crate::rig::Camera, depth: f32) -> Cut {
         Cut {
             eye: camera.eye,
             forward: camera.forward,

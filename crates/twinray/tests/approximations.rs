@@ -6,13 +6,13 @@
 mod common;
 
 use common::*;
-use twinray::camera::Camera;
 use twinray::math::{Color, Vec3};
 use twinray::output::compare;
 use twinray::render::{
     render, Approximations, Method, RenderOptions, RenderOutput, ReprojectMode, Reprojection,
     Sampling,
 };
+use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::scene::{Light, Material, Viewpoint};
 use twinray::world::Cut;

@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
-use twinray::camera::Camera;
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::render::{render, Method, RenderOptions, RenderOutput, Sampling, TraceSettings};
+use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::{Image, World};
 

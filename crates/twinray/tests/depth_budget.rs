@@ -6,17 +6,19 @@
 mod common;
 
 use common::*;
-use twinray::camera::Camera;
-use twinray::depth::stride_for;
-use twinray::depth_budget::{plan_rig, Convergence, DepthBudget, PlannedRig, RigRequest, Spacing};
-use twinray::disparity::{self, OuterPasses, REPORT_COLUMNS};
 use twinray::math::Vec3;
 use twinray::output::{compose_quilt, DepthChannels, QuiltLayout};
 use twinray::render::{Method, Sampling};
+use twinray::rig::budget::DepthBudget;
+use twinray::rig::choice::{plan_rig, Convergence, PlannedRig, RigRequest, Spacing};
+use twinray::rig::depth_pass::stride_for;
+use twinray::rig::depth_pass::{OuterPasses, REPORT_COLUMNS};
+use twinray::rig::report as disparity;
+use twinray::rig::window::Edge;
+use twinray::rig::Camera;
 use twinray::rig::{Rig, View};
 use twinray::scene::{Scene, Viewpoint};
 use twinray::shapes::Shape;
-use twinray::window::Edge;
 use twinray::World;
 
 /// The probe spheres: (centre, radius).

@@ -9,10 +9,10 @@
 
 use std::path::Path;
 
-use twinray::camera::Camera;
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::LoadOptions;
 use twinray::render::{render, Method, RenderOptions};
+use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::{Error, World};
 

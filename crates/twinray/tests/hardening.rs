@@ -5,10 +5,10 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use twinray::camera::Camera;
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::LoadOptions;
 use twinray::render::{render, Method, RenderOptions, Sampling, TraceSettings, MAX_DEPTH};
+use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::{Image, World};
 

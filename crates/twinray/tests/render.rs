@@ -9,11 +9,11 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::*;
-use twinray::camera::Camera;
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::LoadOptions;
 use twinray::output::{compare, read_image, write_image, WriteOptions};
 use twinray::render::{Method, Sampling};
+use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::World;
 

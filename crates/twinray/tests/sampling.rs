@@ -8,10 +8,10 @@ mod common;
 use std::path::Path;
 
 use common::*;
-use twinray::camera::Camera;
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::LoadOptions;
 use twinray::render::{Filter, Method, RenderOptions, RenderOutput, Sampling};
+use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::World;
 

@@ -4,9 +4,9 @@
 mod common;
 
 use common::*;
-use twinray::camera::Camera;
 use twinray::math::Vec3;
 use twinray::render::{Method, Sampling};
+use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::shapes::Shape;
 use twinray::World;

@@ -41,8 +41,6 @@ use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
-use crate::camera::Camera;
-use crate::depth_budget::{DepthBudget, RigRequest};
 use crate::loaders::{load_scene, LoadOptions};
 use crate::math::Vec3;
 use crate::output::{self, DepthChannels, QuiltSpec};
@@ -50,11 +48,15 @@ use crate::render::{
     self, Approximations, Filter, Method, RenderOptions, RenderOutput, ReprojectMode, Reprojection,
     Sampling, TraceSettings,
 };
+use crate::rig::budget::DepthBudget;
+use crate::rig::camera_overrides::{self as view, CameraOverrides};
+use crate::rig::choice::RigRequest;
+use crate::rig::choice::{self as rig_choice, Interaxial, RigFlags};
+use crate::rig::report::{self as rig_report, Settled};
+use crate::rig::Camera;
 use crate::rig::Rig;
-use crate::rig_choice::{self, Interaxial, RigFlags, Settled};
 use crate::scene::{SceneFormat, Viewpoint};
 use crate::stats::{Report, SamplingFacts, SceneFacts, Timings};
-use crate::view::{self, ViewOverrides};
 use crate::world::Cut;
 use crate::{Error, Result, Scene, World};
 use outputs::Targets;
@@ -273,9 +275,9 @@ impl Job {
         })
     }
 
-    fn view_overrides(&self) -> ViewOverrides {
+    fn view_overrides(&self) -> CameraOverrides {
         let c = &self.spec.camera;
-        ViewOverrides {
+        CameraOverrides {
             camera: c.camera.clone(),
             from: c.from.map(Vec3::from),
             at: c.at.map(Vec3::from),
@@ -330,7 +332,7 @@ impl Job {
         let settled =
             match &request {
                 Some(r) => Some(self.pool.install(|| {
-                    rig_choice::settle(&world, &camera, r, self.spec.rig.screen_width)
+                    rig_report::settle(&world, &camera, r, self.spec.rig.screen_width)
                 })?),
                 None => None,
             };

@@ -4,11 +4,11 @@
 use std::path::{Path, PathBuf};
 
 use super::spec::{AnaglyphSpec, InterlaceSpec, LayoutSpec, OutputSpec};
-use crate::camera::Camera;
 use crate::output::{
     self, AnaglyphMethod, DepthChannels, InterlaceMode, Layout, QuiltSpec, StereoOptions,
     WriteOptions,
 };
+use crate::rig::Camera;
 use crate::rig::Rig;
 use crate::{Error, Image, Result, World};
 

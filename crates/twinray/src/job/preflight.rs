@@ -5,7 +5,7 @@
 //! The other checks live with what they check: the rig's shifts in
 //! [`Rig::multi_view`](crate::rig::Rig::multi_view), the ray depth and cut-off
 //! in [`TraceSettings::validate`](crate::render::TraceSettings::validate), the
-//! output paths and format limits in [`output::check_targets`](crate::output::check_targets).
+//! output paths and format limits in [`output::check_image_target`](crate::output::check_image_target) and [`output::check_stereo_targets`](crate::output::check_stereo_targets).
 //! docs/reliability.md lists them all.
 
 use crate::render::Sampling;

@@ -81,7 +81,7 @@ impl Default for RigSpec {
             convergence: None,
             depth_budget: None,
             view_cone: None,
-            screen_width: crate::disparity::DEFAULT_SCREEN_WIDTH_M,
+            screen_width: crate::rig::report::DEFAULT_SCREEN_WIDTH_M,
             floating_window: false,
             method: MethodSpec::Twin,
             views_per_batch: None,

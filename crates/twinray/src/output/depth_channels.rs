@@ -21,12 +21,12 @@ use exr::prelude::{
     WritableImage,
 };
 
-use crate::camera::Camera;
-use crate::depth::depth_pass;
-use crate::disparity::pair_disparity;
 use crate::output::atomic::{stage, Staged};
 use crate::output::check_image;
 use crate::output::encode::exr_failure;
+use crate::rig::depth_pass::depth_pass;
+use crate::rig::pair_disparity;
+use crate::rig::Camera;
 use crate::rig::Rig;
 use crate::world::World;
 use crate::{Error, Image, Result};

@@ -2,7 +2,7 @@
 //! `window.rs` for why and how wide).
 
 use crate::math::Color;
-use crate::window::FloatingWindow;
+use crate::rig::window::FloatingWindow;
 use crate::Image;
 
 /// Blackens `left` columns at the left edge of `img` and `right` columns at

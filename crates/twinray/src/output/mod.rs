@@ -3,7 +3,7 @@
 //!
 //! * [`encode`]: PNG / EXR / PFM / JPEG by file extension ([`write_image`],
 //!   [`read_image`]).
-//! * [`layouts`] and [`anaglyph`]: pure functions `(left, right) → image`.
+//! * [`layouts`] and [`anaglyph`](mod@anaglyph): pure functions `(left, right) → image`.
 //! * [`mpo`]: the stereo-camera Multi-Picture Object ([`write_mpo`]).
 //! * [`multiview_exr`]: every view in one EXR ([`write_multiview_exr`]).
 //! * [`compare`](mod@compare): [`compare()`] and [`difference_image`].

@@ -6,8 +6,8 @@
 //! A pure function of the row's hits and of the projection into the views, so
 //! that it is tested on its own.
 
-use crate::camera::Camera;
 use crate::math::Vec3;
+use crate::rig::Camera;
 use crate::rig::View;
 
 use super::sampler::SampleRow;

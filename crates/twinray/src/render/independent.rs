@@ -4,7 +4,7 @@
 use super::sampler::{RowColors, SampleRow};
 use super::{RenderInputs, RowWorker, Tracer, ViewBatch};
 use crate::bvh::Packet;
-use crate::camera::Camera;
+use crate::rig::Camera;
 use crate::rig::View;
 
 /// Every view of the rig, each traced on its own.

@@ -40,9 +40,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::camera::Camera;
 use crate::image::Image;
 use crate::math::Color;
+use crate::rig::Camera;
 use crate::rig::Rig;
 use crate::stats::TraceCounts;
 use crate::world::World;

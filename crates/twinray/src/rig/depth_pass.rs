@@ -15,10 +15,9 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::{Camera, Rig, View};
 use crate::bvh::{Bvh, Packet, TraversalStats};
-use crate::camera::Camera;
 use crate::math::Ray;
-use crate::rig::View;
 use crate::world::World;
 
 /// Camera depths of one view at a grid of its pixel centres.
@@ -187,6 +186,73 @@ impl DepthStats {
             farthest: hit[hit.len() - 1],
             hit_fraction: hit.len() as f64 / total as f64,
         })
+    }
+}
+
+/// At most this many columns are sampled by the depth passes of the rig's
+/// choice and of the report (`depth::stride_for`; every 4th pixel at 512 to
+/// 640 wide): at most 5 passes of a sixteenth of a view's eye rays each.
+pub const REPORT_COLUMNS: u32 = 160;
+
+/// The nearest and farthest visible depths (`far` may be infinite).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct DepthRange {
+    pub near: f64,
+    pub far: f64,
+}
+
+impl DepthRange {
+    /// The range of the finite values of `depths`; `None` if there are none.
+    pub fn of(depths: impl IntoIterator<Item = f32>) -> Option<DepthRange> {
+        let mut range: Option<DepthRange> = None;
+        for d in depths.into_iter().filter(|d| d.is_finite() && *d > 0.0) {
+            let d = f64::from(d);
+            range = Some(match range {
+                None => DepthRange { near: d, far: d },
+                Some(r) => DepthRange {
+                    near: r.near.min(d),
+                    far: r.far.max(d),
+                },
+            });
+        }
+        range
+    }
+
+    /// The smallest range holding both.
+    pub fn union(self, o: DepthRange) -> DepthRange {
+        DepthRange {
+            near: self.near.min(o.near),
+            far: self.far.max(o.far),
+        }
+    }
+}
+
+/// The depth passes of a rig's leftmost and rightmost views.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OuterPasses {
+    pub left: DepthPass,
+    pub right: DepthPass,
+    pub stride: u32,
+}
+
+impl OuterPasses {
+    /// Runs both passes (every `stride`-th pixel).
+    pub fn measure(world: &World, camera: &Camera, rig: &Rig, stride: u32) -> OuterPasses {
+        let first = rig.views.first().copied().unwrap_or(View {
+            offset: 0.0,
+            shift: 0,
+        });
+        let last = rig.views.last().copied().unwrap_or(first);
+        OuterPasses {
+            left: depth_pass(world, camera, first, stride),
+            right: depth_pass(world, camera, last, stride),
+            stride,
+        }
+    }
+
+    /// The visible depth range of both views (`None`: nothing visible).
+    pub fn range(&self) -> Option<DepthRange> {
+        DepthRange::of(self.left.finite_depths().chain(self.right.finite_depths()))
     }
 }
 

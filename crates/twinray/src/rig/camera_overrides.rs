@@ -8,7 +8,7 @@ use crate::scene::{AngleSpan, Scene, Viewpoint};
 
 /// What the command line asks of the viewpoint; `None` keeps the file's.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct ViewOverrides {
+pub struct CameraOverrides {
     /// A camera of the file: its name, or its index among the file's cameras.
     pub camera: Option<String>,
     pub from: Option<Vec3>,
@@ -19,7 +19,7 @@ pub struct ViewOverrides {
 }
 
 /// Applies `o` to `scene.viewpoint`, checking that the result is a camera.
-pub fn apply(scene: &mut Scene, o: &ViewOverrides) -> Result<()> {
+pub fn apply(scene: &mut Scene, o: &CameraOverrides) -> Result<()> {
     let (viewpoint, given) = resolve(scene, o)?;
     scene.viewpoint = viewpoint;
     scene.viewpoint_given = given;
@@ -30,7 +30,7 @@ pub fn apply(scene: &mut Scene, o: &ViewOverrides) -> Result<()> {
 /// cameras, with the overrides on top), checked, and whether it is one the
 /// file or the overrides chose (rather than the loader's framing). The scene
 /// is left as it is, so one loaded scene serves many viewpoints.
-pub fn resolve(scene: &Scene, o: &ViewOverrides) -> Result<(Viewpoint, bool)> {
+pub fn resolve(scene: &Scene, o: &CameraOverrides) -> Result<(Viewpoint, bool)> {
     let mut given = scene.viewpoint_given;
     let mut vp = scene.viewpoint.clone();
     if let Some(wanted) = &o.camera {
@@ -125,9 +125,9 @@ mod tests {
     #[test]
     fn camera_by_name_or_index() {
         let mut s = scene_with_cameras();
-        let by = |c: &str| ViewOverrides {
+        let by = |c: &str| CameraOverrides {
             camera: Some(c.into()),
-            ..ViewOverrides::default()
+            ..CameraOverrides::default()
         };
         apply(&mut s, &by("right")).unwrap();
         assert_eq!(s.viewpoint.from.x, 1.0);
@@ -142,26 +142,26 @@ mod tests {
     #[test]
     fn overrides_and_their_checks() {
         let mut s = scene_with_cameras();
-        let o = ViewOverrides {
+        let o = CameraOverrides {
             from: Some(Vec3::new(0.0, 0.0, 10.0)),
             fov_deg: Some(30.0),
-            ..ViewOverrides::default()
+            ..CameraOverrides::default()
         };
         apply(&mut s, &o).unwrap();
         assert_eq!(s.viewpoint.from.z, 10.0);
         assert_eq!(s.viewpoint.angle_span, AngleSpan::ImageHeight);
         for bad in [
-            ViewOverrides {
+            CameraOverrides {
                 at: Some(Vec3::new(-1.0, 0.0, 5.0)),
-                ..ViewOverrides::default()
+                ..CameraOverrides::default()
             },
-            ViewOverrides {
+            CameraOverrides {
                 up: Some(Vec3::new(1.0, 0.0, -5.0)),
-                ..ViewOverrides::default()
+                ..CameraOverrides::default()
             },
-            ViewOverrides {
+            CameraOverrides {
                 fov_deg: Some(180.0),
-                ..ViewOverrides::default()
+                ..CameraOverrides::default()
             },
         ] {
             assert!(apply(&mut scene_with_cameras(), &bad).is_err(), "{bad:?}");

@@ -24,10 +24,8 @@
 
 use serde::Serialize;
 
-use crate::camera::Camera;
-use crate::depth::DepthPass;
-use crate::disparity::pair_disparity;
-use crate::rig::Rig;
+use super::depth_pass::DepthPass;
+use super::{pair_disparity, Camera, Rig};
 
 /// A frame edge.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]

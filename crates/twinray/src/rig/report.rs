@@ -15,14 +15,17 @@
 //! the N − 1 gaps: the mean over the adjacent pairs, whose whole-pixel shifts
 //! differ by at most a pixel.
 
+use std::time::Instant;
+
 use serde::Serialize;
 
-use crate::camera::Camera;
-use crate::depth::{depth_pass, DepthPass, DepthStats};
-use crate::depth_budget::{DepthBudget, DepthRange};
-use crate::rig::{Rig, View};
-use crate::window::{find_violations, FloatingWindow, WindowViolation};
+use super::budget::DepthBudget;
+use super::choice::{plan_rig, PlannedRig, RigChoice, RigRequest};
+use super::depth_pass::{stride_for, DepthStats, OuterPasses, REPORT_COLUMNS};
+use super::window::{find_violations, FloatingWindow, WindowViolation};
+use super::{pair_disparity, Camera, Rig, View};
 use crate::world::World;
+use crate::{Error, Result};
 
 /// The eyes' separation that far points must not exceed on the screen, in
 /// metres (the adult mean is about 63 mm; 65 mm is the figure stereographers use).
@@ -32,49 +35,8 @@ pub const EYE_SEPARATION_M: f64 = 0.065;
 /// television (Sky's budget is written for television).
 pub const DEFAULT_SCREEN_WIDTH_M: f64 = 1.2;
 
-/// At most this many columns are sampled by the depth passes of the rig's
-/// choice and of the report (`depth::stride_for`; every 4th pixel at 512 to
-/// 640 wide): at most 5 passes of a sixteenth of a view's eye rays each.
-pub const REPORT_COLUMNS: u32 = 160;
-
 /// Disparities within this many pixels of the budget count as inside it.
 const BUDGET_TOLERANCE_PX: f64 = 0.01;
-
-/// The disparity `x_b − x_a` of a point at `depth` between views `a` and `b`.
-pub fn pair_disparity(camera: &Camera, a: View, b: View, depth: f64) -> f64 {
-    f64::from(a.shift)
-        - f64::from(b.shift)
-        - camera.focal_pixels() * f64::from(b.offset - a.offset) / depth
-}
-
-/// The depth passes of a rig's leftmost and rightmost views.
-#[derive(Clone, Debug, PartialEq)]
-pub struct OuterPasses {
-    pub left: DepthPass,
-    pub right: DepthPass,
-    pub stride: u32,
-}
-
-impl OuterPasses {
-    /// Runs both passes (every `stride`-th pixel).
-    pub fn measure(world: &World, camera: &Camera, rig: &Rig, stride: u32) -> OuterPasses {
-        let first = rig.views.first().copied().unwrap_or(View {
-            offset: 0.0,
-            shift: 0,
-        });
-        let last = rig.views.last().copied().unwrap_or(first);
-        OuterPasses {
-            left: depth_pass(world, camera, first, stride),
-            right: depth_pass(world, camera, last, stride),
-            stride,
-        }
-    }
-
-    /// The visible depth range of both views (`None`: nothing visible).
-    pub fn range(&self) -> Option<DepthRange> {
-        DepthRange::of(self.left.finite_depths().chain(self.right.finite_depths()))
-    }
-}
 
 /// Near and far ends of a range of disparities.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -272,4 +234,52 @@ impl DisparityReport {
         }
         out
     }
+}
+/// The rig to render and its disparity report.
+#[derive(Clone, Debug)]
+pub struct Settled {
+    pub rig: Rig,
+    pub choice: RigChoice,
+    pub report: DisparityReport,
+    /// Seconds of the depth passes.
+    pub depth_seconds: f64,
+}
+
+impl Settled {
+    /// What was chosen and why, then the report (the command line's `-v`).
+    pub fn report_lines(&self) -> Vec<String> {
+        let mut lines = vec![format!("rig choice: {}", self.choice.reason)];
+        lines.extend(self.report.lines());
+        lines.push(format!("depth passes: {:.3} s", self.depth_seconds));
+        lines
+    }
+}
+
+/// Chooses the rig on the built scene (depth passes where the request needs
+/// them) and measures its disparity report.
+pub fn settle(
+    world: &World,
+    camera: &Camera,
+    request: &RigRequest,
+    screen_width_m: f64,
+) -> Result<Settled> {
+    let start = Instant::now();
+    let stride = stride_for(camera.width, REPORT_COLUMNS);
+    let PlannedRig {
+        rig,
+        choice,
+        passes,
+    } = plan_rig(world, camera, request, stride)
+        .map_err(|e| Error::Invalid(format!("choosing the rig: {e}")))?;
+    let passes = match passes {
+        Some(p) => p,
+        None => OuterPasses::measure(world, camera, &rig, stride),
+    };
+    let report = report(camera, &rig, &request.budget, screen_width_m, &passes);
+    Ok(Settled {
+        rig,
+        choice,
+        report,
+        depth_seconds: start.elapsed().as_secs_f64(),
+    })
 }

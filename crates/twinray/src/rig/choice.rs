@@ -42,128 +42,11 @@ use std::str::FromStr;
 
 use serde::Serialize;
 
-use crate::camera::Camera;
-use crate::depth::depth_pass;
-use crate::disparity::OuterPasses;
-use crate::rig::{Rig, View};
+use super::budget::DepthBudget;
+use super::depth_pass::{depth_pass, DepthRange, OuterPasses};
+use super::{Camera, Rig, View};
 use crate::world::World;
 use crate::{Error, Result};
-
-/// An amount of disparity: per cent of the image width, or pixels.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Amount {
-    Percent(f64),
-    Pixels(f64),
-}
-
-impl Amount {
-    /// The amount in pixels for an image `width` pixels wide.
-    pub fn pixels(self, width: u32) -> f64 {
-        match self {
-            Amount::Percent(p) => p / 100.0 * f64::from(width),
-            Amount::Pixels(px) => px,
-        }
-    }
-
-    fn value(self) -> f64 {
-        match self {
-            Amount::Percent(v) | Amount::Pixels(v) => v,
-        }
-    }
-}
-
-impl fmt::Display for Amount {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Amount::Percent(p) => write!(f, "{p:+}%"),
-            Amount::Pixels(px) => write!(f, "{px:+}px"),
-        }
-    }
-}
-
-/// The disparity allowed between adjacent views: `near` (≤ 0, in front of
-/// the screen) to `far` (≥ 0, behind it).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct DepthBudget {
-    pub near: Amount,
-    pub far: Amount,
-}
-
-impl Default for DepthBudget {
-    /// Sky's 3D guidelines: −1 % to +2 % of the image width.
-    fn default() -> Self {
-        DepthBudget {
-            near: Amount::Percent(-1.0),
-            far: Amount::Percent(2.0),
-        }
-    }
-}
-
-impl fmt::Display for DepthBudget {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{},{}", self.near, self.far)
-    }
-}
-
-impl FromStr for DepthBudget {
-    type Err = Error;
-
-    /// `NEAR,FAR`, each a number with `%` (or no unit: per cent) or `px`:
-    /// `-1%,+2%`, `-1,2`, `-6px,12px`. NEAR ≤ 0 ≤ FAR, not both 0, at most
-    /// 100 % each.
-    fn from_str(s: &str) -> Result<DepthBudget> {
-        let bad = |why: &str| {
-            Error::Invalid(format!(
-                "depth budget '{s}': {why} (expected NEAR,FAR such as -1%,+2% or -6px,12px)"
-            ))
-        };
-        let (near, far) = s.split_once(',').ok_or_else(|| bad("no comma"))?;
-        let amount = |text: &str| -> Result<Amount> {
-            let t = text.trim();
-            let (number, make): (&str, fn(f64) -> Amount) = if let Some(n) = t.strip_suffix('%') {
-                (n, Amount::Percent)
-            } else if let Some(n) = t.strip_suffix("px") {
-                (n, Amount::Pixels)
-            } else {
-                (t, Amount::Percent)
-            };
-            let v: f64 = number
-                .trim()
-                .parse()
-                .map_err(|_| bad(&format!("'{t}' is not a number")))?;
-            if !v.is_finite() {
-                return Err(bad(&format!("'{t}' is not finite")));
-            }
-            let a = make(v);
-            if matches!(a, Amount::Percent(p) if p.abs() > 100.0) {
-                return Err(bad(&format!("'{t}' is more than the image width")));
-            }
-            Ok(a)
-        };
-        let budget = DepthBudget {
-            near: amount(near)?,
-            far: amount(far)?,
-        };
-        if budget.near.value() > 0.0 {
-            return Err(bad("NEAR must be 0 or negative (in front of the screen)"));
-        }
-        if budget.far.value() < 0.0 {
-            return Err(bad("FAR must be 0 or positive (behind the screen)"));
-        }
-        if budget.near.value() == 0.0 && budget.far.value() == 0.0 {
-            return Err(bad("it allows no depth at all"));
-        }
-        Ok(budget)
-    }
-}
-
-impl DepthBudget {
-    /// `(near, far)` in pixels for an image `width` pixels wide: near ≤ 0 ≤ far.
-    pub fn pixels(&self, width: u32) -> (f64, f64) {
-        (self.near.pixels(width), self.far.pixels(width))
-    }
-}
 
 /// How the spacing of the views is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -207,39 +90,6 @@ impl RigRequest {
     pub fn needs_depth(&self) -> bool {
         matches!(self.spacing, Spacing::Auto)
             || matches!(self.convergence, Convergence::Auto | Convergence::Nearest)
-    }
-}
-
-/// The nearest and farthest visible depths (`far` may be infinite).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct DepthRange {
-    pub near: f64,
-    pub far: f64,
-}
-
-impl DepthRange {
-    /// The range of the finite values of `depths`; `None` if there are none.
-    pub fn of(depths: impl IntoIterator<Item = f32>) -> Option<DepthRange> {
-        let mut range: Option<DepthRange> = None;
-        for d in depths.into_iter().filter(|d| d.is_finite() && *d > 0.0) {
-            let d = f64::from(d);
-            range = Some(match range {
-                None => DepthRange { near: d, far: d },
-                Some(r) => DepthRange {
-                    near: r.near.min(d),
-                    far: r.far.max(d),
-                },
-            });
-        }
-        range
-    }
-
-    /// The smallest range holding both.
-    pub fn union(self, o: DepthRange) -> DepthRange {
-        DepthRange {
-            near: self.near.min(o.near),
-            far: self.far.max(o.far),
-        }
     }
 }
 
@@ -656,10 +506,137 @@ fn show_depth(z: f64) -> String {
     }
 }
 
+/// The interaxial asked for: a distance or `auto`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Interaxial {
+    Auto,
+    Distance(f32),
+}
+
+impl FromStr for Interaxial {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        if s.trim().eq_ignore_ascii_case("auto") {
+            return Ok(Interaxial::Auto);
+        }
+        match s.trim().parse::<f32>() {
+            Ok(b) if b.is_finite() && b >= 0.0 => Ok(Interaxial::Distance(b)),
+            _ => Err(format!(
+                "'{s}': the interaxial is a finite distance >= 0 or 'auto'"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for Interaxial {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Interaxial::Auto => f.write_str("auto"),
+            Interaxial::Distance(b) => write!(f, "{b}"),
+        }
+    }
+}
+
+/// The view cone a quilt uses when neither an interaxial nor a cone is given.
+pub const QUILT_VIEW_CONE: f64 = 35.0;
+
+/// What the rig flags ask, parsed.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RigFlags<'a> {
+    pub interaxial: Option<Interaxial>,
+    pub convergence: Option<&'a str>,
+    pub view_cone: Option<f64>,
+    pub budget: Option<DepthBudget>,
+}
+
+/// The rig asked for by the interaxial, view cone, convergence and depth
+/// budget, for `views` views. Omitted, the interaxial is automatic (a quilt:
+/// a 35° view cone), and the convergence automatic too unless the interaxial
+/// is explicit, which keeps the scene's `at` point at `at_distance`.
+pub fn rig_request(
+    flags: &RigFlags,
+    quilt: bool,
+    views: usize,
+    at_distance: f64,
+) -> Result<RigRequest> {
+    let spacing = match (flags.interaxial, flags.view_cone) {
+        (_, Some(cone)) => {
+            if !(cone.is_finite() && cone > 0.0 && cone < 180.0) {
+                return Err(Error::Invalid(format!(
+                    "--view-cone must be an angle between 0 and 180 degrees, got {cone}"
+                )));
+            }
+            Spacing::ViewCone(cone)
+        }
+        (Some(Interaxial::Distance(b)), None) => Spacing::Distance(b),
+        (None, None) if quilt => Spacing::ViewCone(QUILT_VIEW_CONE),
+        (Some(Interaxial::Auto) | None, None) => Spacing::Auto,
+    };
+    let convergence = match flags.convergence {
+        None if matches!(spacing, Spacing::Distance(_)) => Convergence::Distance(at_distance),
+        None => Convergence::Auto,
+        Some(s) => parse_convergence(s)?,
+    };
+    if matches!(spacing, Spacing::ViewCone(_)) && convergence == Convergence::Infinity {
+        return Err(Error::Invalid(
+            "--view-cone needs a finite convergence (not --convergence inf)".into(),
+        ));
+    }
+    Ok(RigRequest {
+        views,
+        spacing,
+        convergence,
+        budget: flags.budget.unwrap_or_default(),
+        fallback_distance: at_distance,
+    })
+}
+
+/// `--convergence`: a distance, `auto`, `near` or `inf`.
+fn parse_convergence(s: &str) -> Result<Convergence> {
+    Ok(match s.trim().to_ascii_lowercase().as_str() {
+        "auto" => Convergence::Auto,
+        "near" | "nearest" => Convergence::Nearest,
+        "inf" | "infinity" => Convergence::Infinity,
+        _ => {
+            let c: f64 = s.trim().parse().map_err(|e| {
+                Error::Invalid(format!(
+                    "--convergence '{s}' is neither a distance nor inf, auto or near: {e}"
+                ))
+            })?;
+            if !(c.is_finite() && c > 0.0) {
+                return Err(Error::Invalid(format!(
+                    "--convergence must be a distance > 0, inf, auto or near, got {s}"
+                )));
+            }
+            Convergence::Distance(c)
+        }
+    })
+}
+
+/// The rig before the scene is built: the final one when nothing depends on
+/// the visible depths, else a parallel stand-in with no spacing (used only to
+/// check the outputs before rendering; [`settle`](super::report::settle) replaces it).
+pub fn rig_before_depths(
+    camera: &Camera,
+    request: &RigRequest,
+) -> Result<(Rig, Option<RigChoice>)> {
+    if request.needs_depth() {
+        let rig = Rig::multi_view(camera, request.views, 0.0, None)?;
+        return Ok((rig, None));
+    }
+    let choice = choose_rig(camera, request, None)?;
+    let rig = choice
+        .rig(camera, request.views)
+        .map_err(|e| Error::Invalid(format!("--interaxial and --convergence: {e}")))?;
+    Ok((rig, Some(choice)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::math::Vec3;
+    use crate::rig::budget::Amount;
     use crate::scene::Viewpoint;
 
     fn camera(width: u32, height: u32) -> Camera {
@@ -848,5 +825,63 @@ mod tests {
             choice.interaxial
         );
         assert!(choice.rig(&cam, 2).is_ok());
+    }
+}
+
+#[cfg(test)]
+mod request_tests {
+    use super::*;
+
+    #[test]
+    fn interaxial_values() {
+        assert_eq!("auto".parse(), Ok(Interaxial::Auto));
+        assert_eq!("AUTO".parse(), Ok(Interaxial::Auto));
+        assert_eq!("0.25".parse(), Ok(Interaxial::Distance(0.25)));
+        for bad in ["-1", "nan", "inf", "x"] {
+            assert!(bad.parse::<Interaxial>().is_err(), "{bad}");
+        }
+        for v in [Interaxial::Auto, Interaxial::Distance(0.1)] {
+            assert_eq!(v.to_string().parse(), Ok(v));
+        }
+    }
+
+    #[test]
+    fn omitted_values_default_as_documented() {
+        let none = RigFlags::default();
+        let r = rig_request(&none, false, 2, 7.0).unwrap();
+        assert_eq!(
+            (r.spacing, r.convergence),
+            (Spacing::Auto, Convergence::Auto)
+        );
+        let explicit = RigFlags {
+            interaxial: Some(Interaxial::Distance(0.3)),
+            ..RigFlags::default()
+        };
+        let r = rig_request(&explicit, false, 2, 7.0).unwrap();
+        assert_eq!(
+            (r.spacing, r.convergence),
+            (Spacing::Distance(0.3), Convergence::Distance(7.0))
+        );
+        let r = rig_request(&none, true, 48, 7.0).unwrap();
+        assert_eq!(r.spacing, Spacing::ViewCone(QUILT_VIEW_CONE));
+        let near = RigFlags {
+            convergence: Some("near"),
+            ..RigFlags::default()
+        };
+        assert_eq!(
+            rig_request(&near, false, 2, 7.0).unwrap().convergence,
+            Convergence::Nearest
+        );
+        let zero = RigFlags {
+            convergence: Some("0"),
+            ..RigFlags::default()
+        };
+        assert!(rig_request(&zero, false, 2, 7.0).is_err());
+        let cone = RigFlags {
+            view_cone: Some(35.0),
+            convergence: Some("inf"),
+            ..RigFlags::default()
+        };
+        assert!(rig_request(&cone, false, 8, 7.0).is_err());
     }
 }

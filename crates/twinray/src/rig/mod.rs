@@ -6,7 +6,17 @@
 //! `x` of view `v` sees along camera column `x + shift`: pixels of different
 //! views with equal camera columns see along parallel rays.
 
-use crate::camera::Camera;
+pub mod budget;
+pub mod camera;
+pub mod camera_overrides;
+pub mod choice;
+pub mod depth_pass;
+pub mod report;
+pub mod window;
+
+pub use camera::Camera;
+pub use camera_overrides::CameraOverrides;
+
 use crate::{Error, Result};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -156,6 +166,13 @@ impl Rig {
         let hi = hi.saturating_add(i32::try_from(width).unwrap_or(i32::MAX) - 1);
         (lo, hi)
     }
+}
+
+/// The disparity `x_b − x_a` of a point at `depth` between views `a` and `b`.
+pub fn pair_disparity(camera: &Camera, a: View, b: View, depth: f64) -> f64 {
+    f64::from(a.shift)
+        - f64::from(b.shift)
+        - camera.focal_pixels() * f64::from(b.offset - a.offset) / depth
 }
 
 #[cfg(test)]
