@@ -13,7 +13,7 @@ use crate::texture::Texture;
 pub use crate::lights::{Light, LightKind};
 
 /// Texture coordinates (u, v), v = 0 at the top row of the image.
-pub type Uv = glam::Vec2;
+pub use crate::shapes::{Corners, Uv};
 
 /// Whitted's material, NFF's `f` and what OBJ and glTF materials map to (see
 /// docs/formats.md): colour, diffuse `kd`, Phong highlight `ks` and exponent
@@ -142,14 +142,6 @@ pub enum SceneFormat {
     Nff,
     Obj,
     Gltf,
-}
-
-/// Attributes of a triangle's three corners (`TriangleNormals::Patch` indexes
-/// them): normals for smooth shading, texture coordinates.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Corners {
-    pub normals: Option<[Vec3; 3]>,
-    pub uv: Option<[Uv; 3]>,
 }
 
 #[derive(Clone, Debug, Default)]

@@ -131,24 +131,31 @@ pub fn choose_rig(
     req: &RigRequest,
     range: Option<DepthRange>,
 ) -> Result<RigChoice> {
-    let views = req.views.max(2);
-    let gaps = (views - 1) as f64;
-    let f = camera.focal_pixels();
+    let max_total = check_fits_the_image(camera, req)?;
+    let choice = RigChoice::unfitted(req);
+    match range.filter(|_| req.needs_depth()) {
+        // Nothing to fit to: explicit values, or nothing visible.
+        None => choose_without_depths(req, choice),
+        Some(range) => Fit::new(camera, req, range, max_total).choose(choice),
+    }
+}
+
+/// Refuses a budget or a view cone the image cannot hold; returns the largest
+/// total shift `Rig::multi_view` accepts (`ceil(T / 2) < width`).
+fn check_fits_the_image(camera: &Camera, req: &RigRequest) -> Result<i64> {
     let (near_px, far_px) = req.budget.pixels(camera.width);
-    let (n, r) = (-near_px, far_px);
     let width = f64::from(camera.width);
-    if n >= width || r >= width {
+    if -near_px >= width || far_px >= width {
         return Err(Error::Invalid(format!(
             "the depth budget {} is as wide as the image ({} px) or wider",
             req.budget, camera.width
         )));
     }
-    // Largest total shift Rig::multi_view accepts: ceil(T / 2) < width.
     let max_total = (2 * i64::from(camera.width) - 2).max(0);
     if let Spacing::ViewCone(cone) = req.spacing {
         // Whatever the convergence, the outer views are shifted
         // 2·f·tan(cone/2) pixels apart.
-        let total = (2.0 * f * (cone.to_radians() / 2.0).tan()).round();
+        let total = (2.0 * camera.focal_pixels() * (cone.to_radians() / 2.0).tan()).round();
         if total.is_nan() || total > max_total as f64 {
             return Err(Error::Invalid(format!(
                 "a {cone}° view cone shifts the outer views {total} pixels apart, more than \
@@ -157,187 +164,268 @@ pub fn choose_rig(
             )));
         }
     }
-    let convergence_from = match req.convergence {
-        Convergence::Auto => "auto",
-        Convergence::Nearest => "near",
-        Convergence::Distance(_) => "explicit",
-        Convergence::Infinity => "infinity",
-    };
-    let interaxial_from = match req.spacing {
-        Spacing::Auto => "auto",
-        Spacing::Distance(_) => "explicit",
-        Spacing::ViewCone(_) => "view-cone",
-    };
-    let mut choice = RigChoice {
-        interaxial: 0.0,
-        convergence: None,
-        interaxial_from,
-        convergence_from,
-        fitted_to: None,
-        reason: String::new(),
-    };
-    let fixed_convergence = |range: Option<DepthRange>| match req.convergence {
+    Ok(max_total)
+}
+
+impl RigChoice {
+    /// A choice not made yet, with where its values will come from.
+    fn unfitted(req: &RigRequest) -> RigChoice {
+        RigChoice {
+            interaxial: 0.0,
+            convergence: None,
+            interaxial_from: match req.spacing {
+                Spacing::Auto => "auto",
+                Spacing::Distance(_) => "explicit",
+                Spacing::ViewCone(_) => "view-cone",
+            },
+            convergence_from: match req.convergence {
+                Convergence::Auto => "auto",
+                Convergence::Nearest => "near",
+                Convergence::Distance(_) => "explicit",
+                Convergence::Infinity => "infinity",
+            },
+            fitted_to: None,
+            reason: String::new(),
+        }
+    }
+}
+
+/// The rig of explicit values, or of a scene with nothing visible: the
+/// scene's `at` point for an automatic convergence, the 1/30 rule for an
+/// automatic interaxial.
+fn choose_without_depths(req: &RigRequest, mut choice: RigChoice) -> Result<RigChoice> {
+    let gaps = (req.views.max(2) - 1) as f64;
+    let convergence = match req.convergence {
         Convergence::Distance(c) => Some(c),
         Convergence::Infinity => None,
-        Convergence::Nearest => Some(range.map_or(req.fallback_distance, |r| r.near)),
-        Convergence::Auto => None,
+        Convergence::Auto | Convergence::Nearest => {
+            choice.convergence_from = "at";
+            Some(req.fallback_distance)
+        }
     };
+    let (spacing, why) = match req.spacing {
+        Spacing::Distance(b) => (f64::from(b), "as given".to_string()),
+        Spacing::ViewCone(cone) => {
+            let c = convergence.ok_or_else(|| cone_needs_convergence(cone))?;
+            (
+                cone_spacing(cone, c, gaps),
+                format!("a {cone}° view cone at {c:.4}"),
+            )
+        }
+        Spacing::Auto => {
+            // The stereographers' 1/30 rule on the distance to the scene's
+            // `at` point (capped like a fitted spacing).
+            let c = convergence.unwrap_or(req.fallback_distance);
+            (
+                (c / 30.0).min(c / gaps),
+                format!(
+                    "nothing visible in the depth pass: the 1/30 rule on the distance \
+                     {c:.4} to the scene's 'at' point"
+                ),
+            )
+        }
+    };
+    choice.interaxial = spacing as f32;
+    choice.convergence = convergence;
+    choice.reason = format!(
+        "interaxial {}, convergence {}: {why}",
+        choice.interaxial,
+        show_convergence(convergence)
+    );
+    Ok(choice)
+}
 
-    let Some(range) = range.filter(|_| req.needs_depth()) else {
-        // Nothing to fit to: explicit values, or nothing visible.
-        let convergence = match req.convergence {
+/// What fitting a rig to the visible depths reads: the focal length, the
+/// gaps between the outer views, the budget in pixels (`n` in front of the
+/// screen, `r` behind it), the depths and their inverses, and the cap.
+struct Fit<'a> {
+    camera: &'a Camera,
+    req: &'a RigRequest,
+    range: DepthRange,
+    max_total: i64,
+    f: f64,
+    gaps: f64,
+    n: f64,
+    r: f64,
+    inv_n: f64,
+    inv_f: f64,
+    /// The outer views no farther apart than the nearest point.
+    cap: f64,
+    /// The depths, for the reason given.
+    ends: String,
+}
+
+impl<'a> Fit<'a> {
+    fn new(camera: &'a Camera, req: &'a RigRequest, range: DepthRange, max_total: i64) -> Self {
+        let gaps = (req.views.max(2) - 1) as f64;
+        let (near_px, far_px) = req.budget.pixels(camera.width);
+        let (zn, zf) = (range.near, range.far);
+        Fit {
+            camera,
+            req,
+            range,
+            max_total,
+            f: camera.focal_pixels(),
+            gaps,
+            n: -near_px,
+            r: far_px,
+            inv_n: 1.0 / zn,
+            inv_f: if zf.is_finite() { 1.0 / zf } else { 0.0 },
+            cap: zn / gaps,
+            ends: format!("nearest visible depth {zn:.4}, farthest {}", show_depth(zf)),
+        }
+    }
+
+    /// The convergence asked for, where it does not depend on the fit.
+    fn fixed_convergence(&self) -> Option<f64> {
+        match self.req.convergence {
             Convergence::Distance(c) => Some(c),
-            Convergence::Infinity => None,
-            Convergence::Auto | Convergence::Nearest => {
-                choice.convergence_from = "at";
-                Some(req.fallback_distance)
-            }
-        };
-        let (spacing, why) = match req.spacing {
-            Spacing::Distance(b) => (f64::from(b), "as given".to_string()),
-            Spacing::ViewCone(cone) => {
-                let c = convergence.ok_or_else(|| cone_needs_convergence(cone))?;
-                (
-                    cone_spacing(cone, c, gaps),
-                    format!("a {cone}° view cone at {c:.4}"),
-                )
-            }
-            Spacing::Auto => {
-                // The stereographers' 1/30 rule on the distance to the scene's
-                // `at` point (capped like a fitted spacing).
-                let c = convergence.unwrap_or(req.fallback_distance);
-                (
-                    (c / 30.0).min(c / gaps),
-                    format!(
-                        "nothing visible in the depth pass: the 1/30 rule on the distance \
-                         {c:.4} to the scene's 'at' point"
-                    ),
-                )
-            }
-        };
-        choice.interaxial = spacing as f32;
-        choice.convergence = convergence;
-        choice.reason = format!(
-            "interaxial {}, convergence {}: {why}",
-            choice.interaxial,
-            show_convergence(convergence)
-        );
-        return Ok(choice);
-    };
-    choice.fitted_to = Some(range);
-    let (zn, zf) = (range.near, range.far);
-    let inv_n = 1.0 / zn;
-    let inv_f = if zf.is_finite() { 1.0 / zf } else { 0.0 };
-    let spread = inv_n - inv_f;
-    // The cap: the outer views no farther apart than the nearest point.
-    let cap = zn / gaps;
-    let budget = req.budget;
-    let ends = format!("nearest visible depth {zn:.4}, farthest {}", show_depth(zf));
+            Convergence::Nearest => Some(self.range.near),
+            Convergence::Infinity | Convergence::Auto => None,
+        }
+    }
 
-    match (req.spacing, req.convergence) {
-        (Spacing::Auto, Convergence::Auto) if spread * zn > 1e-6 => {
-            // The largest total shift whose fitted spacing keeps the far end
-            // inside: T/m <= (n/z_f + r/z_n) / (1/z_n - 1/z_f).
-            let d_max = (n * inv_f + r * inv_n) / spread;
-            let total = ((gaps * d_max).floor() as i64).clamp(0, max_total);
-            let d = total as f64 / gaps;
-            let b = (d + n) * zn / f * MARGIN;
-            if b > cap {
-                return balance_convergence(
-                    camera,
-                    req,
-                    choice,
-                    cap,
-                    range,
-                    max_total,
-                    "the cap (outer views no farther apart than the nearest point)",
-                );
+    fn choose(&self, mut choice: RigChoice) -> Result<RigChoice> {
+        choice.fitted_to = Some(self.range);
+        let spread = self.inv_n - self.inv_f;
+        match (self.req.spacing, self.req.convergence) {
+            (Spacing::Auto, Convergence::Auto) if spread * self.range.near > 1e-6 => {
+                self.auto_interaxial_and_convergence(choice)
             }
-            choice.interaxial = b as f32;
-            choice.convergence = (total > 0).then(|| f * gaps * b / total as f64);
-            choice.reason = format!(
-                "interaxial {} and convergence {}: the largest interaxial that puts the \
-                 nearest point at {} and the farthest within {} ({ends})",
-                choice.interaxial,
-                show_convergence(choice.convergence),
-                budget.near,
-                budget.far
-            );
-            Ok(choice)
-        }
-        (Spacing::Auto, Convergence::Auto) => {
-            // No depth range to speak of: the cap decides, the convergence
-            // goes to the middle of the budget.
-            balance_convergence(camera, req, choice, cap, range, max_total, "a scene without depth range (the cap: outer views no farther apart than the nearest point)")
-        }
-        (Spacing::Auto, _) => {
-            let convergence = fixed_convergence(Some(range));
-            let b = match convergence {
-                None => (n * zn / f).min(cap) * MARGIN,
-                Some(c) => best_spacing_for_convergence(f, gaps, c, n, r, zn, zf, cap, max_total),
-            };
-            choice.interaxial = b as f32;
-            choice.convergence = convergence;
-            let limit = if b >= cap * MARGIN * MARGIN {
-                "the cap (outer views no farther apart than the nearest point)".to_string()
-            } else {
-                format!("the budget {budget}")
-            };
-            choice.reason = format!(
-                "interaxial {} for convergence {}: the largest that {limit} allows ({ends})",
-                choice.interaxial,
-                show_convergence(convergence)
-            );
-            if b == 0.0 {
-                choice.reason.push_str(
-                    "; no interaxial fits: the nearest point lies in front of the convergence \
-                     and the budget allows nothing there (use --convergence near or auto)",
-                );
+            (Spacing::Auto, Convergence::Auto) => {
+                // No depth range to speak of: the cap decides, the convergence
+                // goes to the middle of the budget.
+                self.balance(choice, self.cap, "a scene without depth range (the cap: outer views no farther apart than the nearest point)")
             }
-            Ok(choice)
+            (Spacing::Auto, _) => Ok(self.auto_interaxial(choice)),
+            (Spacing::Distance(b), Convergence::Auto) => {
+                self.balance(choice, f64::from(b), "as given")
+            }
+            (Spacing::ViewCone(cone), Convergence::Auto) => {
+                Ok(self.cone_auto_convergence(choice, cone))
+            }
+            (Spacing::ViewCone(cone), _) => {
+                let c = self
+                    .fixed_convergence()
+                    .ok_or_else(|| cone_needs_convergence(cone))?;
+                choice.interaxial = cone_spacing(cone, c, self.gaps) as f32;
+                choice.convergence = Some(c);
+                choice.reason = format!(
+                    "interaxial {} from a {cone}° view cone at convergence {c:.4}",
+                    choice.interaxial
+                );
+                Ok(choice)
+            }
+            (Spacing::Distance(b), _) => {
+                choice.interaxial = b;
+                choice.convergence = self.fixed_convergence();
+                choice.reason = format!(
+                    "interaxial {b} as given, convergence {} ({})",
+                    show_convergence(choice.convergence),
+                    self.ends
+                );
+                Ok(choice)
+            }
         }
-        (Spacing::Distance(b), Convergence::Auto) => {
-            balance_convergence(camera, req, choice, b as f64, range, max_total, "as given")
-        }
-        (Spacing::ViewCone(cone), Convergence::Auto) => {
-            // T = round(f·S/C) = round(2·f·tan(cone/2)) whatever C is.
-            let k0 = 2.0 * f * (cone.to_radians() / 2.0).tan() / gaps;
-            let d = (k0 * gaps).round() / gaps;
-            let c = if n > 0.0 && r > 0.0 {
-                d * (1.0 / n + 1.0 / r) / (k0 * (inv_n / n + inv_f / r))
-            } else if r == 0.0 && inv_f > 0.0 {
-                d / (k0 * inv_f)
-            } else {
-                d / (k0 * inv_n)
-            };
-            choice.interaxial = cone_spacing(cone, c, gaps) as f32;
-            choice.convergence = Some(c);
-            choice.reason = format!(
-                "a {cone}° view cone: convergence {c:.4} places the depths in the budget's \
-                 proportions, interaxial {} follows from the cone ({ends})",
-                choice.interaxial
+    }
+
+    /// `balance_convergence` with this fit's inputs.
+    fn balance(&self, choice: RigChoice, spacing: f64, why: &str) -> Result<RigChoice> {
+        balance_convergence(
+            self.camera,
+            self.req,
+            choice,
+            spacing,
+            self.range,
+            self.max_total,
+            why,
+        )
+    }
+
+    /// Both automatic: the largest total shift whose fitted spacing keeps the
+    /// far end inside, `T/m <= (n/z_f + r/z_n) / (1/z_n - 1/z_f)`.
+    fn auto_interaxial_and_convergence(&self, mut choice: RigChoice) -> Result<RigChoice> {
+        let (f, gaps, n, r) = (self.f, self.gaps, self.n, self.r);
+        let spread = self.inv_n - self.inv_f;
+        let d_max = (n * self.inv_f + r * self.inv_n) / spread;
+        let total = ((gaps * d_max).floor() as i64).clamp(0, self.max_total);
+        let d = total as f64 / gaps;
+        let b = (d + n) * self.range.near / f * MARGIN;
+        if b > self.cap {
+            return self.balance(
+                choice,
+                self.cap,
+                "the cap (outer views no farther apart than the nearest point)",
             );
-            Ok(choice)
         }
-        (Spacing::ViewCone(cone), _) => {
-            let c = fixed_convergence(Some(range)).ok_or_else(|| cone_needs_convergence(cone))?;
-            choice.interaxial = cone_spacing(cone, c, gaps) as f32;
-            choice.convergence = Some(c);
-            choice.reason = format!(
-                "interaxial {} from a {cone}° view cone at convergence {c:.4}",
-                choice.interaxial
+        let budget = self.req.budget;
+        choice.interaxial = b as f32;
+        choice.convergence = (total > 0).then(|| f * gaps * b / total as f64);
+        choice.reason = format!(
+            "interaxial {} and convergence {}: the largest interaxial that puts the \
+             nearest point at {} and the farthest within {} ({})",
+            choice.interaxial,
+            show_convergence(choice.convergence),
+            budget.near,
+            budget.far,
+            self.ends
+        );
+        Ok(choice)
+    }
+
+    /// The interaxial automatic, the convergence given (or the nearest point).
+    fn auto_interaxial(&self, mut choice: RigChoice) -> RigChoice {
+        let (f, gaps, n, r, cap) = (self.f, self.gaps, self.n, self.r, self.cap);
+        let (zn, zf) = (self.range.near, self.range.far);
+        let convergence = self.fixed_convergence();
+        let b = match convergence {
+            None => (n * zn / f).min(cap) * MARGIN,
+            Some(c) => best_spacing_for_convergence(f, gaps, c, n, r, zn, zf, cap, self.max_total),
+        };
+        choice.interaxial = b as f32;
+        choice.convergence = convergence;
+        let limit = if b >= cap * MARGIN * MARGIN {
+            "the cap (outer views no farther apart than the nearest point)".to_string()
+        } else {
+            format!("the budget {}", self.req.budget)
+        };
+        choice.reason = format!(
+            "interaxial {} for convergence {}: the largest that {limit} allows ({})",
+            choice.interaxial,
+            show_convergence(convergence),
+            self.ends
+        );
+        if b == 0.0 {
+            choice.reason.push_str(
+                "; no interaxial fits: the nearest point lies in front of the convergence \
+                 and the budget allows nothing there (use --convergence near or auto)",
             );
-            Ok(choice)
         }
-        (Spacing::Distance(b), _) => {
-            choice.interaxial = b;
-            choice.convergence = fixed_convergence(Some(range));
-            choice.reason = format!(
-                "interaxial {b} as given, convergence {} ({ends})",
-                show_convergence(choice.convergence)
-            );
-            Ok(choice)
-        }
+        choice
+    }
+
+    /// A view cone with an automatic convergence: `T = round(f·S/C) =
+    /// round(2·f·tan(cone/2))` whatever `C` is, so the convergence places the
+    /// depths in the budget's proportions and the spacing follows.
+    fn cone_auto_convergence(&self, mut choice: RigChoice, cone: f64) -> RigChoice {
+        let (gaps, n, r, inv_n, inv_f) = (self.gaps, self.n, self.r, self.inv_n, self.inv_f);
+        let k0 = 2.0 * self.f * (cone.to_radians() / 2.0).tan() / gaps;
+        let d = (k0 * gaps).round() / gaps;
+        let c = if n > 0.0 && r > 0.0 {
+            d * (1.0 / n + 1.0 / r) / (k0 * (inv_n / n + inv_f / r))
+        } else if r == 0.0 && inv_f > 0.0 {
+            d / (k0 * inv_f)
+        } else {
+            d / (k0 * inv_n)
+        };
+        choice.interaxial = cone_spacing(cone, c, gaps) as f32;
+        choice.convergence = Some(c);
+        choice.reason = format!(
+            "a {cone}° view cone: convergence {c:.4} places the depths in the budget's \
+             proportions, interaxial {} follows from the cone ({})",
+            choice.interaxial, self.ends
+        );
+        choice
     }
 }
 

@@ -10,10 +10,9 @@ mod triangle;
 
 pub use cone::Cone;
 pub use sphere::Sphere;
-pub use triangle::{Triangle, TriangleNormals};
+pub use triangle::{Corners, Triangle, TriangleNormals, Uv};
 
 use crate::math::{Aabb, Ray, Vec3};
-use crate::scene::Corners;
 use wide::f32x4;
 
 /// Two rays in lanes 0 and 1 of SSE registers, component by component: the

@@ -1,7 +1,18 @@
 use super::{RayPair, SurfaceHit};
 use crate::math::{Aabb, Ray, Vec3};
-use crate::scene::Corners;
 use wide::f32x4;
+
+/// Texture coordinates of a point on a surface.
+pub type Uv = glam::Vec2;
+
+/// Attributes of a triangle's three corners (`TriangleNormals::Patch` indexes
+/// them): normals for smooth shading, texture coordinates. They belong to the
+/// geometry; the scene keeps them in one table (`Scene::corners`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Corners {
+    pub normals: Option<[Vec3; 3]>,
+    pub uv: Option<[Uv; 3]>,
+}
 
 /// Where a triangle's shading normal comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
