@@ -172,7 +172,7 @@ impl<'a> Tracer<'a> {
             self.counts.rays.eye += 1;
             if hits.has_hit(l) {
                 self.counts.rays.eye_hit += 1;
-                if let Some(h) = self.counts.per_view_hits.get_mut(views[l]) {
+                if let Some(h) = self.counts.per_view_hits.0.get_mut(views[l]) {
                     *h += 1;
                 }
             }
