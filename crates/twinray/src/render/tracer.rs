@@ -57,6 +57,9 @@ pub struct Tracer<'a> {
     /// The largest specular or transmission coefficient of the surfaces shaded
     /// since it was last reset: whether a shading tree was diffuse (section 2.5).
     tree_coefficient: f32,
+    /// `--share-shading`: the current row's cache, shared by its batches of
+    /// views (a tracer serves one task, whose rows are traced in order).
+    pub(super) shading_cache: super::shading_cache::ShadingCache,
 }
 
 /// What shading's first stage found at a packet's hits.
@@ -103,6 +106,7 @@ impl<'a> Tracer<'a> {
             shadow_cache: vec![None; world.scene.lights.len() * super::MAX_LANES],
             merge_secondary: false,
             tree_coefficient: 0.0,
+            shading_cache: Default::default(),
         }
     }
 

@@ -24,12 +24,16 @@
 //!    and secondary colour when they see the same surface point and its shading
 //!    tree is diffuse) or as the paper published it (`reproject_forward`).
 
+mod shared_shading;
+
 use std::time::Instant;
 
 use super::grouping::{group_row, nearest_sample, Group};
 use super::sampler::{RowColors, SampleRow};
 use super::tracer::Donor;
-use super::{RenderInputs, ReprojectMode, Reprojection, RowWorker, Tracer, ViewBatch};
+use super::{
+    RenderInputs, ReprojectMode, Reprojection, RowWorker, SharedShading, Tracer, ViewBatch,
+};
 use crate::bvh::{Packet, PacketHits};
 use crate::math::{Color, Vec3};
 use crate::rig::Camera;
@@ -58,6 +62,8 @@ pub(super) struct RowSetup<'a, const K: usize> {
     max_shift: i32,
     reproject: Option<Reprojection>,
     merge_secondary: bool,
+    /// `--share-shading`: the rig's shading cache, and its tolerance.
+    shared_shading: Option<SharedShading>,
 }
 
 /// Paper-mode reprojection: the depth of the nearest point of view 0 that
@@ -131,6 +137,7 @@ impl<'a, const K: usize> RowSetup<'a, K> {
             rig,
             reproject: job.opts.approx.reproject,
             merge_secondary: job.opts.approx.merge_secondary,
+            shared_shading: job.opts.approx.shared_shading,
         }
     }
 
@@ -581,6 +588,11 @@ impl<'a, const K: usize> RowSetup<'a, K> {
         let eye_pass = start.elapsed();
         self.shade_cut(tracer, row, s, out);
         match self.reproject {
+            _ if !paper && self.shared_shading.is_some() => {
+                let tolerance = self.shared_shading.map_or(0.0, |sh| sh.tolerance);
+                self.group(row, s);
+                self.share_shading(tracer, row, s, tolerance, out);
+            }
             None => {
                 self.group(row, s);
                 self.shade_groups(tracer, s, out);
