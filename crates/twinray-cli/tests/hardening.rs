@@ -240,7 +240,7 @@ fn stats_and_outputs_never_overwrite_inputs_or_each_other() {
 #[cfg(unix)]
 #[test]
 fn read_only_and_impossible_outputs_are_refused_before_rendering() {
-    // The attack: a missing directory found after 8.8 s, an MPO baseline over
+    // The attack: a missing directory found after 8.8 s, an MPO interaxial over
     // 4000 after 19 s, a JPEG over 65,535 px after the render; a read-only
     // file replaced by the rename.
     use std::os::unix::fs::PermissionsExt;
@@ -268,7 +268,7 @@ fn read_only_and_impossible_outputs_are_refused_before_rendering() {
             "o.mpo",
             &[&stereo[..], &["--layout", "mpo", "--convergence", "inf"]].concat(),
         ),
-        "baseline",
+        "an MPO stores an interaxial",
     );
     let scene = scene();
     let wide = dir.path().join("wide.jpg");

@@ -4,6 +4,7 @@
 use serde::Serialize;
 
 use crate::bvh::TraversalStats;
+use crate::render::MAX_VIEWS;
 
 /// Ray counts. A stereo method counts one eye ray per view and pixel sample, as
 /// two independent renders would, so the counts of the two methods compare.
@@ -47,7 +48,7 @@ pub struct TraceCounts {
     pub shading_pass_ns: u64,
     /// Hits per view (index = view), for stereo and multi-view renders.
     #[serde(skip)]
-    pub per_view_hits: [u64; 32],
+    pub per_view_hits: HitsPerView,
     pub nodes: u64,
     pub box_tests: u64,
     pub prim_tests: u64,
@@ -60,6 +61,16 @@ pub struct TraceCounts {
     pub cache_edge_refusals: u64,
     pub cache_hits: u64,
     pub cache_fallbacks: u64,
+}
+
+/// Eye rays that hit something, per view, for every view a render may have.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HitsPerView(pub [u64; MAX_VIEWS]);
+
+impl Default for HitsPerView {
+    fn default() -> Self {
+        HitsPerView([0; MAX_VIEWS])
+    }
 }
 
 impl TraceCounts {
@@ -81,7 +92,12 @@ impl TraceCounts {
         self.hole_samples += o.hole_samples;
         self.eye_pass_ns += o.eye_pass_ns;
         self.shading_pass_ns += o.shading_pass_ns;
-        for (a, b) in self.per_view_hits.iter_mut().zip(o.per_view_hits.iter()) {
+        for (a, b) in self
+            .per_view_hits
+            .0
+            .iter_mut()
+            .zip(o.per_view_hits.0.iter())
+        {
             *a += b;
         }
         self.nodes += o.nodes;
@@ -219,7 +235,7 @@ impl Report {
             self.time.eye_pass_cpu_s = Some(c.eye_pass_ns as f64 * 1e-9);
             self.time.shading_pass_cpu_s = Some(c.shading_pass_ns as f64 * 1e-9);
         }
-        self.hits_per_view = c.per_view_hits[..views.min(32)].to_vec();
+        self.hits_per_view = c.per_view_hits.0[..views.min(MAX_VIEWS)].to_vec();
         self.cache_entries = c.cache_entries;
         self.cache_edge_refusals = c.cache_edge_refusals;
         self.cache_hits = c.cache_hits;
@@ -231,5 +247,75 @@ impl Report {
 
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hits_of_every_view_are_merged_and_reported() {
+        let mut a = TraceCounts::default();
+        let mut b = TraceCounts::default();
+        for v in 0..MAX_VIEWS {
+            a.per_view_hits.0[v] = v as u64;
+            b.per_view_hits.0[v] = 1000;
+        }
+        a.add(&b);
+        let mut report = Report::default();
+        report.fill_counts(&a, 48);
+        assert_eq!(report.hits_per_view.len(), 48);
+        assert_eq!(report.hits_per_view[47], 1047);
+        report.fill_counts(&a, MAX_VIEWS);
+        assert_eq!(
+            report.hits_per_view[MAX_VIEWS - 1],
+            1000 + MAX_VIEWS as u64 - 1
+        );
+        // More views than a render takes: the report stops at the last one counted.
+        report.fill_counts(&a, MAX_VIEWS + 5);
+        assert_eq!(report.hits_per_view.len(), MAX_VIEWS);
+    }
+
+    #[test]
+    fn counts_add_field_by_field() {
+        let mut a = TraceCounts::default();
+        a.rays.eye = 3;
+        a.rays.shadow = 5;
+        a.nodes = 7;
+        a.eye_pass_ns = 11;
+        let b = a;
+        a.add(&b);
+        assert_eq!(
+            (a.rays.eye, a.rays.shadow, a.nodes, a.eye_pass_ns),
+            (6, 10, 14, 22)
+        );
+        a.add_traversal(&TraversalStats {
+            nodes: 1,
+            box_tests: 2,
+            prim_tests: 3,
+        });
+        assert_eq!((a.nodes, a.box_tests, a.prim_tests), (15, 2, 3));
+    }
+
+    #[test]
+    fn report_divides_descents_by_eye_rays_and_skips_absent_times() {
+        let mut c = TraceCounts::default();
+        let mut report = Report::default();
+        report.fill_counts(&c, 2);
+        assert_eq!(report.traversals_per_eye_ray, 0.0);
+        assert_eq!(report.time.eye_pass_cpu_s, None);
+        c.rays.eye = 200;
+        c.eye_traversals = 100;
+        c.eye_pass_ns = 2_000_000_000;
+        c.shading_pass_ns = 500_000_000;
+        report.fill_counts(&c, 2);
+        assert_eq!(report.traversals_per_eye_ray, 0.5);
+        assert_eq!(report.time.eye_pass_cpu_s, Some(2.0));
+        assert_eq!(report.time.shading_pass_cpu_s, Some(0.5));
+        let json: serde_json::Value = serde_json::from_str(&report.to_json()).expect("json");
+        assert_eq!(json["traversals_per_eye_ray"], 0.5);
+        assert_eq!(json["hits_per_view"].as_array().map(Vec::len), Some(2));
+        assert!(json.get("cut_depth").is_none());
     }
 }

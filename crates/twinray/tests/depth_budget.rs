@@ -10,7 +10,7 @@ use twinray::math::Vec3;
 use twinray::output::{compose_quilt, DepthChannels, QuiltLayout};
 use twinray::render::{Method, Sampling};
 use twinray::rig::budget::DepthBudget;
-use twinray::rig::choice::{plan_rig, Convergence, PlannedRig, RigRequest, Spacing};
+use twinray::rig::choice::{plan_rig, Convergence, InteraxialRequest, PlannedRig, RigRequest};
 use twinray::rig::depth_pass::stride_for;
 use twinray::rig::depth_pass::{OuterPasses, REPORT_COLUMNS};
 use twinray::rig::report as disparity;
@@ -59,7 +59,7 @@ fn measured_disparities(world: &World, cam: &Camera, rig: &Rig) -> Vec<(f64, f64
 fn request(views: usize, convergence: Convergence, budget: &str) -> RigRequest {
     RigRequest {
         views,
-        spacing: Spacing::Auto,
+        interaxial: InteraxialRequest::Auto,
         convergence,
         budget: budget.parse().expect("budget"),
         fallback_distance: 4.0,

@@ -256,3 +256,44 @@ fn polygons_are_shaded_from_the_side_the_ray_comes_from() {
         "light behind: ambient only: {behind}"
     );
 }
+
+#[test]
+fn hits_are_counted_and_reported_for_every_one_of_48_views() {
+    // A quilt has 48 views; the counts once kept only 32 (views 32..47 were
+    // dropped from `--stats` without a word).
+    let world = world("example.nff");
+    let cam = camera(&world, 32, 24);
+    let rig = Rig::multi_view(&cam, 48, 0.05, None).unwrap();
+    let twin = run(
+        &world,
+        &cam,
+        &rig,
+        &options(Method::Twin, Sampling::Centers),
+    );
+    let mut report = twinray::stats::Report::default();
+    report.fill_counts(&twin.counts, rig.views.len());
+    assert_eq!(report.hits_per_view.len(), 48);
+    for (v, view) in rig.views.iter().enumerate() {
+        // Each view's hits are those of the view rendered alone.
+        let alone = Rig {
+            views: vec![*view],
+            convergence: None,
+            effective_convergence: None,
+        };
+        let mono = run(
+            &world,
+            &cam,
+            &alone,
+            &options(Method::Independent, Sampling::Centers),
+        );
+        assert!(mono.counts.rays.eye_hit > 0);
+        assert_eq!(
+            report.hits_per_view[v], mono.counts.rays.eye_hit,
+            "view {v}"
+        );
+    }
+    assert_eq!(
+        report.hits_per_view.iter().sum::<u64>(),
+        twin.counts.rays.eye_hit
+    );
+}

@@ -312,7 +312,7 @@ impl Job {
         let camera = Camera::new(&viewpoint, width, height);
         let at_distance = f64::from((viewpoint.at - viewpoint.from).length());
         let request = self.rig_request(at_distance)?;
-        // The rig, or with an automatic spacing or convergence a stand-in
+        // The rig, or with an automatic interaxial or convergence a stand-in
         // until the depth pass on the built scene.
         let (mut rig, explicit) = match &request {
             None => (Rig::mono(), None),
@@ -338,7 +338,7 @@ impl Job {
             };
         if let (Some(s), None) = (&settled, &explicit) {
             // The rig fitted to the depths: its outputs checked again (an
-            // MPO's baseline), and the cut that depends on it made now.
+            // MPO's interaxial), and the cut that depends on it made now.
             rig = s.rig.clone();
             (interaxial, convergence) = (s.choice.interaxial, s.choice.convergence);
             files = self
@@ -429,7 +429,7 @@ impl Job {
     }
 
     /// Where to cut the object tree, if asked (the parallax bound depends on
-    /// the views' spacing).
+    /// the interaxial).
     fn cut(&self, camera: &Camera, rig: &Rig) -> Result<Option<Cut>> {
         let a = &self.spec.approximations;
         let parallax = a.cut_parallax.or(a.fast.then_some(FAST_CUT_PARALLAX));
@@ -854,7 +854,7 @@ fn check_rig_flags(spec: &JobSpec, several_views: bool, quilt_layout: bool) -> R
     }
     if rig.view_cone.is_some() && rig.interaxial.is_some() {
         return Err(invalid(
-            "--view-cone and --interaxial both set the views' spacing: give one",
+            "--view-cone and --interaxial both set the interaxial: give one",
         ));
     }
     if !(rig.screen_width.is_finite() && rig.screen_width > 0.0) {

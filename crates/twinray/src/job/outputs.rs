@@ -109,7 +109,7 @@ impl Targets<'_> {
         StereoOptions {
             image: self.write_options(),
             squeeze: self.output.squeeze,
-            baseline_m: f64::from(self.interaxial),
+            interaxial_m: f64::from(self.interaxial),
             convergence_m: self.effective_convergence,
         }
     }

@@ -179,9 +179,9 @@ pub struct StereoOptions {
     /// Half-width / half-height frames for side-by-side, cross and
     /// top-bottom (see [`layouts`] for odd sizes).
     pub squeeze: bool,
-    /// Eye separation in metres: MPO `BaselineLength`, EXR
+    /// The interaxial in metres, written as MPO `BaselineLength` and EXR
     /// `interocularDistance`. Convert first if the scene unit is not a metre.
-    pub baseline_m: f64,
+    pub interaxial_m: f64,
     /// Convergence distance in metres (EXR `convergenceDistance`);
     /// `None` = parallel (infinite).
     pub convergence_m: Option<f64>,
@@ -192,7 +192,7 @@ impl Default for StereoOptions {
         StereoOptions {
             image: WriteOptions::default(),
             squeeze: false,
-            baseline_m: 0.065,
+            interaxial_m: 0.065,
             convergence_m: None,
         }
     }
@@ -222,14 +222,14 @@ pub fn write_stereo(
             return commit_all(staged);
         }
         Layout::Mpo => {
-            write_mpo(out, left, right, opts.baseline_m, &opts.image)?;
+            write_mpo(out, left, right, opts.interaxial_m, &opts.image)?;
             return Ok(files);
         }
         Layout::MultiviewExr => {
             write_multiview_exr(
                 out,
                 &[("left", left), ("right", right)],
-                opts.baseline_m as f32,
+                opts.interaxial_m as f32,
                 opts.convergence_m.map(|c| c as f32),
             )?;
             return Ok(files);

@@ -63,7 +63,7 @@ const SRATIONAL: u16 = 10;
 
 /// Writes the stereo pair as an MPO at `path`, atomically.
 ///
-/// `baseline_m` is the distance between the two viewpoints **in metres**
+/// `interaxial_m` is the distance between the two viewpoints **in metres**
 /// (finite, ≥ 0, below ~4 km); it is stored as `BaselineLength` and as the
 /// right image's `AxisDistanceX`. `opts` applies to the 8-bit quantisation
 /// of both JPEGs (sRGB curve or not).
@@ -71,17 +71,18 @@ pub fn write_mpo(
     path: &Path,
     left: &Image,
     right: &Image,
-    baseline_m: f64,
+    interaxial_m: f64,
     opts: &WriteOptions,
 ) -> Result<()> {
     check_pair(left, right)?;
-    if !baseline_m.is_finite() || !(0.0..4.0e3).contains(&baseline_m) {
+    if !interaxial_m.is_finite() || !(0.0..4.0e3).contains(&interaxial_m) {
         return Err(Error::Invalid(format!(
-            "MPO baseline must be a finite length in metres between 0 and 4000, not {baseline_m}"
+            "an MPO's interaxial (its BaselineLength) must be a finite length in metres \
+             between 0 and 4000, not {interaxial_m}"
         )));
     }
     write_atomically(path, |w| {
-        let bytes = mpo_bytes(left, right, baseline_m, opts)?;
+        let bytes = mpo_bytes(left, right, interaxial_m, opts)?;
         w.write_all(&bytes)?;
         Ok(())
     })
@@ -90,7 +91,7 @@ pub fn write_mpo(
 fn mpo_bytes(
     left: &Image,
     right: &Image,
-    baseline_m: f64,
+    interaxial_m: f64,
     opts: &WriteOptions,
 ) -> std::result::Result<Vec<u8>, Failure> {
     let jpeg_l = jpeg_bytes(left, opts)?;
@@ -98,13 +99,13 @@ fn mpo_bytes(
     let pos_l = insertion_point(&jpeg_l)?;
     let pos_r = insertion_point(&jpeg_r)?;
 
-    let attr_r = attribute_ifd_entries(2, baseline_m, baseline_m);
+    let attr_r = attribute_ifd_entries(2, interaxial_m, interaxial_m);
     let seg_r = app2_segment(&mp_header(&[], &attr_r))?;
     let size_r = jpeg_r.len() + seg_r.len();
 
     // Pass 1 with placeholder entries gives the sizes (every field has a
     // fixed length); pass 2 fills in the real sizes and offsets.
-    let attr_l = attribute_ifd_entries(1, baseline_m, 0.0);
+    let attr_l = attribute_ifd_entries(1, interaxial_m, 0.0);
     let placeholder = index_ifd_entries(&[[0; 16]; 2]);
     let seg_l_len = app2_segment(&mp_header(&placeholder, &attr_l))?.len();
     let size_l = jpeg_l.len() + seg_l_len;
@@ -243,7 +244,7 @@ fn index_ifd_entries(entries: &[[u8; 16]]) -> Vec<Field> {
 
 /// The MP Attribute IFD of image `individual`, `axis_x_m` metres to the
 /// right of the base viewpoint.
-fn attribute_ifd_entries(individual: u32, baseline_m: f64, axis_x_m: f64) -> Vec<Field> {
+fn attribute_ifd_entries(individual: u32, interaxial_m: f64, axis_x_m: f64) -> Vec<Field> {
     let signed_max = i32::MAX as u32;
     vec![
         version(),
@@ -253,7 +254,7 @@ fn attribute_ifd_entries(individual: u32, baseline_m: f64, axis_x_m: f64) -> Vec
         rational_field(
             TAG_BASELINE_LENGTH,
             RATIONAL,
-            rational(baseline_m, u32::MAX),
+            rational(interaxial_m, u32::MAX),
         ),
         rational_field(
             TAG_AXIS_DISTANCE_X,

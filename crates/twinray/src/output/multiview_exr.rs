@@ -9,7 +9,7 @@
 //! float, linear, losslessly compressed.
 //!
 //! Two more header attributes, as Nuke and other stereo tools read them:
-//! `interocularDistance` (float: the rig's eye separation, in scene units)
+//! `interocularDistance` (float: the rig's interaxial, in scene units)
 //! and `convergenceDistance` (float, scene units). A parallel rig converges
 //! at infinity: then `convergenceDistance` is **omitted** (no attribute),
 //! rather than written as a large stand-in value.
@@ -27,7 +27,8 @@ use crate::output::depth_channels::DepthChannels;
 use crate::output::encode::exr_failure;
 use crate::{Error, Image, Result};
 
-/// Name of the header attribute holding the eye separation (float).
+/// Name of the header attribute holding the interaxial (float): the
+/// OpenEXR multi-view convention calls it the interocular distance.
 pub const INTEROCULAR_ATTRIBUTE: &str = "interocularDistance";
 /// Name of the header attribute holding the convergence distance (float).
 pub const CONVERGENCE_ATTRIBUTE: &str = "convergenceDistance";
@@ -35,21 +36,21 @@ pub const CONVERGENCE_ATTRIBUTE: &str = "convergenceDistance";
 /// Writes `views` (name, image) to one multi-view EXR at `path`, atomically.
 ///
 /// `views[0]` is the default view (unprefixed channels); for a stereo pair
-/// pass `&[("left", &l), ("right", &r)]`. `interocular` and `convergence`
+/// pass `&[("left", &l), ("right", &r)]`. `interaxial` and `convergence`
 /// are in scene units; `convergence: None` means parallel (infinite) and
 /// omits `convergenceDistance`.
 ///
 /// Errors (`Error::Invalid`): no views; a view name that is empty, repeated,
 /// contains a `.` or a non-printable / non-ASCII character; images of
-/// different sizes; a non-finite or negative `interocular`; a non-finite or
+/// different sizes; a non-finite or negative `interaxial`; a non-finite or
 /// non-positive `convergence`.
 pub fn write_multiview_exr(
     path: &std::path::Path,
     views: &[(&str, &Image)],
-    interocular: f32,
+    interaxial: f32,
     convergence: Option<f32>,
 ) -> Result<()> {
-    write_views(path, views, None, interocular, convergence)
+    write_views(path, views, None, interaxial, convergence)
 }
 
 /// [`write_multiview_exr`] with each view's `Z` and `disparity` channels
@@ -59,7 +60,7 @@ pub fn write_multiview_exr_with_depth(
     path: &std::path::Path,
     views: &[(&str, &Image)],
     depth: &[DepthChannels],
-    interocular: f32,
+    interaxial: f32,
     convergence: Option<f32>,
 ) -> Result<()> {
     if depth.len() != views.len() {
@@ -69,14 +70,14 @@ pub fn write_multiview_exr_with_depth(
             depth.len()
         )));
     }
-    write_views(path, views, Some(depth), interocular, convergence)
+    write_views(path, views, Some(depth), interaxial, convergence)
 }
 
 fn write_views(
     path: &std::path::Path,
     views: &[(&str, &Image)],
     depth: Option<&[DepthChannels]>,
-    interocular: f32,
+    interaxial: f32,
     convergence: Option<f32>,
 ) -> Result<()> {
     let Some(&(_, first)) = views.first() else {
@@ -105,9 +106,9 @@ fn write_views(
             )));
         }
     }
-    if !interocular.is_finite() || interocular < 0.0 {
+    if !interaxial.is_finite() || interaxial < 0.0 {
         return Err(Error::Invalid(format!(
-            "interocular distance must be finite and non-negative, not {interocular}"
+            "the interaxial (the interocularDistance attribute) must be finite and non-negative, not {interaxial}"
         )));
     }
     if let Some(c) = convergence {
@@ -157,7 +158,7 @@ fn write_views(
     };
     attributes.other.insert(
         text(INTEROCULAR_ATTRIBUTE)?,
-        AttributeValue::F32(interocular),
+        AttributeValue::F32(interaxial),
     );
     if let Some(c) = convergence {
         attributes

@@ -1,6 +1,6 @@
 //! Output paths and format limits, checked before any rendering: a missing
-//! directory, a read-only file, a JPEG wider than the format allows or an MPO
-//! baseline out of range are found in milliseconds, not after the render
+//! directory, a read-only file, a JPEG wider than the format allows or an
+//! interaxial out of an MPO's range are found in milliseconds, not after the render
 //! (they were found after 8.8 s and 19 s). Messages name the user's path.
 
 use std::path::{Path, PathBuf};
@@ -12,9 +12,9 @@ use crate::{Error, Result};
 /// Largest width or height a JPEG (and so an MPO) can hold.
 pub const JPEG_MAX_SIDE: u64 = 65_535;
 
-/// Largest MPO `BaselineLength`, in metres (the field's rational range as
+/// Largest interaxial an MPO stores (its `BaselineLength` tag), in metres (the field's rational range as
 /// written by [`write_mpo`](super::write_mpo)).
-pub const MPO_MAX_BASELINE_M: f64 = 4.0e3;
+pub const MPO_MAX_INTERAXIAL_M: f64 = 4.0e3;
 
 /// Checks that an image of `width` x `height` can be written to `path`: a
 /// known format that can hold the size, a directory that exists and a target
@@ -74,10 +74,11 @@ pub fn check_stereo_targets(
                     out.display()
                 )));
             }
-            let b = opts.baseline_m;
-            if !(b.is_finite() && (0.0..MPO_MAX_BASELINE_M).contains(&b)) {
+            let interaxial = opts.interaxial_m;
+            if !(interaxial.is_finite() && (0.0..MPO_MAX_INTERAXIAL_M).contains(&interaxial)) {
                 return Err(Error::Invalid(format!(
-                    "{}: an MPO stores a baseline between 0 and {MPO_MAX_BASELINE_M} m, not {b}",
+                    "{}: an MPO stores an interaxial (its BaselineLength) between 0 and \
+                     {MPO_MAX_INTERAXIAL_M} m, not {interaxial}",
                     out.display()
                 )));
             }
@@ -176,13 +177,16 @@ mod tests {
         assert!(check_stereo_targets(&jpg, Layout::TopBottom, 40_000, 10, &opts).is_ok());
         let mpo = dir.path().join("pair.mpo");
         let far = StereoOptions {
-            baseline_m: 5000.0,
+            interaxial_m: 5000.0,
             ..opts
         };
         let err = check_stereo_targets(&mpo, Layout::Mpo, 8, 8, &far)
             .unwrap_err()
             .to_string();
-        assert!(err.contains("pair.mpo: an MPO stores a baseline"), "{err}");
+        assert!(
+            err.contains("pair.mpo: an MPO stores an interaxial"),
+            "{err}"
+        );
         let anaglyph = Layout::Anaglyph(AnaglyphMethod::Dubois);
         assert_eq!(
             check_stereo_targets(&jpg, anaglyph, 8, 8, &opts).unwrap(),

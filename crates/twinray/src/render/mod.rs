@@ -33,7 +33,7 @@ mod tracer;
 mod twin;
 
 pub use sampler::{Filter, SampleRow, Sampling};
-pub use tracer::{Donor, TraceSettings, Tracer};
+pub use tracer::{Donor, SecondaryRays, TraceSettings, Tracer};
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -357,12 +357,12 @@ fn twin_batches<'a>(
         };
         let first = b * size;
         batches.push(match views.len() {
-            1 => Box::new(twin::RowSetup::<1>::new(job, rig, first)),
-            2 => Box::new(twin::RowSetup::<2>::new(job, rig, first)),
-            3..=4 => Box::new(twin::RowSetup::<4>::new(job, rig, first)),
-            5..=8 => Box::new(twin::RowSetup::<8>::new(job, rig, first)),
-            9..=16 => Box::new(twin::RowSetup::<16>::new(job, rig, first)),
-            17..=MAX_LANES => Box::new(twin::RowSetup::<32>::new(job, rig, first)),
+            1 => Box::new(twin::TwinBatch::<1>::new(job, rig, first)),
+            2 => Box::new(twin::TwinBatch::<2>::new(job, rig, first)),
+            3..=4 => Box::new(twin::TwinBatch::<4>::new(job, rig, first)),
+            5..=8 => Box::new(twin::TwinBatch::<8>::new(job, rig, first)),
+            9..=16 => Box::new(twin::TwinBatch::<16>::new(job, rig, first)),
+            17..=MAX_LANES => Box::new(twin::TwinBatch::<32>::new(job, rig, first)),
             n => {
                 return Err(crate::Error::Invalid(format!(
                     "{n} views in one packet: at most {MAX_LANES}"

@@ -51,15 +51,38 @@ pub struct Tracer<'a> {
     /// Per light and lane, the opaque primitive that last blocked a shadow ray
     /// toward the light (index `light * MAX_LANES + lane`).
     shadow_cache: Vec<Option<u32>>,
-    /// The paper's section 2.4 (approximate): lanes whose hits lie on one planar
-    /// surface trace one reflected (refracted) ray for all, from the midpoint.
-    pub merge_secondary: bool,
-    /// The largest specular or transmission coefficient of the surfaces shaded
-    /// since it was last reset: whether a shading tree was diffuse (section 2.5).
-    tree_coefficient: f32,
     /// `--share-shading`: the current row's cache, shared by its batches of
     /// views (a tracer serves one task, whose rows are traced in order).
     pub(super) shading_cache: super::shading_cache::ShadingCache,
+}
+
+/// How the lanes' reflected and refracted rays are traced.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SecondaryRays {
+    /// Every lane traces its own rays, the lanes as one packet (exact).
+    #[default]
+    Own,
+    /// The paper's section 2.4 (approximate): lanes whose hits lie on one
+    /// planar surface trace one reflected (refracted) ray for all, from the
+    /// midpoint.
+    MergedOnPlanes,
+}
+
+/// What one shading call carries down its tree of rays: how it traces the
+/// secondary rays, and the largest specular or transmission coefficient of
+/// the surfaces it shaded (whether the tree was diffuse, section 2.5).
+struct ShadingTree {
+    secondary: SecondaryRays,
+    largest_coefficient: f32,
+}
+
+impl ShadingTree {
+    fn new(secondary: SecondaryRays) -> ShadingTree {
+        ShadingTree {
+            secondary,
+            largest_coefficient: 0.0,
+        }
+    }
 }
 
 /// What shading's first stage found at a packet's hits.
@@ -104,8 +127,6 @@ impl<'a> Tracer<'a> {
             counts: TraceCounts::default(),
             traversal: TraversalStats::default(),
             shadow_cache: vec![None; world.scene.lights.len() * super::MAX_LANES],
-            merge_secondary: false,
-            tree_coefficient: 0.0,
             shading_cache: Default::default(),
         }
     }
@@ -116,14 +137,16 @@ impl<'a> Tracer<'a> {
         self.counts
     }
 
-    /// Eye rays: lane `l` belongs to view `views[l]`.
+    /// Eye rays, each lane tracing its own secondary rays: lane `l` belongs
+    /// to view `views[l]`.
     pub fn trace_eye<const K: usize>(
         &mut self,
         packet: &Packet<K>,
         views: &[usize; K],
     ) -> [Color; K] {
         let hits = self.eye_hits(packet, views);
-        self.shade(packet, &hits, 1, [1.0; K])
+        let mut tree = ShadingTree::new(SecondaryRays::Own);
+        self.shade(packet, &hits, 1, [1.0; K], &mut tree)
     }
 
     /// The nearest hit of every lane of an eye-ray packet (one descent for all
@@ -153,7 +176,7 @@ impl<'a> Tracer<'a> {
             self.counts.rays.eye += 1;
             if hits.has_hit(l) {
                 self.counts.rays.eye_hit += 1;
-                if let Some(h) = self.counts.per_view_hits.get_mut(views[l]) {
+                if let Some(h) = self.counts.per_view_hits.0.get_mut(views[l]) {
                     *h += 1;
                 }
             }
@@ -165,24 +188,32 @@ impl<'a> Tracer<'a> {
         &mut self,
         packet: &Packet<K>,
         hits: &PacketHits<K>,
+        secondary: SecondaryRays,
     ) -> [Color; K] {
         let lanes = packet.mask.count_ones() as u64;
         if lanes > 1 {
             self.counts.grouped_samples += lanes;
         }
-        self.shade(packet, hits, 1, [1.0; K])
+        let mut tree = ShadingTree::new(secondary);
+        self.shade(packet, hits, 1, [1.0; K], &mut tree)
     }
 
     /// Shades one eye ray's known hit (lane 0 of `packet`) and keeps what other
     /// views may reuse of it (`Donor`), in `donor` (its buffers are reused).
-    pub fn shade_donor(&mut self, packet: &Packet<1>, hits: &PacketHits<1>, donor: &mut Donor) {
+    pub fn shade_donor(
+        &mut self,
+        packet: &Packet<1>,
+        hits: &PacketHits<1>,
+        secondary: SecondaryRays,
+        donor: &mut Donor,
+    ) {
         donor.through.clear();
         donor.through.resize(self.world.scene.lights.len(), 0.0);
         donor.secondary = Color::ZERO;
-        self.tree_coefficient = 0.0;
+        let mut tree = ShadingTree::new(secondary);
         let record = Some((&mut donor.through[..], &mut donor.secondary));
-        donor.color = self.shade_stages(packet, hits, 1, [1.0], record)[0];
-        donor.tree_coefficient = self.tree_coefficient;
+        donor.color = self.shade_stages(packet, hits, 1, [1.0], &mut tree, record)[0];
+        donor.tree_coefficient = tree.largest_coefficient;
     }
 
     /// The colour of an eye ray's own hit (lane 0), its lights' visibility and
@@ -195,7 +226,9 @@ impl<'a> Tracer<'a> {
         hits: &PacketHits<1>,
         donor: &Donor,
     ) -> Color {
-        let s = self.surfaces(packet, hits, self.settings.max_depth, [1.0]);
+        // At the deepest level: no secondary ray is spawned (the donor's are taken).
+        let mut tree = ShadingTree::new(SecondaryRays::Own);
+        let s = self.surfaces(packet, hits, self.settings.max_depth, [1.0], &mut tree);
         let mut out = s.ambient[0];
         let Some(sp) = &s.points[0] else { return out };
         if s.lit & 1 == 0 {
@@ -266,9 +299,10 @@ impl<'a> Tracer<'a> {
         packet: &Packet<K>,
         level: u32,
         weights: [f32; K],
+        tree: &mut ShadingTree,
     ) -> [Color; K] {
         let hits = self.closest(packet);
-        self.shade(packet, &hits, level, weights)
+        self.shade(packet, &hits, level, weights, tree)
     }
 
     /// Whitted shading of a packet's hits, in three stages: the surfaces hit
@@ -281,8 +315,9 @@ impl<'a> Tracer<'a> {
         hits: &PacketHits<K>,
         level: u32,
         weights: [f32; K],
+        tree: &mut ShadingTree,
     ) -> [Color; K] {
-        self.shade_stages(packet, hits, level, weights, None)
+        self.shade_stages(packet, hits, level, weights, tree, None)
     }
 
     /// `shade`'s stages; with `record`, lane 0's transmittance toward each light
@@ -293,14 +328,15 @@ impl<'a> Tracer<'a> {
         hits: &PacketHits<K>,
         level: u32,
         weights: [f32; K],
+        tree: &mut ShadingTree,
         record: Option<(&mut [f32], &mut Color)>,
     ) -> [Color; K] {
         let (through, secondary) = record.unzip();
-        let surfaces = self.surfaces(packet, hits, level, weights);
+        let surfaces = self.surfaces(packet, hits, level, weights, tree);
         let mut out = surfaces.ambient;
         self.direct_light(packet, &surfaces, &mut out, through);
         if level < self.settings.max_depth {
-            self.secondary(&surfaces, level, &weights, &mut out, secondary);
+            self.secondary(&surfaces, level, &weights, tree, &mut out, secondary);
         }
         out
     }
@@ -313,6 +349,7 @@ impl<'a> Tracer<'a> {
         hits: &PacketHits<K>,
         level: u32,
         weights: [f32; K],
+        tree: &mut ShadingTree,
     ) -> Surfaces<'a, K> {
         let world = self.world;
         let scene = &world.scene;
@@ -339,8 +376,8 @@ impl<'a> Tracer<'a> {
             let point = packet.origins[l] + d * hit.t;
             let surface = scene.surface_at(prim, hit, point);
             let (material, normal) = (surface.material, surface.normal);
-            self.tree_coefficient = self
-                .tree_coefficient
+            tree.largest_coefficient = tree
+                .largest_coefficient
                 .max(material.ks.max(material.mirror).max(material.t));
             let facing = if normal.dot(d) < 0.0 { normal } else { -normal };
             let sp = SurfacePoint {
@@ -518,6 +555,7 @@ impl<'a> Tracer<'a> {
         s: &Surfaces<'a, K>,
         level: u32,
         weights: &[f32; K],
+        tree: &mut ShadingTree,
         out: &mut [Color; K],
         mut record: Option<&mut Color>,
     ) {
@@ -525,10 +563,11 @@ impl<'a> Tracer<'a> {
             if spawns.iter().all(Option::is_none) {
                 continue;
             }
-            let c = if self.merge_secondary {
-                self.trace_spawned_merged(s, spawns, level + 1, weights)
-            } else {
-                self.trace_spawned(spawns, level + 1, weights)
+            let c = match tree.secondary {
+                SecondaryRays::MergedOnPlanes => {
+                    self.trace_spawned_merged(s, spawns, level + 1, weights, tree)
+                }
+                SecondaryRays::Own => self.trace_spawned(spawns, level + 1, weights, tree),
             };
             for l in 0..K {
                 if let Some(sp) = spawns[l] {
@@ -560,6 +599,7 @@ impl<'a> Tracer<'a> {
         spawns: &[Option<Spawn>; K],
         level: u32,
         weights: &[f32; K],
+        tree: &mut ShadingTree,
     ) -> [Color; K] {
         let mut packet = Packet {
             origins: [Vec3::ZERO; K],
@@ -596,10 +636,10 @@ impl<'a> Tracer<'a> {
                 mask: 1,
             };
             let mut out = [Color::ZERO; K];
-            out[l] = self.trace::<1>(&single, level, [child_weights[l]])[0];
+            out[l] = self.trace::<1>(&single, level, [child_weights[l]], tree)[0];
             return out;
         }
-        self.trace(&packet, level, child_weights)
+        self.trace(&packet, level, child_weights, tree)
     }
 
     /// The paper's section 2.4 (approximate): lanes whose hits lie on one planar
@@ -613,6 +653,7 @@ impl<'a> Tracer<'a> {
         spawns: &[Option<Spawn>; K],
         level: u32,
         weights: &[f32; K],
+        tree: &mut ShadingTree,
     ) -> [Color; K] {
         let mut rest = *spawns;
         let mut out = [Color::ZERO; K];
@@ -660,7 +701,7 @@ impl<'a> Tracer<'a> {
                 t_max: [f32::INFINITY],
                 mask: 1,
             };
-            let c = self.trace::<1>(&single, level, [weight])[0];
+            let c = self.trace::<1>(&single, level, [weight], tree)[0];
             self.counts.merged_rays += (count - 1) as u64;
             let mut each = members;
             while each != 0 {
@@ -671,7 +712,7 @@ impl<'a> Tracer<'a> {
             }
         }
         if rest.iter().any(Option::is_some) {
-            let c = self.trace_spawned(&rest, level, weights);
+            let c = self.trace_spawned(&rest, level, weights, tree);
             for l in 0..K {
                 if rest[l].is_some() {
                     out[l] = c[l];

@@ -30,7 +30,7 @@ use std::time::Instant;
 
 use super::grouping::{group_row, nearest_sample, Group};
 use super::sampler::{RowColors, SampleRow};
-use super::tracer::Donor;
+use super::tracer::{Donor, SecondaryRays};
 use super::{
     RenderInputs, ReprojectMode, Reprojection, RowWorker, SharedShading, Tracer, ViewBatch,
 };
@@ -47,9 +47,10 @@ const NONE: SurfaceHit = SurfaceHit {
     v: 0.0,
 };
 
-/// What every row of a batch of views shares: the scene, the batch's views
-/// (a rig of their own: its view 0 leads the groups) and their eyes.
-pub(super) struct RowSetup<'a, const K: usize> {
+/// A twin batch: some neighbouring views of the rig traced together, one
+/// packet lane per view, and what every row of them shares: the scene, the
+/// batch's views (a rig of their own: its view 0 leads the groups) and their eyes.
+pub(super) struct TwinBatch<'a, const K: usize> {
     world: &'a World,
     camera: &'a Camera,
     rig: Rig,
@@ -61,7 +62,7 @@ pub(super) struct RowSetup<'a, const K: usize> {
     min_shift: i32,
     max_shift: i32,
     reproject: Option<Reprojection>,
-    merge_secondary: bool,
+    secondary: SecondaryRays,
     /// `--share-shading`: the rig's shading cache, and its tolerance.
     shared_shading: Option<SharedShading>,
 }
@@ -114,10 +115,10 @@ impl<const K: usize> RowScratch<K> {
     }
 }
 
-impl<'a, const K: usize> RowSetup<'a, K> {
-    /// The setup of the views `first_view..first_view + rig.views.len()` of a
+impl<'a, const K: usize> TwinBatch<'a, K> {
+    /// The twin batch of the views `first_view..first_view + rig.views.len()` of a
     /// job, `rig` holding just them.
-    pub(super) fn new(job: &RenderInputs<'a>, rig: Rig, first_view: usize) -> RowSetup<'a, K> {
+    pub(super) fn new(job: &RenderInputs<'a>, rig: Rig, first_view: usize) -> TwinBatch<'a, K> {
         let camera = job.camera;
         let n = rig.views.len();
         let mut origins = [camera.eye; K];
@@ -125,7 +126,7 @@ impl<'a, const K: usize> RowSetup<'a, K> {
             origins[v] = camera.eye_at(view.offset);
         }
         let shifts: Vec<i32> = rig.views.iter().map(|v| v.shift).collect();
-        RowSetup {
+        TwinBatch {
             world: job.world,
             camera,
             views: n,
@@ -136,17 +137,21 @@ impl<'a, const K: usize> RowSetup<'a, K> {
             shifts,
             rig,
             reproject: job.opts.approx.reproject,
-            merge_secondary: job.opts.approx.merge_secondary,
+            secondary: if job.opts.approx.merge_secondary {
+                SecondaryRays::MergedOnPlanes
+            } else {
+                SecondaryRays::Own
+            },
             shared_shading: job.opts.approx.shared_shading,
         }
     }
 
-    fn dir(&self, s: &RowScratch<K>, view: usize, sample: usize) -> Vec3 {
-        s.dirs[view][sample]
+    fn dir(&self, scratch: &RowScratch<K>, view: usize, sample: usize) -> Vec3 {
+        scratch.dirs[view][sample]
     }
 
-    fn has_hit(s: &RowScratch<K>, view: usize, sample: usize) -> bool {
-        s.hits[view][sample].0 != PacketHits::<K>::NO_HIT
+    fn has_hit(scratch: &RowScratch<K>, view: usize, sample: usize) -> bool {
+        scratch.hits[view][sample].0 != PacketHits::<K>::NO_HIT
     }
 
     /// View `v`'s eye ray direction through sample `i` of `row`.
@@ -160,28 +165,28 @@ impl<'a, const K: usize> RowSetup<'a, K> {
     /// (section 2.3), the objects beyond it are tested once per camera column,
     /// by the ray of the rig's centre: every view sees them as the centre does
     /// (their parallax is that of objects at infinity).
-    fn eye_pass(&self, tracer: &mut Tracer, row: &SampleRow, s: &mut RowScratch<K>) {
+    fn eye_pass(&self, tracer: &mut Tracer, row: &SampleRow, scratch: &mut RowScratch<K>) {
         let n = self.views;
-        s.reset(n, row.len());
+        scratch.reset(n, row.len());
         for v in 0..n {
             for i in 0..row.len() {
-                s.dirs[v][i] = self.sample_dir(row, v, i);
+                scratch.dirs[v][i] = self.sample_dir(row, v, i);
             }
         }
         let cut = self.world.far.is_some();
         if cut {
-            s.first_column = row.pixels.first().copied().unwrap_or(0) + self.min_shift;
+            scratch.first_column = row.pixels.first().copied().unwrap_or(0) + self.min_shift;
             let last = row.pixels.last().copied().unwrap_or(0) + self.max_shift;
-            let columns = (last - s.first_column + 1).max(0) as usize;
-            s.far_rays.clear();
-            s.far_rays.resize(columns, None);
+            let columns = (last - scratch.first_column + 1).max(0) as usize;
+            scratch.far_rays.clear();
+            scratch.far_rays.resize(columns, None);
         }
         let all = if n == 32 { u32::MAX } else { (1u32 << n) - 1 };
         let view_of_lane: [usize; K] = std::array::from_fn(|l| self.first_view + l);
         for i in 0..row.len() {
             let mut packet = Packet {
                 origins: self.origins,
-                dirs: std::array::from_fn(|v| if v < n { s.dirs[v][i] } else { Vec3::Z }),
+                dirs: std::array::from_fn(|v| if v < n { scratch.dirs[v][i] } else { Vec3::Z }),
                 t_min: self.camera.hither,
                 t_max: [f32::INFINITY; K],
                 mask: all,
@@ -189,16 +194,16 @@ impl<'a, const K: usize> RowSetup<'a, K> {
             let h = if cut {
                 let mut far = [(PacketHits::<K>::NO_HIT, NONE); K];
                 for (v, slot) in far.iter_mut().enumerate().take(n) {
-                    let (_, prim, hit) = self.far_ray(tracer, row, s, v, i);
+                    let (_, prim, hit) = self.far_ray(tracer, row, scratch, v, i);
                     *slot = (prim, hit);
                     packet.t_max[v] = hit.t;
                 }
                 let mut h = tracer.eye_hits_split(&packet, true);
                 for (v, &(prim, hit)) in far.iter().enumerate().take(n) {
-                    s.far[v][i] = false;
+                    scratch.far[v][i] = false;
                     if !h.has_hit(v) && prim != PacketHits::<K>::NO_HIT {
                         (h.prim[v], h.hit[v]) = (prim, hit);
-                        s.far[v][i] = true;
+                        scratch.far[v][i] = true;
                     }
                 }
                 tracer.count_eye_hits(&packet, &h, &view_of_lane);
@@ -207,8 +212,8 @@ impl<'a, const K: usize> RowSetup<'a, K> {
                 tracer.eye_hits(&packet, &view_of_lane)
             };
             for v in 0..n {
-                s.hits[v][i] = (h.prim[v], h.hit[v]);
-                s.points[v][i] = (h.has_hit(v) && !(cut && s.far[v][i]))
+                scratch.hits[v][i] = (h.prim[v], h.hit[v]);
+                scratch.points[v][i] = (h.has_hit(v) && !(cut && scratch.far[v][i]))
                     .then(|| self.origins[v] + packet.dirs[v] * h.hit[v].t);
             }
         }
@@ -221,25 +226,25 @@ impl<'a, const K: usize> RowSetup<'a, K> {
         &self,
         tracer: &mut Tracer,
         row: &SampleRow,
-        s: &mut RowScratch<K>,
+        scratch: &mut RowScratch<K>,
         v: usize,
         i: usize,
     ) -> (Vec3, u32, SurfaceHit) {
-        let c = self.column(s, row, v, i);
-        if let Some(known) = s.far_rays[c] {
+        let c = self.column(scratch, row, v, i);
+        if let Some(known) = scratch.far_rays[c] {
             return known;
         }
-        let (column, y) = row.centre_point(s.first_column + c as i32);
+        let (column, y) = row.centre_point(scratch.first_column + c as i32);
         let dir = self.camera.direction(column, y);
         let h = tracer.eye_hits_split(&self.centre_ray(dir), false);
         let known = (dir, h.prim[0], h.hit[0]);
-        s.far_rays[c] = Some(known);
+        scratch.far_rays[c] = Some(known);
         known
     }
 
     /// Camera column (from `first_column`) that view `view`'s sample `i` looks along.
-    fn column(&self, s: &RowScratch<K>, row: &SampleRow, view: usize, i: usize) -> usize {
-        (row.pixels[i] + self.shifts[view] - s.first_column) as usize
+    fn column(&self, scratch: &RowScratch<K>, row: &SampleRow, view: usize, i: usize) -> usize {
+        (row.pixels[i] + self.shifts[view] - scratch.first_column) as usize
     }
 
     /// With a cut: the samples whose nearest hit lies beyond it take the shading
@@ -249,24 +254,24 @@ impl<'a, const K: usize> RowSetup<'a, K> {
         &self,
         tracer: &mut Tracer,
         row: &SampleRow,
-        s: &mut RowScratch<K>,
+        scratch: &mut RowScratch<K>,
         out: &mut [RowColors],
     ) {
         if self.world.far.is_none() {
             return;
         }
-        s.far_colors.clear();
-        s.far_colors.resize(s.far_rays.len(), None);
+        scratch.far_colors.clear();
+        scratch.far_colors.resize(scratch.far_rays.len(), None);
         for (v, view_out) in out.iter_mut().enumerate().take(self.views) {
             for (i, sample_out) in view_out.iter_mut().enumerate() {
-                if !s.far[v][i] {
+                if !scratch.far[v][i] {
                     continue;
                 }
-                let c = self.column(s, row, v, i);
-                let color = match s.far_colors[c] {
+                let c = self.column(scratch, row, v, i);
+                let color = match scratch.far_colors[c] {
                     Some(color) => color,
                     None => {
-                        let Some((dir, prim, hit)) = s.far_rays[c] else {
+                        let Some((dir, prim, hit)) = scratch.far_rays[c] else {
                             continue; // not reached: a far sample traced its column
                         };
                         let centre = self.centre_ray(dir);
@@ -274,8 +279,8 @@ impl<'a, const K: usize> RowSetup<'a, K> {
                             prim: [prim],
                             hit: [hit],
                         };
-                        let color = tracer.shade_eye(&centre, &hits)[0];
-                        s.far_colors[c] = Some(color);
+                        let color = tracer.shade_eye(&centre, &hits, self.secondary)[0];
+                        scratch.far_colors[c] = Some(color);
                         color
                     }
                 };
@@ -286,18 +291,22 @@ impl<'a, const K: usize> RowSetup<'a, K> {
     }
 
     /// Stage 2: the groups of samples that see one point.
-    fn group(&self, row: &SampleRow, s: &mut RowScratch<K>) {
+    fn group(&self, row: &SampleRow, scratch: &mut RowScratch<K>) {
         let (camera, rig) = (self.camera, &self.rig);
         group_row(
-            &s.points,
+            &scratch.points,
             |v, i, p| nearest_sample(camera, row, &rig.views[v], p, i),
-            &mut s.claimed,
-            &mut s.groups,
+            &mut scratch.claimed,
+            &mut scratch.groups,
         );
     }
 
     /// The eye rays of a group's samples as one packet, with their known hits.
-    fn group_packet(&self, s: &RowScratch<K>, group: &Group<K>) -> (Packet<K>, PacketHits<K>) {
+    fn group_packet(
+        &self,
+        scratch: &RowScratch<K>,
+        group: &Group<K>,
+    ) -> (Packet<K>, PacketHits<K>) {
         let mut packet = Packet {
             origins: self.origins,
             dirs: [Vec3::Z; K],
@@ -312,8 +321,8 @@ impl<'a, const K: usize> RowSetup<'a, K> {
         for (v, sample) in group.iter().enumerate() {
             if let Some(i) = *sample {
                 packet.mask |= 1 << v;
-                packet.dirs[v] = self.dir(s, v, i);
-                (hits.prim[v], hits.hit[v]) = s.hits[v][i];
+                packet.dirs[v] = self.dir(scratch, v, i);
+                (hits.prim[v], hits.hit[v]) = scratch.hits[v][i];
             }
         }
         (packet, hits)
@@ -322,13 +331,13 @@ impl<'a, const K: usize> RowSetup<'a, K> {
     /// One view's sample as a packet of one lane, with its known hit.
     fn sample_packet(
         &self,
-        s: &RowScratch<K>,
+        scratch: &RowScratch<K>,
         view: usize,
         i: usize,
     ) -> (Packet<1>, PacketHits<1>) {
-        let (prim, hit) = s.hits[view][i];
+        let (prim, hit) = scratch.hits[view][i];
         (
-            self.eye_ray(self.origins[view], self.dir(s, view, i)),
+            self.eye_ray(self.origins[view], self.dir(scratch, view, i)),
             PacketHits {
                 prim: [prim],
                 hit: [hit],
@@ -356,14 +365,14 @@ impl<'a, const K: usize> RowSetup<'a, K> {
     fn shade_group(
         &self,
         tracer: &mut Tracer,
-        s: &RowScratch<K>,
+        scratch: &RowScratch<K>,
         group: &Group<K>,
         out: &mut [RowColors],
     ) {
         // Samples whose hit lies beyond a cut are shaded already (`shade_cut`).
         let mut group = *group;
         for (v, sample) in group.iter_mut().enumerate() {
-            if sample.is_some_and(|i| s.far[v][i]) {
+            if sample.is_some_and(|i| scratch.far[v][i]) {
                 *sample = None;
             }
         }
@@ -371,7 +380,7 @@ impl<'a, const K: usize> RowSetup<'a, K> {
         let missed = group
             .iter()
             .enumerate()
-            .all(|(v, sample)| sample.is_none_or(|i| !Self::has_hit(s, v, i)));
+            .all(|(v, sample)| sample.is_none_or(|i| !Self::has_hit(scratch, v, i)));
         if missed {
             for (v, sample) in group.iter().enumerate() {
                 if let Some(i) = *sample {
@@ -380,8 +389,8 @@ impl<'a, const K: usize> RowSetup<'a, K> {
             }
             return;
         }
-        let (packet, hits) = self.group_packet(s, group);
-        let colors = tracer.shade_eye(&packet, &hits);
+        let (packet, hits) = self.group_packet(scratch, group);
+        let colors = tracer.shade_eye(&packet, &hits, self.secondary);
         for (v, sample) in group.iter().enumerate() {
             if let Some(i) = *sample {
                 out[v][i] = colors[v];
@@ -390,24 +399,24 @@ impl<'a, const K: usize> RowSetup<'a, K> {
     }
 
     /// Stage 3: every group shaded as one packet (exact).
-    fn shade_groups(&self, tracer: &mut Tracer, s: &RowScratch<K>, out: &mut [RowColors]) {
-        for group in &s.groups {
-            self.shade_group(tracer, s, group, out);
+    fn shade_groups(&self, tracer: &mut Tracer, scratch: &RowScratch<K>, out: &mut [RowColors]) {
+        for group in &scratch.groups {
+            self.shade_group(tracer, scratch, group, out);
         }
     }
 
     /// Whether view `v`'s sample `k` sees the surface point that view 0's
     /// sample `i` sees: the same primitive (or one plane of one material) and
     /// within one pixel's footprint on the surface.
-    fn same_point(&self, s: &RowScratch<K>, i: usize, v: usize, k: usize) -> bool {
-        let ((prim0, _), (prim, hit)) = (s.hits[0][i], s.hits[v][k]);
-        let (Some(p0), Some(p)) = (s.points[0][i], s.points[v][k]) else {
+    fn same_point(&self, scratch: &RowScratch<K>, i: usize, v: usize, k: usize) -> bool {
+        let ((prim0, _), (prim, hit)) = (scratch.hits[0][i], scratch.hits[v][k]);
+        let (Some(p0), Some(p)) = (scratch.points[0][i], scratch.points[v][k]) else {
             return false;
         };
         if prim != prim0 && !self.world.coplanar(prim0, prim) {
             return false;
         }
-        let d = self.dir(s, v, k);
+        let d = self.dir(scratch, v, k);
         let shape = &self.world.scene.shapes[prim as usize];
         let cos = shape.geometric_normal(p).dot(d).abs().max(0.05);
         let footprint = self.camera.pixel_size * hit.t / cos;
@@ -415,9 +424,9 @@ impl<'a, const K: usize> RowSetup<'a, K> {
     }
 
     /// Whether a sample's material may give its shading to other views.
-    fn diffuse_hit(&self, s: &RowScratch<K>, view: usize, i: usize, threshold: f32) -> bool {
-        Self::has_hit(s, view, i) && {
-            let m = self.world.material_of(s.hits[view][i].0);
+    fn diffuse_hit(&self, scratch: &RowScratch<K>, view: usize, i: usize, threshold: f32) -> bool {
+        Self::has_hit(scratch, view, i) && {
+            let m = self.world.material_of(scratch.hits[view][i].0);
             m.ks.max(m.mirror) <= threshold && m.t <= threshold
         }
     }
@@ -437,16 +446,16 @@ impl<'a, const K: usize> RowSetup<'a, K> {
     fn share_groups(
         &self,
         tracer: &mut Tracer,
-        s: &mut RowScratch<K>,
+        scratch: &mut RowScratch<K>,
         threshold: f32,
         out: &mut [RowColors],
     ) {
         let lights = self.world.scene.lights.len();
-        let width = s.hits[0].len();
-        let mut donor = std::mem::take(&mut s.donor);
-        let mut kept = std::mem::take(&mut s.kept);
+        let width = scratch.hits[0].len();
+        let mut donor = std::mem::take(&mut scratch.donor);
+        let mut kept = std::mem::take(&mut scratch.kept);
         kept.reset(width, lights);
-        for group in &s.groups {
+        for group in &scratch.groups {
             // A group none of whose other samples sees view 0's point keeps its
             // shared descents: it is shaded as one packet.
             let takers = |i: usize| {
@@ -454,19 +463,19 @@ impl<'a, const K: usize> RowSetup<'a, K> {
                     .iter()
                     .enumerate()
                     .skip(1)
-                    .any(|(v, k)| k.is_some_and(|k| self.same_point(s, i, v, k)))
+                    .any(|(v, k)| k.is_some_and(|k| self.same_point(scratch, i, v, k)))
             };
             match group[0] {
-                Some(i) if self.diffuse_hit(s, 0, i, threshold) && takers(i) => {
-                    let (packet, hits) = self.sample_packet(s, 0, i);
-                    tracer.shade_donor(&packet, &hits, &mut donor);
+                Some(i) if self.diffuse_hit(scratch, 0, i, threshold) && takers(i) => {
+                    let (packet, hits) = self.sample_packet(scratch, 0, i);
+                    tracer.shade_donor(&packet, &hits, self.secondary, &mut donor);
                     out[0][i] = donor.color;
                     kept.keep(i, &donor, threshold);
                 }
-                _ => self.shade_group(tracer, s, group, out),
+                _ => self.shade_group(tracer, scratch, group, out),
             }
         }
-        for group in &s.groups {
+        for group in &scratch.groups {
             let Some(i) = group[0] else { continue };
             if !kept.donor[i] {
                 continue; // shaded as a whole group in step 1
@@ -475,8 +484,8 @@ impl<'a, const K: usize> RowSetup<'a, K> {
             let mut rest: Group<K> = [None; K];
             for (v, sample) in group.iter().enumerate().skip(1) {
                 let Some(k) = *sample else { continue };
-                if coherent && self.same_point(s, i, v, k) {
-                    let (packet, hits) = self.sample_packet(s, v, k);
+                if coherent && self.same_point(scratch, i, v, k) {
+                    let (packet, hits) = self.sample_packet(scratch, v, k);
                     donor.through.clear();
                     donor.through.extend_from_slice(kept.through(i));
                     donor.secondary = kept.secondary[i];
@@ -488,11 +497,11 @@ impl<'a, const K: usize> RowSetup<'a, K> {
                 }
             }
             if rest.iter().any(Option::is_some) {
-                self.shade_group(tracer, s, &rest, out);
+                self.shade_group(tracer, scratch, &rest, out);
             }
         }
-        s.donor = donor;
-        s.kept = kept;
+        scratch.donor = donor;
+        scratch.kept = kept;
     }
 
     /// Stage 4, the paper's reprojection as published (eq. 2.1), without the
@@ -507,33 +516,33 @@ impl<'a, const K: usize> RowSetup<'a, K> {
         &self,
         tracer: &mut Tracer,
         row: &SampleRow,
-        s: &mut RowScratch<K>,
+        scratch: &mut RowScratch<K>,
         threshold: f32,
         out: &mut [RowColors],
     ) {
         let n = self.views;
-        s.reset(n, row.len());
-        let mut donor = std::mem::take(&mut s.donor);
+        scratch.reset(n, row.len());
+        let mut donor = std::mem::take(&mut scratch.donor);
         for v in 0..n {
             for i in 0..row.len() {
-                s.dirs[v][i] = self.sample_dir(row, v, i);
+                scratch.dirs[v][i] = self.sample_dir(row, v, i);
             }
         }
         // View 0's eye rays, one at a time (a mono render of view 0).
         for (i, sample_out) in out[0].iter_mut().enumerate() {
-            let packet = self.eye_ray(self.origins[0], s.dirs[0][i]);
+            let packet = self.eye_ray(self.origins[0], scratch.dirs[0][i]);
             let hits = tracer.eye_hits(&packet, &[self.first_view]);
-            s.hits[0][i] = (hits.prim[0], hits.hit[0]);
+            scratch.hits[0][i] = (hits.prim[0], hits.hit[0]);
             if !hits.has_hit(0) {
                 *sample_out = self.world.scene.background;
                 continue;
             }
-            let diffuse = self.diffuse_hit(s, 0, i, threshold);
+            let diffuse = self.diffuse_hit(scratch, 0, i, threshold);
             let color = if diffuse {
-                tracer.shade_donor(&packet, &hits, &mut donor);
+                tracer.shade_donor(&packet, &hits, self.secondary, &mut donor);
                 donor.color
             } else {
-                tracer.shade_eye(&packet, &hits)[0]
+                tracer.shade_eye(&packet, &hits, self.secondary)[0]
             };
             *sample_out = color;
             let gives = diffuse && donor.tree_coefficient <= threshold;
@@ -544,30 +553,30 @@ impl<'a, const K: usize> RowSetup<'a, K> {
                     continue;
                 };
                 let depth = self.camera.depth_of(point, view.offset);
-                if s.received[v][k].is_none_or(|(d, _)| depth < d) {
-                    s.received[v][k] = Some((depth, gives.then_some(color)));
+                if scratch.received[v][k].is_none_or(|(d, _)| depth < d) {
+                    scratch.received[v][k] = Some((depth, gives.then_some(color)));
                 }
             }
         }
         // The other views: received colours, and eye rays for the holes.
         for (v, view_out) in out.iter_mut().enumerate().take(n).skip(1) {
             for (k, sample_out) in view_out.iter_mut().enumerate() {
-                if let Some((_, Some(color))) = s.received[v][k] {
+                if let Some((_, Some(color))) = scratch.received[v][k] {
                     *sample_out = color;
                     tracer.counts.reprojected += 1;
                     continue;
                 }
-                let packet = self.eye_ray(self.origins[v], s.dirs[v][k]);
+                let packet = self.eye_ray(self.origins[v], scratch.dirs[v][k]);
                 let hits = tracer.eye_hits(&packet, &[self.first_view + v]);
                 *sample_out = if hits.has_hit(0) {
-                    tracer.shade_eye(&packet, &hits)[0]
+                    tracer.shade_eye(&packet, &hits, self.secondary)[0]
                 } else {
                     self.world.scene.background
                 };
                 tracer.counts.hole_samples += 1;
             }
         }
-        s.donor = donor;
+        scratch.donor = donor;
     }
 
     /// Every stage for one row of samples: `out[v][i]` is view `v`'s colour
@@ -576,64 +585,63 @@ impl<'a, const K: usize> RowSetup<'a, K> {
         &self,
         tracer: &mut Tracer,
         row: &SampleRow,
-        s: &mut RowScratch<K>,
+        scratch: &mut RowScratch<K>,
         out: &mut [RowColors],
     ) {
-        tracer.merge_secondary = self.merge_secondary;
         let start = Instant::now();
         let paper = matches!(self.reproject, Some(r) if r.mode == ReprojectMode::Paper);
         if !paper {
-            self.eye_pass(tracer, row, s);
+            self.eye_pass(tracer, row, scratch);
         }
         let eye_pass = start.elapsed();
-        self.shade_cut(tracer, row, s, out);
+        self.shade_cut(tracer, row, scratch, out);
         match self.reproject {
             _ if !paper && self.shared_shading.is_some() => {
                 let tolerance = self.shared_shading.map_or(0.0, |sh| sh.tolerance);
-                self.group(row, s);
-                self.share_shading(tracer, row, s, tolerance, out);
+                self.group(row, scratch);
+                self.share_shading(tracer, row, scratch, tolerance, out);
             }
             None => {
-                self.group(row, s);
-                self.shade_groups(tracer, s, out);
+                self.group(row, scratch);
+                self.shade_groups(tracer, scratch, out);
             }
             Some(Reprojection {
                 mode: ReprojectMode::Safe,
                 threshold,
             }) => {
-                self.group(row, s);
-                self.share_groups(tracer, s, threshold, out);
+                self.group(row, scratch);
+                self.share_groups(tracer, scratch, threshold, out);
             }
             Some(Reprojection {
                 mode: ReprojectMode::Paper,
                 threshold,
-            }) => self.reproject_forward(tracer, row, s, threshold, out),
+            }) => self.reproject_forward(tracer, row, scratch, threshold, out),
         }
         tracer.counts.eye_pass_ns += eye_pass.as_nanos() as u64;
         tracer.counts.shading_pass_ns += (start.elapsed() - eye_pass).as_nanos() as u64;
     }
 }
 
-/// The twin method's worker: a batch's setup and its scratch space.
+/// The twin method's worker: a twin batch and its scratch space.
 struct TwinWorker<'s, 'a, const K: usize> {
-    setup: &'s RowSetup<'a, K>,
+    batch: &'s TwinBatch<'a, K>,
     scratch: RowScratch<K>,
 }
 
 impl<const K: usize> RowWorker for TwinWorker<'_, '_, K> {
     fn trace(&mut self, tracer: &mut Tracer, row: &SampleRow, out: &mut [RowColors]) {
-        self.setup.trace_row(tracer, row, &mut self.scratch, out);
+        self.batch.trace_row(tracer, row, &mut self.scratch, out);
     }
 }
 
-impl<const K: usize> ViewBatch for RowSetup<'_, K> {
+impl<const K: usize> ViewBatch for TwinBatch<'_, K> {
     fn view_count(&self) -> usize {
         self.views
     }
 
     fn worker(&self) -> Box<dyn RowWorker + '_> {
         Box::new(TwinWorker {
-            setup: self,
+            batch: self,
             scratch: RowScratch::<K>::default(),
         })
     }
@@ -724,9 +732,9 @@ mod tests {
             progress: &|_, _| {},
             cancel: &super::super::CancelToken::new(),
         };
-        let setup = RowSetup::<2>::new(&job, rig.clone(), 0);
+        let batch = TwinBatch::<2>::new(&job, rig.clone(), 0);
         let width = camera.width as usize;
-        let mut s = RowScratch::<2>::default();
+        let mut scratch = RowScratch::<2>::default();
         let mut tracer = Tracer::new(&world, RenderOptions::default().trace);
         let (mut pairs, mut same) = (0, 0);
         for y in 0..camera.height {
@@ -737,12 +745,12 @@ mod tests {
                     y: y as f32,
                 },
             );
-            setup.eye_pass(&mut tracer, &row, &mut s);
-            setup.group(&row, &mut s);
-            for group in &s.groups {
+            batch.eye_pass(&mut tracer, &row, &mut scratch);
+            batch.group(&row, &mut scratch);
+            for group in &scratch.groups {
                 if let [Some(i), Some(k)] = *group {
                     pairs += 1;
-                    if setup.same_point(&s, i, 1, k) {
+                    if batch.same_point(&scratch, i, 1, k) {
                         same += 1;
                     }
                 }

@@ -14,7 +14,8 @@ pub struct Camera {
     pub eye: Vec3,
     /// Unit view direction.
     pub forward: Vec3,
-    /// Unit right axis, `normalize(cross(forward, up))`: the interocular line.
+    /// Unit right axis, `normalize(cross(forward, up))`: the line the views'
+    /// eyes lie on, the interaxial's direction.
     pub right: Vec3,
     /// Unit up axis of the image plane.
     pub up: Vec3,

@@ -13,7 +13,7 @@
 //! pair the budget is for (docs/decisions.md; a Looking Glass's 35° view cone
 //! over 48 views gives about +2 % per adjacent pair at infinity).
 //!
-//! **The arithmetic.** With `f` the focal length in pixels, `b` the spacing of
+//! **The arithmetic.** With `f` the focal length in pixels, `b` the interaxial of
 //! adjacent views and `T` the rig's whole-pixel shift between the outer views
 //! (`m = N − 1` gaps), a point at depth `z` has the adjacent disparity
 //! `p(z) = T/m − f·b/z` (see `rig.rs`: the shift is rounded to whole pixels,
@@ -30,10 +30,10 @@
 //!   in the budget's proportions (exceeding it when the range is too deep for
 //!   that interaxial; the report says so);
 //! * a view cone (`--view-cone`): the outer views `2·C·tan(cone/2)` apart, so
-//!   the spacing follows the convergence; automatic convergence again places
+//!   the interaxial follows the convergence; automatic convergence again places
 //!   the range in the budget's proportions.
 //!
-//! An automatic spacing never puts the outer views farther apart than the
+//! An automatic interaxial never puts the outer views farther apart than the
 //! nearest visible depth (a convergence angle of 53°): without that cap a scene
 //! with no depth range (one wall facing the camera) would allow any interaxial.
 
@@ -48,9 +48,9 @@ use super::{Camera, Rig, View};
 use crate::world::World;
 use crate::{Error, Result};
 
-/// How the spacing of the views is chosen.
+/// How the interaxial of the views is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Spacing {
+pub enum InteraxialRequest {
     /// Fitted to the depth budget.
     Auto,
     /// Adjacent views this far apart (scene units): `--interaxial B`.
@@ -77,7 +77,7 @@ pub enum Convergence {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigRequest {
     pub views: usize,
-    pub spacing: Spacing,
+    pub interaxial: InteraxialRequest,
     pub convergence: Convergence,
     pub budget: DepthBudget,
     /// The distance to the scene's `at` point: the convergence when nothing
@@ -88,7 +88,7 @@ pub struct RigRequest {
 impl RigRequest {
     /// Whether choosing the rig needs the visible depth range.
     pub fn needs_depth(&self) -> bool {
-        matches!(self.spacing, Spacing::Auto)
+        matches!(self.interaxial, InteraxialRequest::Auto)
             || matches!(self.convergence, Convergence::Auto | Convergence::Nearest)
     }
 }
@@ -118,12 +118,12 @@ impl RigChoice {
     }
 }
 
-/// A safety margin on fitted spacings: the rig stores the spacing as an
+/// A safety margin on fitted interaxials: the rig stores the interaxial as an
 /// `f32` and recomputes the shift from it, so a value exactly on a limit could
 /// round across it.
 const MARGIN: f64 = 1.0 - 1e-6;
 
-/// Chooses the spacing and convergence `req` asks for, fitted where asked to
+/// Chooses the interaxial and convergence `req` asks for, fitted where asked to
 /// the visible depths `range` (`None`: nothing visible). Explicit values are
 /// returned as they are; the report (`disparity`) then says how they fit.
 pub fn choose_rig(
@@ -152,7 +152,7 @@ fn check_fits_the_image(camera: &Camera, req: &RigRequest) -> Result<i64> {
         )));
     }
     let max_total = (2 * i64::from(camera.width) - 2).max(0);
-    if let Spacing::ViewCone(cone) = req.spacing {
+    if let InteraxialRequest::ViewCone(cone) = req.interaxial {
         // Whatever the convergence, the outer views are shifted
         // 2·f·tan(cone/2) pixels apart.
         let total = (2.0 * camera.focal_pixels() * (cone.to_radians() / 2.0).tan()).round();
@@ -173,10 +173,10 @@ impl RigChoice {
         RigChoice {
             interaxial: 0.0,
             convergence: None,
-            interaxial_from: match req.spacing {
-                Spacing::Auto => "auto",
-                Spacing::Distance(_) => "explicit",
-                Spacing::ViewCone(_) => "view-cone",
+            interaxial_from: match req.interaxial {
+                InteraxialRequest::Auto => "auto",
+                InteraxialRequest::Distance(_) => "explicit",
+                InteraxialRequest::ViewCone(_) => "view-cone",
             },
             convergence_from: match req.convergence {
                 Convergence::Auto => "auto",
@@ -203,18 +203,18 @@ fn choose_without_depths(req: &RigRequest, mut choice: RigChoice) -> Result<RigC
             Some(req.fallback_distance)
         }
     };
-    let (spacing, why) = match req.spacing {
-        Spacing::Distance(b) => (f64::from(b), "as given".to_string()),
-        Spacing::ViewCone(cone) => {
+    let (interaxial, why) = match req.interaxial {
+        InteraxialRequest::Distance(interaxial) => (f64::from(interaxial), "as given".to_string()),
+        InteraxialRequest::ViewCone(cone) => {
             let c = convergence.ok_or_else(|| cone_needs_convergence(cone))?;
             (
-                cone_spacing(cone, c, gaps),
+                cone_interaxial(cone, c, gaps),
                 format!("a {cone}° view cone at {c:.4}"),
             )
         }
-        Spacing::Auto => {
+        InteraxialRequest::Auto => {
             // The stereographers' 1/30 rule on the distance to the scene's
-            // `at` point (capped like a fitted spacing).
+            // `at` point (capped like a fitted interaxial).
             let c = convergence.unwrap_or(req.fallback_distance);
             (
                 (c / 30.0).min(c / gaps),
@@ -225,7 +225,7 @@ fn choose_without_depths(req: &RigRequest, mut choice: RigChoice) -> Result<RigC
             )
         }
     };
-    choice.interaxial = spacing as f32;
+    choice.interaxial = interaxial as f32;
     choice.convergence = convergence;
     choice.reason = format!(
         "interaxial {}, convergence {}: {why}",
@@ -288,27 +288,27 @@ impl<'a> Fit<'a> {
     fn choose(&self, mut choice: RigChoice) -> Result<RigChoice> {
         choice.fitted_to = Some(self.range);
         let spread = self.inv_n - self.inv_f;
-        match (self.req.spacing, self.req.convergence) {
-            (Spacing::Auto, Convergence::Auto) if spread * self.range.near > 1e-6 => {
+        match (self.req.interaxial, self.req.convergence) {
+            (InteraxialRequest::Auto, Convergence::Auto) if spread * self.range.near > 1e-6 => {
                 self.auto_interaxial_and_convergence(choice)
             }
-            (Spacing::Auto, Convergence::Auto) => {
+            (InteraxialRequest::Auto, Convergence::Auto) => {
                 // No depth range to speak of: the cap decides, the convergence
                 // goes to the middle of the budget.
                 self.balance(choice, self.cap, "a scene without depth range (the cap: outer views no farther apart than the nearest point)")
             }
-            (Spacing::Auto, _) => Ok(self.auto_interaxial(choice)),
-            (Spacing::Distance(b), Convergence::Auto) => {
-                self.balance(choice, f64::from(b), "as given")
+            (InteraxialRequest::Auto, _) => Ok(self.auto_interaxial(choice)),
+            (InteraxialRequest::Distance(interaxial), Convergence::Auto) => {
+                self.balance(choice, f64::from(interaxial), "as given")
             }
-            (Spacing::ViewCone(cone), Convergence::Auto) => {
+            (InteraxialRequest::ViewCone(cone), Convergence::Auto) => {
                 Ok(self.cone_auto_convergence(choice, cone))
             }
-            (Spacing::ViewCone(cone), _) => {
+            (InteraxialRequest::ViewCone(cone), _) => {
                 let c = self
                     .fixed_convergence()
                     .ok_or_else(|| cone_needs_convergence(cone))?;
-                choice.interaxial = cone_spacing(cone, c, self.gaps) as f32;
+                choice.interaxial = cone_interaxial(cone, c, self.gaps) as f32;
                 choice.convergence = Some(c);
                 choice.reason = format!(
                     "interaxial {} from a {cone}° view cone at convergence {c:.4}",
@@ -316,11 +316,11 @@ impl<'a> Fit<'a> {
                 );
                 Ok(choice)
             }
-            (Spacing::Distance(b), _) => {
-                choice.interaxial = b;
+            (InteraxialRequest::Distance(interaxial), _) => {
+                choice.interaxial = interaxial;
                 choice.convergence = self.fixed_convergence();
                 choice.reason = format!(
-                    "interaxial {b} as given, convergence {} ({})",
+                    "interaxial {interaxial} as given, convergence {} ({})",
                     show_convergence(choice.convergence),
                     self.ends
                 );
@@ -330,19 +330,19 @@ impl<'a> Fit<'a> {
     }
 
     /// `balance_convergence` with this fit's inputs.
-    fn balance(&self, choice: RigChoice, spacing: f64, why: &str) -> Result<RigChoice> {
+    fn balance(&self, choice: RigChoice, interaxial: f64, why: &str) -> Result<RigChoice> {
         balance_convergence(
             self.camera,
             self.req,
             choice,
-            spacing,
+            interaxial,
             self.range,
             self.max_total,
             why,
         )
     }
 
-    /// Both automatic: the largest total shift whose fitted spacing keeps the
+    /// Both automatic: the largest total shift whose fitted interaxial keeps the
     /// far end inside, `T/m <= (n/z_f + r/z_n) / (1/z_n - 1/z_f)`.
     fn auto_interaxial_and_convergence(&self, mut choice: RigChoice) -> Result<RigChoice> {
         let (f, gaps, n, r) = (self.f, self.gaps, self.n, self.r);
@@ -350,8 +350,8 @@ impl<'a> Fit<'a> {
         let d_max = (n * self.inv_f + r * self.inv_n) / spread;
         let total = ((gaps * d_max).floor() as i64).clamp(0, self.max_total);
         let d = total as f64 / gaps;
-        let b = (d + n) * self.range.near / f * MARGIN;
-        if b > self.cap {
+        let interaxial = (d + n) * self.range.near / f * MARGIN;
+        if interaxial > self.cap {
             return self.balance(
                 choice,
                 self.cap,
@@ -359,8 +359,8 @@ impl<'a> Fit<'a> {
             );
         }
         let budget = self.req.budget;
-        choice.interaxial = b as f32;
-        choice.convergence = (total > 0).then(|| f * gaps * b / total as f64);
+        choice.interaxial = interaxial as f32;
+        choice.convergence = (total > 0).then(|| f * gaps * interaxial / total as f64);
         choice.reason = format!(
             "interaxial {} and convergence {}: the largest interaxial that puts the \
              nearest point at {} and the farthest within {} ({})",
@@ -378,13 +378,15 @@ impl<'a> Fit<'a> {
         let (f, gaps, n, r, cap) = (self.f, self.gaps, self.n, self.r, self.cap);
         let (zn, zf) = (self.range.near, self.range.far);
         let convergence = self.fixed_convergence();
-        let b = match convergence {
+        let interaxial = match convergence {
             None => (n * zn / f).min(cap) * MARGIN,
-            Some(c) => best_spacing_for_convergence(f, gaps, c, n, r, zn, zf, cap, self.max_total),
+            Some(c) => {
+                best_interaxial_for_convergence(f, gaps, c, n, r, zn, zf, cap, self.max_total)
+            }
         };
-        choice.interaxial = b as f32;
+        choice.interaxial = interaxial as f32;
         choice.convergence = convergence;
-        let limit = if b >= cap * MARGIN * MARGIN {
+        let limit = if interaxial >= cap * MARGIN * MARGIN {
             "the cap (outer views no farther apart than the nearest point)".to_string()
         } else {
             format!("the budget {}", self.req.budget)
@@ -395,7 +397,7 @@ impl<'a> Fit<'a> {
             show_convergence(convergence),
             self.ends
         );
-        if b == 0.0 {
+        if interaxial == 0.0 {
             choice.reason.push_str(
                 "; no interaxial fits: the nearest point lies in front of the convergence \
                  and the budget allows nothing there (use --convergence near or auto)",
@@ -406,7 +408,7 @@ impl<'a> Fit<'a> {
 
     /// A view cone with an automatic convergence: `T = round(f·S/C) =
     /// round(2·f·tan(cone/2))` whatever `C` is, so the convergence places the
-    /// depths in the budget's proportions and the spacing follows.
+    /// depths in the budget's proportions and the interaxial follows.
     fn cone_auto_convergence(&self, mut choice: RigChoice, cone: f64) -> RigChoice {
         let (gaps, n, r, inv_n, inv_f) = (self.gaps, self.n, self.r, self.inv_n, self.inv_f);
         let k0 = 2.0 * self.f * (cone.to_radians() / 2.0).tan() / gaps;
@@ -418,7 +420,7 @@ impl<'a> Fit<'a> {
         } else {
             d / (k0 * inv_n)
         };
-        choice.interaxial = cone_spacing(cone, c, gaps) as f32;
+        choice.interaxial = cone_interaxial(cone, c, gaps) as f32;
         choice.convergence = Some(c);
         choice.reason = format!(
             "a {cone}° view cone: convergence {c:.4} places the depths in the budget's \
@@ -485,17 +487,17 @@ pub fn plan_rig(
     })
 }
 
-/// Spacing `b` given: the whole-pixel shift that puts the depth range in the
+/// InteraxialRequest `b` given: the whole-pixel shift that puts the depth range in the
 /// budget's proportions, `p(z_n) = −n·k` and `p(z_f) = r·k` for one `k`
 /// (within the budget when `k ≤ 1`).
 fn balance_convergence(
     camera: &Camera,
     req: &RigRequest,
     mut choice: RigChoice,
-    b: f64,
+    interaxial: f64,
     range: DepthRange,
     max_total: i64,
-    why_spacing: &str,
+    why_interaxial: &str,
 ) -> Result<RigChoice> {
     let gaps = (req.views.max(2) - 1) as f64;
     let f = camera.focal_pixels();
@@ -507,13 +509,14 @@ fn balance_convergence(
     } else {
         0.0
     };
-    let k = f * b * (inv_n - inv_f) / (n + r);
-    let d = f * b * inv_n - n * k;
+    let k = f * interaxial * (inv_n - inv_f) / (n + r);
+    let d = f * interaxial * inv_n - n * k;
     let total = ((gaps * d).round() as i64).clamp(0, max_total);
-    choice.interaxial = b as f32;
-    choice.convergence = (total > 0 && b > 0.0).then(|| f * gaps * b / total as f64);
+    choice.interaxial = interaxial as f32;
+    choice.convergence =
+        (total > 0 && interaxial > 0.0).then(|| f * gaps * interaxial / total as f64);
     choice.reason = format!(
-        "interaxial {} ({why_spacing}), convergence {}: places the depths {:.4} to {} in the \
+        "interaxial {} ({why_interaxial}), convergence {}: places the depths {:.4} to {} in the \
          budget's proportions{}",
         choice.interaxial,
         show_convergence(choice.convergence),
@@ -528,13 +531,13 @@ fn balance_convergence(
     Ok(choice)
 }
 
-/// Convergence `c` given: the largest spacing whose rig (its total shift
+/// Convergence `c` given: the largest interaxial whose rig (its total shift
 /// `T = round(f·m·b/c)`) keeps the adjacent disparities of the depths
-/// `[z_n, z_f]` within `[−n, +r]`. For each `T` the spacings that round to it
+/// `[z_n, z_f]` within `[−n, +r]`. For each `T` the interaxials that round to it
 /// form an interval; the budget bounds `b` from above (near end) and below
 /// (far end). `T = 0, b = 0` always fits, so there is always an answer.
 #[allow(clippy::too_many_arguments)]
-fn best_spacing_for_convergence(
+fn best_interaxial_for_convergence(
     f: f64,
     gaps: f64,
     c: f64,
@@ -572,7 +575,7 @@ fn best_spacing_for_convergence(
     best
 }
 
-fn cone_spacing(cone_deg: f64, convergence: f64, gaps: f64) -> f64 {
+fn cone_interaxial(cone_deg: f64, convergence: f64, gaps: f64) -> f64 {
     2.0 * convergence * (cone_deg.to_radians() / 2.0).tan() / gaps
 }
 
@@ -609,7 +612,9 @@ impl FromStr for Interaxial {
             return Ok(Interaxial::Auto);
         }
         match s.trim().parse::<f32>() {
-            Ok(b) if b.is_finite() && b >= 0.0 => Ok(Interaxial::Distance(b)),
+            Ok(interaxial) if interaxial.is_finite() && interaxial >= 0.0 => {
+                Ok(Interaxial::Distance(interaxial))
+            }
             _ => Err(format!(
                 "'{s}': the interaxial is a finite distance >= 0 or 'auto'"
             )),
@@ -621,7 +626,7 @@ impl fmt::Display for Interaxial {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Interaxial::Auto => f.write_str("auto"),
-            Interaxial::Distance(b) => write!(f, "{b}"),
+            Interaxial::Distance(interaxial) => write!(f, "{interaxial}"),
         }
     }
 }
@@ -648,32 +653,35 @@ pub fn rig_request(
     views: usize,
     at_distance: f64,
 ) -> Result<RigRequest> {
-    let spacing = match (flags.interaxial, flags.view_cone) {
+    let interaxial = match (flags.interaxial, flags.view_cone) {
         (_, Some(cone)) => {
             if !(cone.is_finite() && cone > 0.0 && cone < 180.0) {
                 return Err(Error::Invalid(format!(
                     "--view-cone must be an angle between 0 and 180 degrees, got {cone}"
                 )));
             }
-            Spacing::ViewCone(cone)
+            InteraxialRequest::ViewCone(cone)
         }
-        (Some(Interaxial::Distance(b)), None) => Spacing::Distance(b),
-        (None, None) if quilt => Spacing::ViewCone(QUILT_VIEW_CONE),
-        (Some(Interaxial::Auto) | None, None) => Spacing::Auto,
+        (Some(Interaxial::Distance(interaxial)), None) => InteraxialRequest::Distance(interaxial),
+        (None, None) if quilt => InteraxialRequest::ViewCone(QUILT_VIEW_CONE),
+        (Some(Interaxial::Auto) | None, None) => InteraxialRequest::Auto,
     };
     let convergence = match flags.convergence {
-        None if matches!(spacing, Spacing::Distance(_)) => Convergence::Distance(at_distance),
+        None if matches!(interaxial, InteraxialRequest::Distance(_)) => {
+            Convergence::Distance(at_distance)
+        }
         None => Convergence::Auto,
         Some(s) => parse_convergence(s)?,
     };
-    if matches!(spacing, Spacing::ViewCone(_)) && convergence == Convergence::Infinity {
+    if matches!(interaxial, InteraxialRequest::ViewCone(_)) && convergence == Convergence::Infinity
+    {
         return Err(Error::Invalid(
             "--view-cone needs a finite convergence (not --convergence inf)".into(),
         ));
     }
     Ok(RigRequest {
         views,
-        spacing,
+        interaxial,
         convergence,
         budget: flags.budget.unwrap_or_default(),
         fallback_distance: at_distance,
@@ -703,7 +711,7 @@ fn parse_convergence(s: &str) -> Result<Convergence> {
 }
 
 /// The rig before the scene is built: the final one when nothing depends on
-/// the visible depths, else a parallel stand-in with no spacing (used only to
+/// the visible depths, else a parallel stand-in with no interaxial (used only to
 /// check the outputs before rendering; [`settle`](super::report::settle) replaces it).
 pub fn rig_before_depths(
     camera: &Camera,
@@ -750,10 +758,14 @@ mod tests {
         outer / (rig.views.len() - 1) as f64
     }
 
-    fn request(views: usize, spacing: Spacing, convergence: Convergence) -> RigRequest {
+    fn request(
+        views: usize,
+        interaxial: InteraxialRequest,
+        convergence: Convergence,
+    ) -> RigRequest {
         RigRequest {
             views,
-            spacing,
+            interaxial,
             convergence,
             budget: DepthBudget::default(),
             fallback_distance: 4.0,
@@ -784,7 +796,7 @@ mod tests {
         for views in [2, 5, 32] {
             for (zn, zf) in [(2.0, 15.0), (3.0, f64::INFINITY), (1.0, 1.5), (10.0, 800.0)] {
                 let range = DepthRange { near: zn, far: zf };
-                let req = request(views, Spacing::Auto, Convergence::Auto);
+                let req = request(views, InteraxialRequest::Auto, Convergence::Auto);
                 let choice = choose_rig(&cam, &req, Some(range)).unwrap();
                 let rig = choice.rig(&cam, views).unwrap();
                 let (near, far) = (disparity(&cam, &rig, zn), disparity(&cam, &rig, zf));
@@ -821,7 +833,7 @@ mod tests {
                     near: 2.0,
                     far: 15.0,
                 };
-                let req = request(2, Spacing::Auto, convergence);
+                let req = request(2, InteraxialRequest::Auto, convergence);
                 let choice = choose_rig(&cam, &req, Some(range)).unwrap();
                 let rig = choice.rig(&cam, 2).unwrap();
                 let (near, far) = (disparity(&cam, &rig, 2.0), disparity(&cam, &rig, 15.0));
@@ -846,7 +858,7 @@ mod tests {
             near: 2.0,
             far: 15.0,
         };
-        let req = request(2, Spacing::Distance(0.05), Convergence::Auto);
+        let req = request(2, InteraxialRequest::Distance(0.05), Convergence::Auto);
         let choice = choose_rig(&cam, &req, Some(range)).unwrap();
         assert_eq!(choice.interaxial, 0.05);
         let rig = choice.rig(&cam, 2).unwrap();
@@ -858,19 +870,23 @@ mod tests {
     #[test]
     fn a_view_cone_spaces_the_views_from_the_convergence() {
         let cam = camera(420, 560);
-        let req = request(48, Spacing::ViewCone(35.0), Convergence::Distance(10.0));
+        let req = request(
+            48,
+            InteraxialRequest::ViewCone(35.0),
+            Convergence::Distance(10.0),
+        );
         let choice = choose_rig(&cam, &req, None).unwrap();
         let span = choice.interaxial as f64 * 47.0;
         assert!((span - 2.0 * 10.0 * (17.5f64).to_radians().tan()).abs() < 1e-4);
         assert!(choose_rig(
             &cam,
-            &request(48, Spacing::ViewCone(35.0), Convergence::Infinity),
+            &request(48, InteraxialRequest::ViewCone(35.0), Convergence::Infinity),
             None
         )
         .is_err());
         let wide = choose_rig(
             &cam,
-            &request(2, Spacing::ViewCone(179.0), Convergence::Auto),
+            &request(2, InteraxialRequest::ViewCone(179.0), Convergence::Auto),
             None,
         );
         assert!(wide.unwrap_err().to_string().contains("narrower cone"));
@@ -879,7 +895,7 @@ mod tests {
             near: 5.0,
             far: 20.0,
         };
-        let req = request(8, Spacing::ViewCone(35.0), Convergence::Auto);
+        let req = request(8, InteraxialRequest::ViewCone(35.0), Convergence::Auto);
         let choice = choose_rig(&cam, &req, Some(range)).unwrap();
         let c = choice.convergence.unwrap();
         assert!(c > 5.0 && c < 20.0, "{c}");
@@ -888,7 +904,12 @@ mod tests {
     #[test]
     fn nothing_visible_falls_back_to_the_one_in_thirty_rule() {
         let cam = camera(64, 48);
-        let choice = choose_rig(&cam, &request(2, Spacing::Auto, Convergence::Auto), None).unwrap();
+        let choice = choose_rig(
+            &cam,
+            &request(2, InteraxialRequest::Auto, Convergence::Auto),
+            None,
+        )
+        .unwrap();
         assert_eq!(choice.convergence, Some(4.0));
         assert!((choice.interaxial - 4.0 / 30.0).abs() < 1e-6);
         assert_eq!(choice.convergence_from, "at");
@@ -903,7 +924,7 @@ mod tests {
         };
         let choice = choose_rig(
             &cam,
-            &request(2, Spacing::Auto, Convergence::Auto),
+            &request(2, InteraxialRequest::Auto, Convergence::Auto),
             Some(range),
         )
         .unwrap();
@@ -938,8 +959,8 @@ mod request_tests {
         let none = RigFlags::default();
         let r = rig_request(&none, false, 2, 7.0).unwrap();
         assert_eq!(
-            (r.spacing, r.convergence),
-            (Spacing::Auto, Convergence::Auto)
+            (r.interaxial, r.convergence),
+            (InteraxialRequest::Auto, Convergence::Auto)
         );
         let explicit = RigFlags {
             interaxial: Some(Interaxial::Distance(0.3)),
@@ -947,11 +968,11 @@ mod request_tests {
         };
         let r = rig_request(&explicit, false, 2, 7.0).unwrap();
         assert_eq!(
-            (r.spacing, r.convergence),
-            (Spacing::Distance(0.3), Convergence::Distance(7.0))
+            (r.interaxial, r.convergence),
+            (InteraxialRequest::Distance(0.3), Convergence::Distance(7.0))
         );
         let r = rig_request(&none, true, 48, 7.0).unwrap();
-        assert_eq!(r.spacing, Spacing::ViewCone(QUILT_VIEW_CONE));
+        assert_eq!(r.interaxial, InteraxialRequest::ViewCone(QUILT_VIEW_CONE));
         let near = RigFlags {
             convergence: Some("near"),
             ..RigFlags::default()

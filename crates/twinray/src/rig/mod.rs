@@ -1,6 +1,7 @@
 //! The view rig: a list of views on the camera's right axis.
 //!
-//! Mono is one view; stereo is two (left at `-b/2`, right at `+b/2`); a
+//! Mono is one view; stereo is two (left at `-interaxial/2`, right at
+//! `+interaxial/2`); a
 //! multi-view display takes N. Every view has parallel lens axes; convergence
 //! is a horizontal image translation by a whole number of pixels, so pixel
 //! `x` of view `v` sees along camera column `x + shift`: pixels of different
@@ -54,26 +55,26 @@ impl Rig {
         Rig::multi_view(camera, 2, interaxial, convergence)
     }
 
-    /// `count` views, `spacing` apart, centred on the camera, left to right.
+    /// `count` views, `interaxial` apart (between neighbours), centred on the camera, left to right.
     /// The shift of each view is rounded to whole pixels (relative to the leftmost
     /// view), then the set is centred: points at the convergence distance land on
     /// the same pixel in every view, up to the rounding, which is reported as the
     /// effective convergence distance.
     ///
-    /// Refused (`Error::Invalid`): a spacing or convergence that is not a finite
+    /// Refused (`Error::Invalid`): an interaxial or convergence that is not a finite
     /// number >= 0 (> 0 for the convergence), and a rig whose outer views are
     /// shifted by the image width or more (they would show nothing the camera
     /// frames; a convergence of 4e-9 asked for a shift of 1e10 pixels).
     pub fn multi_view(
         camera: &Camera,
         count: usize,
-        spacing: f32,
+        interaxial: f32,
         convergence: Option<f64>,
     ) -> Result<Rig> {
         let count = count.max(1);
-        if !(spacing.is_finite() && spacing >= 0.0) {
+        if !(interaxial.is_finite() && interaxial >= 0.0) {
             return Err(Error::Invalid(format!(
-                "the interaxial distance must be a finite distance >= 0, got {spacing}"
+                "the interaxial distance must be a finite distance >= 0, got {interaxial}"
             )));
         }
         if let Some(c) = convergence {
@@ -84,7 +85,7 @@ impl Rig {
             }
         }
         let offsets: Vec<f32> = (0..count)
-            .map(|i| (i as f32 - (count as f32 - 1.0) * 0.5) * spacing)
+            .map(|i| (i as f32 - (count as f32 - 1.0) * 0.5) * interaxial)
             .collect();
         let f = camera.focal_pixels();
         // In f64 until the range is known to be safe: the outer views are
@@ -95,14 +96,14 @@ impl Rig {
             Some(c) => (f * offset_from_first / c).round(),
             None => 0.0,
         };
-        let span = (count - 1) as f64 * spacing as f64;
+        let span = (count - 1) as f64 * interaxial as f64;
         let total = disparity(span);
         let width = f64::from(camera.width).min(f64::from(i32::MAX));
         let largest_shift = (total / 2.0).ceil();
         if !(largest_shift.is_finite() && largest_shift < width) {
             let c = convergence.unwrap_or(f64::INFINITY);
             return Err(Error::Invalid(format!(
-                "views {spacing} apart converging at {c} need an image shift of {largest_shift} \
+                "views {interaxial} apart converging at {c} need an image shift of {largest_shift} \
                  pixels, more than the image is wide ({} pixels): the outer views would show \
                  nothing of what the camera frames (use a larger convergence distance or a \
                  smaller interaxial)",
@@ -117,7 +118,7 @@ impl Rig {
             .map(|(i, &offset)| View {
                 offset,
                 // |centre - d| <= ceil(total / 2) < width <= i32::MAX: no overflow.
-                shift: (centre - disparity(i as f64 * spacing as f64) as i64) as i32,
+                shift: (centre - disparity(i as f64 * interaxial as f64) as i64) as i32,
             })
             .collect();
         let effective_convergence = if total == 0 || span == 0.0 {
@@ -141,7 +142,7 @@ impl Rig {
     /// offset, `z` the depth; the whole-pixel convergence shifts move cut and
     /// uncut objects alike). Between the two outermost views the disparity is
     /// off by `f·(o_max − o_min)/z`, at most `pixels` from depth
-    /// `f·(o_max − o_min)/pixels` on. `None` for a single view or no spacing
+    /// `f·(o_max − o_min)/pixels` on. `None` for a single view or no interaxial
     /// (nothing to cut from).
     pub fn cut_depth_for_parallax(&self, camera: &Camera, pixels: f64) -> Option<f64> {
         let lo = self
@@ -232,12 +233,12 @@ mod tests {
         // The attack: a convergence of 4e-9 gave a shift of ~1e10 pixels, truncated
         // to i32 (and a 23 GB allocation or "capacity overflow" panics).
         let cam = camera();
-        for (b, c) in [
+        for (interaxial, c) in [
             (0.3, Some(4e-9)),
             (0.3, Some(1e-300)),
             (f32::MAX, Some(1.0)),
         ] {
-            let err = Rig::stereo(&cam, b, c).unwrap_err();
+            let err = Rig::stereo(&cam, interaxial, c).unwrap_err();
             assert!(
                 err.to_string().contains("more than the image is wide"),
                 "{err}"

@@ -4,18 +4,18 @@
 //! it, not once per batch (see `shading_cache` for the cell, the entry and
 //! the bound of the tolerance).
 
-use super::{RowScratch, RowSetup};
+use super::{RowScratch, TwinBatch};
 use crate::render::sampler::{RowColors, SampleRow};
 use crate::render::shading_cache::{Found, ShadingCache};
 use crate::render::Tracer;
 
-impl<const K: usize> RowSetup<'_, K> {
+impl<const K: usize> TwinBatch<'_, K> {
     /// Whether view `v`'s sample `i` hit a surface (nearer than any cut) whose
     /// mirror and transmission weights leave at most `tolerance` to its
     /// reflected and refracted rays: it may give and take light.
-    fn gives_light(&self, s: &RowScratch<K>, v: usize, i: usize, tolerance: f32) -> bool {
-        s.points[v][i].is_some() && {
-            let m = self.world.material_of(s.hits[v][i].0);
+    fn gives_light(&self, scratch: &RowScratch<K>, v: usize, i: usize, tolerance: f32) -> bool {
+        scratch.points[v][i].is_some() && {
+            let m = self.world.material_of(scratch.hits[v][i].0);
             m.mirror + m.t <= tolerance
         }
     }
@@ -25,12 +25,12 @@ impl<const K: usize> RowSetup<'_, K> {
         &self,
         cache: &ShadingCache,
         row: &SampleRow,
-        s: &RowScratch<K>,
+        scratch: &RowScratch<K>,
         v: usize,
         i: usize,
     ) -> Option<Found> {
-        let point = s.points[v][i]?;
-        let (prim, hit) = s.hits[v][i];
+        let point = scratch.points[v][i]?;
+        let (prim, hit) = scratch.hits[v][i];
         cache.find(self.camera, row, i, prim, point, hit.t)
     }
 
@@ -39,17 +39,17 @@ impl<const K: usize> RowSetup<'_, K> {
         &self,
         tracer: &mut Tracer,
         cache: &ShadingCache,
-        s: &mut RowScratch<K>,
+        scratch: &mut RowScratch<K>,
         found: Found,
         (v, i): (usize, usize),
     ) -> crate::math::Color {
         let (through, secondary) = cache.light(found);
-        s.donor.through.clear();
-        s.donor.through.extend_from_slice(through);
-        s.donor.secondary = secondary;
-        let (packet, hits) = self.sample_packet(s, v, i);
+        scratch.donor.through.clear();
+        scratch.donor.through.extend_from_slice(through);
+        scratch.donor.secondary = secondary;
+        let (packet, hits) = self.sample_packet(scratch, v, i);
         tracer.counts.cache_hits += 1;
-        tracer.shade_from_donor(&packet, &hits, &s.donor)
+        tracer.shade_from_donor(&packet, &hits, &scratch.donor)
     }
 
     /// The batch's row with the rig's shading cache, in two steps:
@@ -66,7 +66,7 @@ impl<const K: usize> RowSetup<'_, K> {
         &self,
         tracer: &mut Tracer,
         row: &SampleRow,
-        s: &mut RowScratch<K>,
+        scratch: &mut RowScratch<K>,
         tolerance: f32,
         out: &mut [RowColors],
     ) {
@@ -75,31 +75,31 @@ impl<const K: usize> RowSetup<'_, K> {
             cache.start_row(self.world.scene.lights.len());
         }
         cache.begin_leader(self.rig.views[0], row.len());
-        let groups = std::mem::take(&mut s.groups);
+        let groups = std::mem::take(&mut scratch.groups);
         // Per group: shaded whole in step 1; per leader sample: its entry, and
         // whether it was shaded alone (its colour is in `out` already).
         let mut whole = vec![false; groups.len()];
         let mut leader: Vec<Option<(Found, bool)>> = vec![None; row.len()];
         for (g, group) in groups.iter().enumerate() {
             let Some(i) = group[0] else { continue };
-            if !self.gives_light(s, 0, i, tolerance) {
-                self.shade_group(tracer, s, group, out);
+            if !self.gives_light(scratch, 0, i, tolerance) {
+                self.shade_group(tracer, scratch, group, out);
                 whole[g] = true;
                 continue;
             }
-            if let Some(found) = self.look_up(&cache, row, s, 0, i) {
+            if let Some(found) = self.look_up(&cache, row, scratch, 0, i) {
                 cache.point_to(i, found);
                 leader[i] = Some((found, false));
                 continue;
             }
-            let (packet, hits) = self.sample_packet(s, 0, i);
-            let mut donor = std::mem::take(&mut s.donor);
-            tracer.shade_donor(&packet, &hits, &mut donor);
+            let (packet, hits) = self.sample_packet(scratch, 0, i);
+            let mut donor = std::mem::take(&mut scratch.donor);
+            tracer.shade_donor(&packet, &hits, self.secondary, &mut donor);
             out[0][i] = donor.color;
-            let point = s.points[0][i].unwrap_or_default();
-            let (prim, hit) = s.hits[0][i];
+            let point = scratch.points[0][i].unwrap_or_default();
+            let (prim, hit) = scratch.hits[0][i];
             cache.keep(i, prim, point, hit.t, &donor.through, donor.secondary, true);
-            s.donor = donor;
+            scratch.donor = donor;
             tracer.counts.cache_entries += 1;
         }
         tracer.counts.cache_edge_refusals += cache.settle();
@@ -115,23 +115,25 @@ impl<const K: usize> RowSetup<'_, K> {
                         Some((found, false)) => Some(found),
                         _ => continue, // shaded alone in step 1
                     }
-                } else if self.gives_light(s, v, k, tolerance) {
-                    let found = self.look_up(&cache, row, s, v, k);
+                } else if self.gives_light(scratch, v, k, tolerance) {
+                    let found = self.look_up(&cache, row, scratch, v, k);
                     tracer.counts.cache_fallbacks += u64::from(found.is_none());
                     found
                 } else {
                     None
                 };
                 match found {
-                    Some(found) => out[v][k] = self.shade_found(tracer, &cache, s, found, (v, k)),
+                    Some(found) => {
+                        out[v][k] = self.shade_found(tracer, &cache, scratch, found, (v, k))
+                    }
                     None => rest[v] = Some(k),
                 }
             }
             if rest.iter().any(Option::is_some) {
-                self.shade_group(tracer, s, &rest, out);
+                self.shade_group(tracer, scratch, &rest, out);
             }
         }
-        s.groups = groups;
+        scratch.groups = groups;
         tracer.shading_cache = cache;
     }
 }
