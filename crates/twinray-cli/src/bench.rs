@@ -43,7 +43,8 @@ pub struct BenchArgs {
     csv: Option<PathBuf>,
     /// Configurations of the twin method, comma-separated: none (exact), cut
     /// (--cut-parallax, see below), merge (--merge-secondary), reproject (safe),
-    /// paper (--reproject-mode paper), fast (cut, merge and reproject). Each is timed against two independent renders, and its images
+    /// paper (--reproject-mode paper), shared (--share-shading), fast (cut, merge,
+    /// reproject and shared). Each is timed against two independent renders, and its images
     /// compared with theirs (PSNR and largest difference, worst view).
     #[arg(long, value_delimiter = ',', value_enum, default_values_t = [Approx::None])]
     approx: Vec<Approx>,
@@ -70,6 +71,7 @@ pub enum Approx {
     Reproject,
     Paper,
     Fast,
+    Shared,
 }
 
 impl Approx {
@@ -81,6 +83,7 @@ impl Approx {
             Approx::Reproject => "reproject",
             Approx::Paper => "paper",
             Approx::Fast => "fast",
+            Approx::Shared => "shared",
         }
     }
 
@@ -100,6 +103,7 @@ impl Approx {
                 a.fast = true;
                 a.cut_parallax = Some(cut_parallax);
             }
+            Approx::Shared => a.share_shading = true,
         }
         a
     }

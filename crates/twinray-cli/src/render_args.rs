@@ -10,7 +10,7 @@ use twinray::job::{
 };
 use twinray::math::Vec3;
 use twinray::output::QuiltSpec;
-use twinray::render::Reprojection;
+use twinray::render::{Reprojection, SharedShading};
 use twinray::rig::budget::DepthBudget;
 use twinray::rig::choice::Interaxial;
 use twinray::rig::report as disparity;
@@ -206,9 +206,19 @@ pub struct ApproxArgs {
     #[arg(long, value_name = "PX")]
     pub cut_parallax: Option<f64>,
     /// Every approximation at its default: --merge-secondary --reproject
-    /// --cut-parallax 0.5.
+    /// --cut-parallax 0.5 --share-shading.
     #[arg(long)]
     pub fast: bool,
+    /// A surface point's shadow and secondary rays traced once for every view
+    /// that sees it (a shading cache shared by all views; supersedes the safe
+    /// --reproject). Surfaces with mirror + transmission weights above
+    /// --share-tolerance, and points next to a shadow edge, are shaded exactly.
+    #[arg(long)]
+    pub share_shading: bool,
+    /// Largest error the shared shading may add per channel, in image values
+    /// (1 = white), where radiance is at most 1.
+    #[arg(long, value_name = "E", default_value_t = SharedShading::DEFAULT_TOLERANCE)]
+    pub share_tolerance: f32,
 }
 
 /// Depth budget, floating window, depth outputs and quilts.
@@ -300,6 +310,8 @@ impl RenderArgs {
                 cut_distance: approx.cut_distance,
                 cut_parallax: approx.cut_parallax,
                 fast: approx.fast,
+                share_shading: approx.share_shading,
+                share_tolerance: approx.share_tolerance,
             },
             trace: TraceSpec {
                 max_depth: self.max_depth,

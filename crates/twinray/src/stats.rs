@@ -52,6 +52,15 @@ pub struct TraceCounts {
     pub nodes: u64,
     pub box_tests: u64,
     pub prim_tests: u64,
+    /// `--share-shading`: samples shaded exactly and kept for other views
+    /// (`cache_entries`), of those refused for a shadow edge next to them
+    /// (`cache_edge_refusals`); samples that took a kept sample's light
+    /// (`cache_hits`), and samples that might have but found none and were
+    /// shaded exactly (`cache_fallbacks`).
+    pub cache_entries: u64,
+    pub cache_edge_refusals: u64,
+    pub cache_hits: u64,
+    pub cache_fallbacks: u64,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -94,6 +103,10 @@ impl TraceCounts {
         self.nodes += o.nodes;
         self.box_tests += o.box_tests;
         self.prim_tests += o.prim_tests;
+        self.cache_entries += o.cache_entries;
+        self.cache_edge_refusals += o.cache_edge_refusals;
+        self.cache_hits += o.cache_hits;
+        self.cache_fallbacks += o.cache_fallbacks;
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -173,6 +186,11 @@ pub struct Report {
     pub reproject_rejected: u64,
     pub hole_samples: u64,
     pub hits_per_view: Vec<u64>,
+    /// Shared shading (`--share-shading`): see `TraceCounts`.
+    pub cache_entries: u64,
+    pub cache_edge_refusals: u64,
+    pub cache_hits: u64,
+    pub cache_fallbacks: u64,
     pub nodes_visited: u64,
     pub box_tests: u64,
     pub primitive_tests: u64,
@@ -218,6 +236,10 @@ impl Report {
             self.time.shading_pass_cpu_s = Some(c.shading_pass_ns as f64 * 1e-9);
         }
         self.hits_per_view = c.per_view_hits.0[..views.min(MAX_VIEWS)].to_vec();
+        self.cache_entries = c.cache_entries;
+        self.cache_edge_refusals = c.cache_edge_refusals;
+        self.cache_hits = c.cache_hits;
+        self.cache_fallbacks = c.cache_fallbacks;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
         self.primitive_tests = c.prim_tests;

@@ -69,6 +69,7 @@ fn approx(reproject: Option<ReprojectMode>, merge_secondary: bool) -> RenderOpti
                 mode,
                 threshold: Reprojection::DEFAULT_THRESHOLD,
             }),
+            shared_shading: None,
         },
         ..options(Method::Twin, Sampling::Centers)
     }

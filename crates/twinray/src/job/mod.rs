@@ -46,7 +46,7 @@ use crate::math::Vec3;
 use crate::output::{self, DepthChannels, QuiltSpec};
 use crate::render::{
     self, Approximations, Filter, Method, RenderOptions, RenderOutput, ReprojectMode, Reprojection,
-    Sampling, TraceSettings,
+    Sampling, SharedShading, TraceSettings,
 };
 use crate::rig::budget::DepthBudget;
 use crate::rig::camera_overrides::{self as view, CameraOverrides};
@@ -511,6 +511,12 @@ impl Job {
                 "approximations: samples cut {}, secondary rays merged {}, samples reprojected {}, refused {}, traced as holes {}",
                 c.samples_cut, c.merged_rays, c.reprojected, c.reproject_rejected, c.hole_samples
             )));
+            if o.approx.shared_shading.is_some() {
+                m.push(Message::info(format!(
+                    "shared shading: cache entries {} (refused at a shadow edge {}), samples that took an entry's light {}, exact fall-backs {}",
+                    c.cache_entries, c.cache_edge_refusals, c.cache_hits, c.cache_fallbacks
+                )));
+            }
         }
         m
     }
@@ -769,7 +775,7 @@ impl Checked {
         let approximate =
             !approx.is_exact() || a.fast || a.cut_distance.is_some() || a.cut_parallax.is_some();
         if approximate && (views == 1 || method == Method::Independent) {
-            return Err(invalid("the approximations (--fast, --merge-secondary, --reproject, --cut-*) need --stereo or --views and the twin method"));
+            return Err(invalid("the approximations (--fast, --merge-secondary, --reproject, --share-shading, --cut-*) need --stereo or --views and the twin method"));
         }
         Ok(Checked {
             views,
@@ -1011,9 +1017,19 @@ fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
         },
         threshold,
     });
+    let tolerance = a.share_tolerance;
+    if !(tolerance.is_finite() && tolerance >= 0.0) {
+        return Err(invalid(format!(
+            "--share-tolerance must be an image value >= 0, got {tolerance}"
+        )));
+    }
+    let shared_shading = (a.share_shading
+        || (a.fast && a.reproject_mode == ReprojectModeSpec::Safe))
+        .then_some(SharedShading { tolerance });
     Ok(Approximations {
         merge_secondary: a.merge_secondary || a.fast,
         reproject,
+        shared_shading,
     })
 }
 

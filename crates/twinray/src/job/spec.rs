@@ -141,6 +141,10 @@ pub struct ApproximationSpec {
     pub cut_parallax: Option<f64>,
     /// All three at their defaults.
     pub fast: bool,
+    /// Issue 16: the multi-view shading cache (also under `fast`).
+    pub share_shading: bool,
+    /// Its tolerance, in image values (see `render::SharedShading`).
+    pub share_tolerance: f32,
 }
 
 impl Default for ApproximationSpec {
@@ -153,6 +157,8 @@ impl Default for ApproximationSpec {
             cut_distance: None,
             cut_parallax: None,
             fast: false,
+            share_shading: false,
+            share_tolerance: crate::render::SharedShading::DEFAULT_TOLERANCE,
         }
     }
 }

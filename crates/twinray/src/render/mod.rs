@@ -28,6 +28,7 @@ mod film;
 mod grouping;
 mod independent;
 pub mod sampler;
+mod shading_cache;
 mod tracer;
 mod twin;
 
@@ -135,6 +136,23 @@ pub struct Approximations {
     pub merge_secondary: bool,
     /// Section 2.5: shading reprojected from view 0 to the other views.
     pub reproject: Option<Reprojection>,
+    /// Issue 16: the light of a surface point shaded once for every view that
+    /// sees it (supersedes the safe reprojection when both are asked).
+    pub shared_shading: Option<SharedShading>,
+}
+
+/// The multi-view shading cache (`--share-shading`, see `shading_cache`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SharedShading {
+    /// Largest error, in image values (1 = white), that the shared secondary
+    /// light may add per channel where radiance is at most 1: surfaces whose
+    /// mirror + transmission weights exceed it are shaded exactly.
+    pub tolerance: f32,
+}
+
+impl SharedShading {
+    /// 1 % of the image's range: at most 0.01 per channel where it applies.
+    pub const DEFAULT_TOLERANCE: f32 = 0.01;
 }
 
 impl Approximations {
@@ -254,6 +272,19 @@ pub fn render_cancellable(
                 "reprojection threshold {}: a coefficient >= 0 is needed",
                 r.threshold
             )));
+        }
+    }
+    if let Some(sh) = opts.approx.shared_shading {
+        if !(sh.tolerance >= 0.0 && sh.tolerance.is_finite()) {
+            return Err(crate::Error::Invalid(format!(
+                "shared-shading tolerance {}: a value >= 0 is needed",
+                sh.tolerance
+            )));
+        }
+        if matches!(opts.approx.reproject, Some(r) if r.mode == ReprojectMode::Paper) {
+            return Err(crate::Error::Invalid(
+                "the shared shading does not combine with the paper's reprojection mode".into(),
+            ));
         }
     }
     if world.far.is_some()

@@ -51,6 +51,9 @@ pub struct Tracer<'a> {
     /// Per light and lane, the opaque primitive that last blocked a shadow ray
     /// toward the light (index `light * MAX_LANES + lane`).
     shadow_cache: Vec<Option<u32>>,
+    /// `--share-shading`: the current row's cache, shared by its batches of
+    /// views (a tracer serves one task, whose rows are traced in order).
+    pub(super) shading_cache: super::shading_cache::ShadingCache,
 }
 
 /// How the lanes' reflected and refracted rays are traced.
@@ -124,6 +127,7 @@ impl<'a> Tracer<'a> {
             counts: TraceCounts::default(),
             traversal: TraversalStats::default(),
             shadow_cache: vec![None; world.scene.lights.len() * super::MAX_LANES],
+            shading_cache: Default::default(),
         }
     }
 

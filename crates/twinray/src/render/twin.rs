@@ -24,12 +24,16 @@
 //!    and secondary colour when they see the same surface point and its shading
 //!    tree is diffuse) or as the paper published it (`reproject_forward`).
 
+mod shared_shading;
+
 use std::time::Instant;
 
 use super::grouping::{group_row, nearest_sample, Group};
 use super::sampler::{RowColors, SampleRow};
 use super::tracer::{Donor, SecondaryRays};
-use super::{RenderInputs, ReprojectMode, Reprojection, RowWorker, Tracer, ViewBatch};
+use super::{
+    RenderInputs, ReprojectMode, Reprojection, RowWorker, SharedShading, Tracer, ViewBatch,
+};
 use crate::bvh::{Packet, PacketHits};
 use crate::math::{Color, Vec3};
 use crate::rig::Camera;
@@ -59,6 +63,8 @@ pub(super) struct TwinBatch<'a, const K: usize> {
     max_shift: i32,
     reproject: Option<Reprojection>,
     secondary: SecondaryRays,
+    /// `--share-shading`: the rig's shading cache, and its tolerance.
+    shared_shading: Option<SharedShading>,
 }
 
 /// Paper-mode reprojection: the depth of the nearest point of view 0 that
@@ -136,6 +142,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             } else {
                 SecondaryRays::Own
             },
+            shared_shading: job.opts.approx.shared_shading,
         }
     }
 
@@ -589,6 +596,11 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         let eye_pass = start.elapsed();
         self.shade_cut(tracer, row, scratch, out);
         match self.reproject {
+            _ if !paper && self.shared_shading.is_some() => {
+                let tolerance = self.shared_shading.map_or(0.0, |sh| sh.tolerance);
+                self.group(row, scratch);
+                self.share_shading(tracer, row, scratch, tolerance, out);
+            }
             None => {
                 self.group(row, scratch);
                 self.shade_groups(tracer, scratch, out);
