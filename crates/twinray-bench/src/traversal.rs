@@ -206,3 +206,12 @@ pub fn shadow_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
         blocked
     })
 }
+
+/// The work of tracing `rays` one at a time: nodes, box tests, primitive tests.
+pub fn work(sets: &RaySets, rays: &[Ray], tree: Tree) -> TraversalStats {
+    let mut st = TraversalStats::default();
+    for r in rays {
+        closest(&sets.world.bvh, &sets.world, r, tree, &mut st);
+    }
+    st
+}

@@ -1,4 +1,4 @@
-//! The four-wide hierarchy the renderer traverses: the binary SAH tree
+//! The four-wide hierarchy (the renderer's shadow rays traverse it): the binary SAH tree
 //! collapsed so that each node holds up to four children, their boxes in
 //! structure-of-arrays layout, so that one ray meets all four in one SIMD
 //! stream (`wide::f32x4`, SSE on x86-64). Children are visited nearest first.
@@ -18,7 +18,7 @@ use super::{
 };
 use crate::shapes::SurfaceHit;
 use arrayvec::ArrayVec;
-use wide::f32x4;
+use wide::{f32x4, f32x8};
 
 /// Children per node.
 pub const WIDTH: usize = 4;
@@ -171,6 +171,62 @@ impl WideRay {
     }
 }
 
+/// Two rays (a stereo pair) prepared to meet a node's four children in one
+/// eight-wide register: lanes 0-3 the first ray's, 4-7 the second's. Per lane,
+/// `WideRay::slabs`'s arithmetic.
+#[derive(Clone, Copy)]
+struct WidePair {
+    near: [[usize; 3]; 2],
+    far: [[usize; 3]; 2],
+    inv: [f32x8; 3],
+    org: [f32x8; 3],
+    t_min: f32x8,
+}
+
+/// `a` in register lanes 0-3 and `b` in 4-7.
+#[inline(always)]
+fn halves(a: [f32; 4], b: [f32; 4]) -> f32x8 {
+    f32x8::from([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]])
+}
+
+impl WidePair {
+    #[inline(always)]
+    fn new(r: [&WideRay; 2]) -> WidePair {
+        let both = |a: f32x4, b: f32x4| halves(a.to_array(), b.to_array());
+        WidePair {
+            near: [r[0].near, r[1].near],
+            far: [r[0].far, r[1].far],
+            inv: [0, 1, 2].map(|a| both(r[0].inv[a], r[1].inv[a])),
+            org: [0, 1, 2].map(|a| both(r[0].org[a], r[1].org[a])),
+            t_min: both(r[0].t_min, r[1].t_min),
+        }
+    }
+
+    /// The children each ray enters before its `best * CULL_SLACK`: bits 0-3
+    /// the first ray's, 4-7 the second's; and the entry distances, alike.
+    #[inline(always)]
+    fn enter(&self, node: &Node4, best: [f32; 2]) -> (u32, [f32; 8]) {
+        let plane = |side: &[[usize; 3]; 2], a: usize| {
+            halves(node.bounds[side[0][a]], node.bounds[side[1][a]]) * self.inv[a] - self.org[a]
+        };
+        let (nx, ny, nz) = (
+            plane(&self.near, 0),
+            plane(&self.near, 1),
+            plane(&self.near, 2),
+        );
+        let (fx, fy, fz) = (
+            plane(&self.far, 0),
+            plane(&self.far, 1),
+            plane(&self.far, 2),
+        );
+        let tn = nx.fast_max(ny).fast_max(nz.fast_max(self.t_min));
+        let tf = fx.fast_min(fy).fast_min(fz) * f32x8::splat(ROBUST);
+        let bound = halves([best[0] * CULL_SLACK; 4], [best[1] * CULL_SLACK; 4]);
+        let m = (tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask();
+        (m, tn.to_array())
+    }
+}
+
 /// A stack entry: a child (`count` > 0: a leaf) entered at `tn`.
 #[derive(Clone, Copy)]
 struct Entry {
@@ -179,40 +235,52 @@ struct Entry {
     tn: f32,
 }
 
-/// Pushes the children of `node` in `mask` so that the nearest (by `tn`) is
-/// popped first.
+/// The children of `node` in `mask` by entry distance `tn`: returns the
+/// nearest and stacks the others so that they pop nearest first.
 #[inline(always)]
-fn push_nearest_last(
+fn take_nearest(
     stack: &mut ArrayVec<Entry, STACK>,
     node: &Node4,
     mask: u32,
     tn: &[f32; WIDTH],
-) {
+) -> Entry {
     let entry = |c: usize| Entry {
         child: node.child[c],
         count: node.count[c],
         tn: tn[c],
     };
-    if mask & (mask - 1) == 0 {
-        let _ = stack.try_push(entry(mask.trailing_zeros() as usize));
-        return;
+    let a = entry(mask.trailing_zeros() as usize);
+    let rest = mask & (mask - 1);
+    if rest == 0 {
+        return a;
     }
-    // Up to four: insertion-sorted, farthest first.
-    let mut sorted: ArrayVec<Entry, WIDTH> = ArrayVec::new();
-    let mut bits = mask;
+    let b = entry(rest.trailing_zeros() as usize);
+    let rest = rest & (rest - 1);
+    let (near, far) = if b.tn < a.tn { (b, a) } else { (a, b) };
+    if rest == 0 {
+        let _ = stack.try_push(far);
+        return near;
+    }
+    // Three or four: sorted by insertion, farthest first.
+    let mut sorted = [near; WIDTH];
+    sorted[1] = far;
+    let mut n = 2;
+    let mut bits = rest;
     while bits != 0 {
-        let c = bits.trailing_zeros() as usize;
+        let e = entry(bits.trailing_zeros() as usize);
         bits &= bits - 1;
-        let e = entry(c);
-        let at = sorted
-            .iter()
-            .position(|s| s.tn < e.tn)
-            .unwrap_or(sorted.len());
-        sorted.insert(at, e);
+        let mut i = n;
+        while i > 0 && sorted[i - 1].tn > e.tn {
+            sorted[i] = sorted[i - 1];
+            i -= 1;
+        }
+        sorted[i] = e;
+        n += 1;
     }
-    for e in sorted {
-        let _ = stack.try_push(e);
+    for e in sorted[1..n].iter().rev() {
+        let _ = stack.try_push(*e);
     }
+    sorted[0]
 }
 
 /// A packet's stack entry: a child, the lanes that entered it, their entry distances.
@@ -225,8 +293,9 @@ struct PacketEntry<const K: usize> {
 }
 
 impl Bvh {
-    /// Nearest hit per lane (see `closest_binary` for the contract), on the
-    /// four-wide tree when there is one.
+    /// Nearest hit per lane (see `closest_binary` for the contract). On the
+    /// binary tree: the four-wide descent gives the same hits but did not
+    /// measure faster for eye rays and stereo pairs (docs/benchmarks.md).
     #[inline]
     pub fn closest<const K: usize>(
         &self,
@@ -234,15 +303,12 @@ impl Bvh {
         stats: &mut TraversalStats,
         test: impl NearestTest,
     ) -> PacketHits<K> {
-        if self.wide.is_empty() {
-            self.closest_binary(packet, stats, test)
-        } else {
-            self.closest_wide(packet, stats, test)
-        }
+        self.closest_binary(packet, stats, test)
     }
 
     /// Any-hit per lane (see `occlusion_binary` for the contract), on the
-    /// four-wide tree when there is one.
+    /// four-wide tree when there is one: it measured faster for shadow rays
+    /// (docs/benchmarks.md).
     pub fn occlusion<const K: usize>(
         &self,
         packet: &SegmentPacket<K>,
@@ -301,6 +367,7 @@ impl Bvh {
             return out;
         }
         let wide_rays: [WideRay; K] = std::array::from_fn(|l| WideRay::new(&rays[l]));
+        let pair = (K == 2).then(|| WidePair::new([&wide_rays[0], &wide_rays[1 % K]]));
         let mut best = packet.t_max;
         let mut stack = ArrayVec::<PacketEntry<K>, STACK>::new();
         stack.push(PacketEntry {
@@ -380,12 +447,40 @@ impl Bvh {
                 }
                 continue;
             }
-            // Each lane against the four children in one register.
             let node = &self.wide[child as usize];
             let mut lanes_in = [0u32; WIDTH];
             let mut tn_in = [[0.0f32; K]; WIDTH];
             let mut key = [f32::INFINITY; WIDTH];
-            let mut lanes = mask;
+            if let Some(pair) = &pair {
+                // A stereo pair: both rays against the four children in one register.
+                if mask == 0b11 {
+                    stats.box_tests += 2 * WIDTH as u64;
+                    let (m, t) = pair.enter(node, [best[0], best[1 % K]]);
+                    for c in 0..WIDTH {
+                        lanes_in[c] = (m >> c) & 1 | ((m >> (c + WIDTH)) & 1) << 1;
+                        tn_in[c][0] = t[c];
+                        tn_in[c][1 % K] = t[c + WIDTH];
+                        key[c] = fmin(
+                            if m & (1 << c) != 0 {
+                                t[c]
+                            } else {
+                                f32::INFINITY
+                            },
+                            if m & (1 << (c + WIDTH)) != 0 {
+                                t[c + WIDTH]
+                            } else {
+                                f32::INFINITY
+                            },
+                        );
+                    }
+                }
+            }
+            // Each lane against the four children in one register.
+            let mut lanes = if pair.is_some() && mask == 0b11 {
+                0
+            } else {
+                mask
+            };
             while lanes != 0 {
                 let l = lanes.trailing_zeros() as usize;
                 lanes &= lanes - 1;
@@ -436,11 +531,8 @@ impl Bvh {
         let (mut best, mut prim_hit, mut hit) = (state.best, state.prim, state.hit);
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
         let mut stack = ArrayVec::<Entry, STACK>::new();
-        stack.push(start);
-        while let Some(Entry { child, count, tn }) = stack.pop() {
-            if tn > best * CULL_SLACK {
-                continue;
-            }
+        let mut current = (start.tn <= best * CULL_SLACK).then_some(start);
+        while let Some(Entry { child, count, .. }) = current {
             nodes += 1;
             if count > 0 {
                 let first = child as usize;
@@ -454,13 +546,22 @@ impl Bvh {
                         }
                     }
                 }
-                continue;
+            } else {
+                let node = &self.wide[child as usize];
+                boxes += WIDTH as u64;
+                let (m, t) = wray.enter(node, best);
+                if m != 0 {
+                    // The nearest child next, the others stacked farthest first.
+                    current = Some(take_nearest(&mut stack, node, m, &t));
+                    continue;
+                }
             }
-            let node = &self.wide[child as usize];
-            boxes += WIDTH as u64;
-            let (m, t) = wray.enter(node, best);
-            if m != 0 {
-                push_nearest_last(&mut stack, node, m, &t);
+            current = None;
+            while let Some(e) = stack.pop() {
+                if e.tn <= best * CULL_SLACK {
+                    current = Some(e);
+                    break;
+                }
             }
         }
         (state.best, state.prim, state.hit) = (best, prim_hit, hit);
