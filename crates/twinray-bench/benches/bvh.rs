@@ -127,6 +127,7 @@ fn obvhs_to_twinray(b: &Bvh2) -> Bvh {
         nodes[i].meta = (axis as u32) << 30;
     }
     Bvh {
+        wide: twinray::bvh::collapse(&nodes),
         nodes,
         order: b.primitive_indices.clone(),
     }

@@ -100,3 +100,4 @@ pub fn random_rays(n: usize, seed: u64) -> Vec<Ray> {
         })
         .collect()
 }
+pub mod traversal;

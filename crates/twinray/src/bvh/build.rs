@@ -49,8 +49,10 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     let mut bvh = Bvh {
         nodes: Vec::with_capacity(2 * boxes.len()),
         order: refs.iter().map(|r| r.index).collect(),
+        wide: Vec::new(),
     };
     flatten(&tree, &mut bvh.nodes, 0);
+    bvh.wide = super::collapse(&bvh.nodes);
     bvh
 }
 

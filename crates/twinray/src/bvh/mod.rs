@@ -4,18 +4,20 @@
 //! rays traced as one), and any-hit for packets of shadow rays.
 //!
 //! The hierarchy knows nothing of shapes: it holds boxes and a permutation of
-//! primitive indices, and asks a `NearestTest` or `AnyHitTest` to test primitives.
+//! primitive indices (and the same tree four-wide, `wide.rs`), and asks a `NearestTest` or `AnyHitTest` to test primitives.
 
 #[cfg(test)]
 pub(crate) mod brute_force;
 mod build;
 mod traverse;
+mod wide;
 
 pub use build::{build, primitive_box, BuildOptions};
 pub use traverse::{
     segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
     TraversalStats,
 };
+pub use wide::{collapse, Node4, WIDTH};
 
 use crate::math::Aabb;
 
@@ -62,6 +64,9 @@ pub struct Bvh {
     pub nodes: Vec<Node>,
     /// Primitive indices in leaf order: leaf slots `first..first+count` index this.
     pub order: Vec<u32>,
+    /// The same tree collapsed four-wide (`wide.rs`), which the traversals
+    /// use when it is there; empty: they use `nodes`.
+    pub wide: Vec<Node4>,
 }
 
 impl Bvh {
@@ -91,6 +96,8 @@ impl Bvh {
 
     /// Memory held by the hierarchy, in bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node>() + self.order.len() * 4
+        self.nodes.len() * std::mem::size_of::<Node>()
+            + self.wide.len() * std::mem::size_of::<Node4>()
+            + self.order.len() * 4
     }
 }

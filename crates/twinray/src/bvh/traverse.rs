@@ -121,20 +121,21 @@ impl<F: FnMut(u32, usize) -> AnyHit> AnyHitTest for F {
     }
 }
 
-const STACK: usize = 128;
+pub(super) const STACK: usize = 128;
 /// A box is skipped when its entry lies beyond the nearest hit so far by more
 /// than this factor. The slack covers the rounding of a primitive's hit
 /// distance against its box's entry distance (a floor polygon lies in its
 /// box's face), so that no traversal order can skip a hit another would find:
 /// the nearest hit is then the same for a lane traced alone or in any packet.
-const CULL_SLACK: f32 = 1.0 + 1.0 / 4096.0;
+pub(super) const CULL_SLACK: f32 = 1.0 + 1.0 / 4096.0;
 /// Ize's robust slab test: widen the exit distance by 1 + 2*gamma(3).
-const ROBUST: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+pub(super) const ROBUST: f32 =
+    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// `min` and `max` without the NaN rules of `f32::min` (one instruction each):
 /// the slab test never produces NaN, since `safe_inverse` keeps 1/d finite.
 #[inline(always)]
-fn fmin(a: f32, b: f32) -> f32 {
+pub(super) fn fmin(a: f32, b: f32) -> f32 {
     if a < b {
         a
     } else {
@@ -143,7 +144,7 @@ fn fmin(a: f32, b: f32) -> f32 {
 }
 
 #[inline(always)]
-fn fmax(a: f32, b: f32) -> f32 {
+pub(super) fn fmax(a: f32, b: f32) -> f32 {
     if a > b {
         a
     } else {
@@ -183,16 +184,16 @@ fn safe_inverse(d: Vec3) -> Vec3 {
 
 /// One ray prepared for slab tests (see `Lanes` for the same per lane).
 #[derive(Clone, Copy)]
-struct SingleRay {
-    inv: [f32; 3],
-    neg: [bool; 3],
+pub(super) struct SingleRay {
+    pub(super) inv: [f32; 3],
+    pub(super) neg: [bool; 3],
     /// The origin scaled by `inv`.
-    origin: [f32; 3],
-    t_min: f32,
+    pub(super) origin: [f32; 3],
+    pub(super) t_min: f32,
 }
 
 impl SingleRay {
-    fn new(origin: Vec3, dir: Vec3, t_min: f32) -> SingleRay {
+    pub(super) fn new(origin: Vec3, dir: Vec3, t_min: f32) -> SingleRay {
         let inv = safe_inverse(dir);
         SingleRay {
             inv: [inv.x, inv.y, inv.z],
@@ -254,10 +255,10 @@ pub fn segment_enters(b: &Aabb, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
 }
 
 /// One lane's nearest hit so far.
-struct LaneHit {
-    best: f32,
-    prim: u32,
-    hit: SurfaceHit,
+pub(super) struct LaneHit {
+    pub(super) best: f32,
+    pub(super) prim: u32,
+    pub(super) hit: SurfaceHit,
 }
 
 /// The lanes of a packet prepared for slab tests, as structure of arrays: each
@@ -459,10 +460,10 @@ impl<const K: usize> Lanes<K> {
 }
 
 impl Bvh {
-    /// Nearest hit per lane. `test(prim, lane, t_max)` intersects one primitive with
+    /// Nearest hit per lane, on the binary tree. `test(prim, lane, t_max)` intersects one primitive with
     /// one lane's ray and returns a hit with `t < t_max` or `None`.
     #[inline]
-    pub fn closest<const K: usize>(
+    pub fn closest_binary<const K: usize>(
         &self,
         packet: &Packet<K>,
         stats: &mut TraversalStats,
@@ -597,7 +598,7 @@ impl Bvh {
     /// it answers `Stop` for that lane. Which primitives a lane visits does not
     /// depend on the other lanes, but the order may: callers must make their
     /// result independent of the order (see `shading::Transmittance`).
-    pub fn occlusion<const K: usize>(
+    pub fn occlusion_binary<const K: usize>(
         &self,
         packet: &SegmentPacket<K>,
         stats: &mut TraversalStats,

@@ -1,0 +1,143 @@
+//! Side-by-side rays/s of the four-wide and the binary traversal, in one
+//! process, rounds interleaved so that the machine's load hits both alike:
+//!
+//! `cargo run --release -p twinray-bench --example wide_vs_binary -- [--size N] [--rounds R] SCENE.nff ...`
+//!
+//! Prints per scene and ray kind the median Mrays/s of each over the rounds and
+//! the ratio wide / binary, on 1 thread (per second of this thread's CPU time,
+//! which other processes' load does not inflate) and 2 threads (wall time).
+
+use std::path::Path;
+use std::time::Instant;
+
+use twinray_bench::traversal::{pairs_pass, rays_pass, shadow_pass, work, RaySets, Tree};
+
+/// This thread's time on a CPU, in seconds (Linux: /proc/thread-self/schedstat),
+/// so that one-thread runs are not charged for time other processes took; None
+/// elsewhere.
+fn cpu_seconds() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: f64 = s.split_whitespace().next()?.parse().ok()?;
+    Some(ns * 1e-9)
+}
+
+/// Seconds `f` took: CPU time on one thread, wall time on more.
+fn timed(threads: usize, f: impl FnOnce() -> u64) -> (f64, u64) {
+    let (w0, c0) = (Instant::now(), cpu_seconds());
+    let r = f();
+    match (threads, c0, cpu_seconds()) {
+        (1, Some(a), Some(b)) => (b - a, r),
+        _ => (w0.elapsed().as_secs_f64(), r),
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut take = |flag: &str, default: usize| -> usize {
+        match args.iter().position(|a| a == flag) {
+            Some(i) if i + 1 < args.len() => {
+                let v = args[i + 1].parse().unwrap_or(default);
+                args.drain(i..i + 2);
+                v
+            }
+            _ => default,
+        }
+    };
+    let size = take("--size", 512);
+    let rounds = take("--rounds", 5);
+    println!(
+        "{:<10} {:<10} {:>3} {:>11} {:>11} {:>6} agree",
+        "scene", "rays", "thr", "binary_Mr/s", "wide_Mr/s", "ratio"
+    );
+    // The build over 1M triangles (a 1000 x 500-cell terrain, as benches/bvh.rs),
+    // and how much of it the four-wide collapse takes.
+    let tris = twinray_bench::terrain(1000, 500, 1.0, 0.5, 1);
+    let boxes: Vec<twinray::math::Aabb> = tris
+        .iter()
+        .map(|t| twinray::math::Aabb::from_points(t))
+        .collect();
+    let (mut build_s, mut collapse_s) = (Vec::new(), Vec::new());
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        let bvh = twinray::bvh::build(&boxes, &twinray::bvh::BuildOptions::default());
+        build_s.push(t0.elapsed().as_secs_f64());
+        let t0 = Instant::now();
+        let wide = twinray::bvh::collapse(&bvh.nodes);
+        collapse_s.push(t0.elapsed().as_secs_f64());
+        assert_eq!(wide, bvh.wide);
+    }
+    println!(
+        "build 1M triangles: {:.3} s (wall, median of 3), of which the four-wide collapse {:.3} s",
+        median(build_s),
+        median(collapse_s)
+    );
+    for path in &args {
+        let sets = match RaySets::load(Path::new(path), size) {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("{path}: {e}");
+                continue;
+            }
+        };
+        let name = Path::new(path)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        for tree in [Tree::Binary, Tree::Wide] {
+            let st = work(&sets, &sets.eye, tree);
+            let n = sets.eye.len() as f64;
+            println!(
+                "{name:<10} eye work, {tree:?}: {:.2} nodes, {:.2} box tests, {:.2} primitive tests per ray",
+                st.nodes as f64 / n,
+                st.box_tests as f64 / n,
+                st.prim_tests as f64 / n
+            );
+        }
+        type Run<'a> = Box<dyn Fn(Tree, usize) -> u64 + 'a>;
+        let kinds: [(&str, usize, Run); 4] = [
+            (
+                "eye",
+                sets.eye.len(),
+                Box::new(|t, n| rays_pass(&sets, &sets.eye, t, n)),
+            ),
+            (
+                "eye pair",
+                2 * sets.pairs.len(),
+                Box::new(|t, n| pairs_pass(&sets, t, n)),
+            ),
+            (
+                "shadow",
+                sets.shadow.len(),
+                Box::new(|t, n| shadow_pass(&sets, t, n)),
+            ),
+            (
+                "reflected",
+                sets.reflected.len(),
+                Box::new(|t, n| rays_pass(&sets, &sets.reflected, t, n)),
+            ),
+        ];
+        for threads in [1, 2] {
+            for (kind, count, run) in &kinds {
+                let (mut b, mut w) = (Vec::new(), Vec::new());
+                let mut agree = true;
+                for _ in 0..rounds {
+                    let (sb, cb) = timed(threads, || run(Tree::Binary, threads));
+                    b.push(*count as f64 / sb / 1e6);
+                    let (sw, cw) = timed(threads, || run(Tree::Wide, threads));
+                    w.push(*count as f64 / sw / 1e6);
+                    agree &= cb == cw;
+                }
+                let (mb, mw) = (median(b), median(w));
+                println!(
+                    "{name:<10} {kind:<10} {threads:>3} {mb:>11.2} {mw:>11.2} {:>6.2} {agree}",
+                    mw / mb
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,217 @@
+//! Ray sets for comparing the four-wide traversal with the binary one on real
+//! scenes: the eye rays of an NFF file's viewpoint through the pixel centres
+//! (as `../shared/bench/vs-embree.py` casts them), stereo pairs of those, and
+//! the shadow and reflected rays of their hits. Each pass returns a checksum of
+//! the hits so that both traversals can be seen to agree and nothing is
+//! optimised away.
+
+use std::path::Path;
+
+use rayon::prelude::*;
+use twinray::bvh::{AnyHit, Bvh, Packet, SegmentPacket, TraversalStats};
+use twinray::loaders::{load_scene, LoadOptions};
+use twinray::math::{reflect, Ray, Vec3};
+use twinray::World;
+
+/// Which traversal a pass uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tree {
+    Binary,
+    Wide,
+}
+
+/// A scene with the rays of one `size`² view of it.
+pub struct RaySets {
+    pub world: World,
+    /// Eye rays through the pixel centres, in scanline order.
+    pub eye: Vec<Ray>,
+    /// Stereo pairs: each eye ray and the same pixel's ray from an eye moved
+    /// along the camera's right axis by 2 % of the distance to the target.
+    pub pairs: Vec<[Ray; 2]>,
+    /// From each eye hit toward the first light (or a point above the scene):
+    /// origin, direction, length.
+    pub shadow: Vec<(Vec3, Vec3, f32)>,
+    /// The mirror reflections of the eye rays at their hits.
+    pub reflected: Vec<Ray>,
+}
+
+impl RaySets {
+    /// Loads `path` and casts its rays at `size`² pixels.
+    pub fn load(path: &Path, size: usize) -> twinray::Result<RaySets> {
+        let scene = load_scene(path, &LoadOptions::default())?;
+        let world = World::new(scene);
+        let vp = world.scene.viewpoint.clone();
+        let fwd = (vp.at - vp.from).normalize();
+        let right = fwd.cross(vp.up).normalize();
+        let up = right.cross(fwd);
+        let half = (vp.angle_deg.to_radians() * 0.5).tan();
+        let px = half / ((size as f32 - 1.0) * 0.5);
+        let eye2 = vp.from + right * (0.02 * (vp.at - vp.from).length());
+        let mut eye = Vec::with_capacity(size * size);
+        let mut pairs = Vec::with_capacity(size * size);
+        for j in 0..size {
+            for i in 0..size {
+                let x = (i as f32 - (size as f32 - 1.0) * 0.5) * px;
+                let y = ((size as f32 - 1.0) * 0.5 - j as f32) * px;
+                let dir = (fwd + right * x + up * y).normalize();
+                eye.push(Ray::new(vp.from, dir));
+                pairs.push([Ray::new(vp.from, dir), Ray::new(eye2, dir)]);
+            }
+        }
+        let light = world
+            .scene
+            .lights
+            .iter()
+            .find_map(|l| match l.kind {
+                twinray::lights::LightKind::Point { position, .. } => Some(position),
+                _ => None,
+            })
+            .unwrap_or(vp.from + up * 100.0);
+        let (mut shadow, mut reflected) = (Vec::new(), Vec::new());
+        let shapes = &world.scene.shapes;
+        for ray in &eye {
+            let (prim, t) = closest(
+                &world.bvh,
+                &world,
+                ray,
+                Tree::Binary,
+                &mut TraversalStats::default(),
+            );
+            if prim == u32::MAX {
+                continue;
+            }
+            let p = ray.at(t);
+            let h = twinray::shapes::SurfaceHit { t, u: 0.0, v: 0.0 };
+            let n = shapes[prim as usize].normal(p, &h, &world.scene.corners);
+            let n = if n.dot(ray.dir) > 0.0 { -n } else { n };
+            let o = p + n * 1e-3;
+            let to = light - o;
+            shadow.push((o, to.normalize(), to.length()));
+            reflected.push(Ray::new(o, reflect(ray.dir, n)));
+        }
+        Ok(RaySets {
+            world,
+            eye,
+            pairs,
+            shadow,
+            reflected,
+        })
+    }
+}
+
+/// One ray's nearest hit: `(prim, t)`, `(u32::MAX, inf)` for none.
+#[inline(always)]
+pub fn closest(
+    bvh: &Bvh,
+    world: &World,
+    ray: &Ray,
+    tree: Tree,
+    st: &mut TraversalStats,
+) -> (u32, f32) {
+    let p = Packet {
+        origins: [ray.origin],
+        dirs: [ray.dir],
+        t_min: 0.0,
+        t_max: [f32::INFINITY],
+        mask: 1,
+    };
+    let shapes = &world.scene.shapes;
+    let test = |prim: u32, _: usize, t_max: f32| shapes[prim as usize].intersect(ray, 0.0, t_max);
+    let h = match tree {
+        Tree::Binary => bvh.closest_binary(&p, st, test),
+        Tree::Wide => bvh.closest_wide(&p, st, test),
+    };
+    (h.prim[0], h.hit[0].t)
+}
+
+fn checksum(prim: u32, t: f32) -> u64 {
+    prim as u64 ^ t.to_bits() as u64
+}
+
+/// Runs `f` over `items` on `threads` threads (1: on this one), summing checksums.
+fn pass<T: Sync>(items: &[T], threads: usize, f: impl Fn(&T) -> u64 + Sync) -> u64 {
+    if threads <= 1 {
+        return items.iter().map(&f).fold(0, u64::wrapping_add);
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool");
+    pool.install(|| {
+        items
+            .par_chunks(1024)
+            .map(|c| c.iter().map(&f).fold(0, u64::wrapping_add))
+            .reduce(|| 0, u64::wrapping_add)
+    })
+}
+
+/// Nearest hits of single rays (eye or reflected).
+pub fn rays_pass(sets: &RaySets, rays: &[Ray], tree: Tree, threads: usize) -> u64 {
+    let w = &sets.world;
+    pass(rays, threads, |r| {
+        let (p, t) = closest(&w.bvh, w, r, tree, &mut TraversalStats::default());
+        checksum(p, t)
+    })
+}
+
+/// Nearest hits of stereo pairs traced as two-lane packets (the twin method's descent).
+pub fn pairs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
+    let w = &sets.world;
+    let shapes = &w.scene.shapes;
+    pass(&sets.pairs, threads, |pair| {
+        let p = Packet {
+            origins: pair.map(|r| r.origin),
+            dirs: pair.map(|r| r.dir),
+            t_min: 0.0,
+            t_max: [f32::INFINITY; 2],
+            mask: 0b11,
+        };
+        let test =
+            |prim: u32, l: usize, t_max: f32| shapes[prim as usize].intersect(&pair[l], 0.0, t_max);
+        let mut st = TraversalStats::default();
+        let h = match tree {
+            Tree::Binary => w.bvh.closest_binary(&p, &mut st, test),
+            Tree::Wide => w.bvh.closest_wide(&p, &mut st, test),
+        };
+        checksum(h.prim[0], h.hit[0].t).wrapping_add(checksum(h.prim[1], h.hit[1].t))
+    })
+}
+
+/// Any-hit of the shadow segments, one at a time, stopping at the first blocker.
+pub fn shadow_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
+    let w = &sets.world;
+    let shapes = &w.scene.shapes;
+    pass(&sets.shadow, threads, |&(o, d, len)| {
+        let p = SegmentPacket {
+            origins: [o],
+            dirs: [d],
+            t_max: [len],
+            mask: 1,
+        };
+        let ray = Ray::new(o, d);
+        let mut blocked = 0u64;
+        let mut test = |prim: u32, _: usize| {
+            if shapes[prim as usize].intersect(&ray, 0.0, len).is_some() {
+                blocked = 1;
+                AnyHit::Stop
+            } else {
+                AnyHit::Continue
+            }
+        };
+        let mut st = TraversalStats::default();
+        match tree {
+            Tree::Binary => w.bvh.occlusion_binary(&p, &mut st, &mut test),
+            Tree::Wide => w.bvh.occlusion_wide(&p, &mut st, &mut test),
+        }
+        blocked
+    })
+}
+
+/// The work of tracing `rays` one at a time: nodes, box tests, primitive tests.
+pub fn work(sets: &RaySets, rays: &[Ray], tree: Tree) -> TraversalStats {
+    let mut st = TraversalStats::default();
+    for r in rays {
+        closest(&sets.world.bvh, &sets.world, r, tree, &mut st);
+    }
+    st
+}

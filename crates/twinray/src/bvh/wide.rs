@@ -1,0 +1,704 @@
+//! The four-wide hierarchy (the renderer's shadow rays traverse it): the binary SAH tree
+//! collapsed so that each node holds up to four children, their boxes in
+//! structure-of-arrays layout, so that one ray meets all four in one SIMD
+//! stream (`wide::f32x4`, SSE on x86-64). Children are visited nearest first.
+//!
+//! Exactness: a child's slab test is, per register lane, the binary descent's
+//! test with its arithmetic (the entry and exit planes picked by the ray's
+//! signs, then the same `max`/`min` in the same order, which `maxps`/`minps`
+//! compute as `fmax`/`fmin` do), and the boxes are the binary tree's. So the
+//! culling is as conservative as there (`CULL_SLACK`), a lane's nearest hit —
+//! ties to the lower primitive index — is what it is alone or in any packet,
+//! and a segment that `segment_enters` a primitive's box reaches the primitive
+//! (the shadow cache relies on it).
+
+use super::traverse::{fmin, LaneHit, SingleRay, CULL_SLACK, ROBUST, STACK};
+use super::{
+    AnyHit, AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats,
+};
+use crate::shapes::SurfaceHit;
+use arrayvec::ArrayVec;
+use wide::{f32x4, f32x8};
+
+/// Children per node.
+pub const WIDTH: usize = 4;
+
+/// Up to four children's boxes, per axis and side (`bounds[2 * axis]` the
+/// minima, `bounds[2 * axis + 1]` the maxima), and where each child is. An
+/// unused slot has an empty box (`+inf..-inf`), which no ray enters: its entry
+/// distance is `+inf` on every axis whatever the ray's signs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct Node4 {
+    pub bounds: [[f32; WIDTH]; 6],
+    /// Inner child: its node's index. Leaf child: its first slot in `Bvh::order`.
+    pub child: [u32; WIDTH],
+    /// Leaf child: its primitive count (> 0). Inner child or unused slot: 0.
+    pub count: [u32; WIDTH],
+}
+
+impl Node4 {
+    const EMPTY: Node4 = Node4 {
+        bounds: [
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+        ],
+        child: [0; WIDTH],
+        count: [0; WIDTH],
+    };
+}
+
+/// The binary tree `nodes` collapsed four-wide: each wide node takes a binary
+/// node's children and opens the largest (by surface area) inner one among
+/// them until there are four. Leaves are the binary leaves, so `order` serves both.
+pub fn collapse(nodes: &[super::Node]) -> Vec<Node4> {
+    if nodes.is_empty() {
+        return Vec::new();
+    }
+    let mut out = Vec::with_capacity(nodes.len() / 2 + 1);
+    out.push(Node4::EMPTY);
+    let mut work = vec![(0usize, 0usize)];
+    while let Some((binary, wide)) = work.pop() {
+        let root = &nodes[binary];
+        let mut kids: ArrayVec<usize, WIDTH> = ArrayVec::new();
+        if root.is_leaf() {
+            kids.push(binary);
+        } else {
+            kids.push(root.first as usize);
+            kids.push(root.first as usize + 1);
+        }
+        while kids.len() < WIDTH {
+            let open = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| !nodes[k].is_leaf())
+                .max_by(|(_, &a), (_, &b)| {
+                    let (a, b) = (nodes[a].bounds().half_area(), nodes[b].bounds().half_area());
+                    a.total_cmp(&b)
+                })
+                .map(|(i, _)| i);
+            let Some(i) = open else { break };
+            let first = nodes[kids[i]].first as usize;
+            kids[i] = first;
+            kids.insert(i + 1, first + 1);
+        }
+        let mut node = Node4::EMPTY;
+        for (slot, &k) in kids.iter().enumerate() {
+            let n = &nodes[k];
+            for axis in 0..3 {
+                node.bounds[2 * axis][slot] = n.min[axis];
+                node.bounds[2 * axis + 1][slot] = n.max[axis];
+            }
+            if n.is_leaf() {
+                node.child[slot] = n.first;
+                node.count[slot] = n.count();
+            } else {
+                node.child[slot] = out.len() as u32;
+                work.push((k, out.len()));
+                out.push(Node4::EMPTY);
+            }
+        }
+        out[wide] = node;
+    }
+    out
+}
+
+/// One ray prepared for the four-wide slab test: per axis, which of a node's
+/// bound arrays is its entry plane and which its exit plane, and its numbers
+/// splatted.
+#[derive(Clone, Copy)]
+struct WideRay {
+    near: [usize; 3],
+    far: [usize; 3],
+    inv: [f32x4; 3],
+    org: [f32x4; 3],
+    t_min: f32x4,
+}
+
+impl WideRay {
+    #[inline(always)]
+    fn new(r: &SingleRay) -> WideRay {
+        let side = |a: usize| r.neg[a] as usize;
+        WideRay {
+            near: [0, 1, 2].map(|a| 2 * a + side(a)),
+            far: [0, 1, 2].map(|a| 2 * a + 1 - side(a)),
+            inv: r.inv.map(f32x4::splat),
+            org: r.origin.map(f32x4::splat),
+            t_min: f32x4::splat(r.t_min),
+        }
+    }
+
+    /// Entry and exit distances of the four children: per lane, the binary
+    /// descent's `entry` (and `segment_enters_node` with `t_min = 0`).
+    #[inline(always)]
+    fn slabs(&self, node: &Node4) -> (f32x4, f32x4) {
+        let plane = |i: usize, a: usize| f32x4::from(node.bounds[i]) * self.inv[a] - self.org[a];
+        let (nx, ny, nz) = (
+            plane(self.near[0], 0),
+            plane(self.near[1], 1),
+            plane(self.near[2], 2),
+        );
+        let (fx, fy, fz) = (
+            plane(self.far[0], 0),
+            plane(self.far[1], 1),
+            plane(self.far[2], 2),
+        );
+        // `fast_max(a, b)` is `maxps(a, b)`: `a > b ? a : b`, i.e. `fmax(a, b)`.
+        let tn = nx.fast_max(ny).fast_max(nz.fast_max(self.t_min));
+        let tf = fx.fast_min(fy).fast_min(fz) * f32x4::splat(ROBUST);
+        (tn, tf)
+    }
+
+    /// The children a ray enters before `best * CULL_SLACK`, as a bit mask,
+    /// and their entry distances.
+    #[inline(always)]
+    fn enter(&self, node: &Node4, best: f32) -> (u32, [f32; WIDTH]) {
+        let (tn, tf) = self.slabs(node);
+        let bound = f32x4::splat(best * CULL_SLACK);
+        let m = (tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask();
+        (m, tn.to_array())
+    }
+
+    /// The children a segment `0 < t < t_max` enters, as a bit mask.
+    #[inline(always)]
+    fn enters(&self, node: &Node4, t_max: f32) -> u32 {
+        let (tn, tf) = self.slabs(node);
+        tn.simd_le(tf.fast_min(f32x4::splat(t_max))).to_bitmask()
+    }
+}
+
+/// Two rays (a stereo pair) prepared to meet a node's four children in one
+/// eight-wide register: lanes 0-3 the first ray's, 4-7 the second's. Per lane,
+/// `WideRay::slabs`'s arithmetic.
+#[derive(Clone, Copy)]
+struct WidePair {
+    near: [[usize; 3]; 2],
+    far: [[usize; 3]; 2],
+    inv: [f32x8; 3],
+    org: [f32x8; 3],
+    t_min: f32x8,
+}
+
+/// `a` in register lanes 0-3 and `b` in 4-7.
+#[inline(always)]
+fn halves(a: [f32; 4], b: [f32; 4]) -> f32x8 {
+    f32x8::from([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]])
+}
+
+impl WidePair {
+    #[inline(always)]
+    fn new(r: [&WideRay; 2]) -> WidePair {
+        let both = |a: f32x4, b: f32x4| halves(a.to_array(), b.to_array());
+        WidePair {
+            near: [r[0].near, r[1].near],
+            far: [r[0].far, r[1].far],
+            inv: [0, 1, 2].map(|a| both(r[0].inv[a], r[1].inv[a])),
+            org: [0, 1, 2].map(|a| both(r[0].org[a], r[1].org[a])),
+            t_min: both(r[0].t_min, r[1].t_min),
+        }
+    }
+
+    /// The children each ray enters before its `best * CULL_SLACK`: bits 0-3
+    /// the first ray's, 4-7 the second's; and the entry distances, alike.
+    #[inline(always)]
+    fn enter(&self, node: &Node4, best: [f32; 2]) -> (u32, [f32; 8]) {
+        let plane = |side: &[[usize; 3]; 2], a: usize| {
+            halves(node.bounds[side[0][a]], node.bounds[side[1][a]]) * self.inv[a] - self.org[a]
+        };
+        let (nx, ny, nz) = (
+            plane(&self.near, 0),
+            plane(&self.near, 1),
+            plane(&self.near, 2),
+        );
+        let (fx, fy, fz) = (
+            plane(&self.far, 0),
+            plane(&self.far, 1),
+            plane(&self.far, 2),
+        );
+        let tn = nx.fast_max(ny).fast_max(nz.fast_max(self.t_min));
+        let tf = fx.fast_min(fy).fast_min(fz) * f32x8::splat(ROBUST);
+        let bound = halves([best[0] * CULL_SLACK; 4], [best[1] * CULL_SLACK; 4]);
+        let m = (tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask();
+        (m, tn.to_array())
+    }
+}
+
+/// A stack entry: a child (`count` > 0: a leaf) entered at `tn`.
+#[derive(Clone, Copy)]
+struct Entry {
+    child: u32,
+    count: u32,
+    tn: f32,
+}
+
+/// The children of `node` in `mask` by entry distance `tn`: returns the
+/// nearest and stacks the others so that they pop nearest first.
+#[inline(always)]
+fn take_nearest(
+    stack: &mut ArrayVec<Entry, STACK>,
+    node: &Node4,
+    mask: u32,
+    tn: &[f32; WIDTH],
+) -> Entry {
+    let entry = |c: usize| Entry {
+        child: node.child[c],
+        count: node.count[c],
+        tn: tn[c],
+    };
+    let a = entry(mask.trailing_zeros() as usize);
+    let rest = mask & (mask - 1);
+    if rest == 0 {
+        return a;
+    }
+    let b = entry(rest.trailing_zeros() as usize);
+    let rest = rest & (rest - 1);
+    let (near, far) = if b.tn < a.tn { (b, a) } else { (a, b) };
+    if rest == 0 {
+        let _ = stack.try_push(far);
+        return near;
+    }
+    // Three or four: sorted by insertion, farthest first.
+    let mut sorted = [near; WIDTH];
+    sorted[1] = far;
+    let mut n = 2;
+    let mut bits = rest;
+    while bits != 0 {
+        let e = entry(bits.trailing_zeros() as usize);
+        bits &= bits - 1;
+        let mut i = n;
+        while i > 0 && sorted[i - 1].tn > e.tn {
+            sorted[i] = sorted[i - 1];
+            i -= 1;
+        }
+        sorted[i] = e;
+        n += 1;
+    }
+    for e in sorted[1..n].iter().rev() {
+        let _ = stack.try_push(*e);
+    }
+    sorted[0]
+}
+
+/// A packet's stack entry: a child, the lanes that entered it, their entry distances.
+#[derive(Clone, Copy)]
+struct PacketEntry<const K: usize> {
+    child: u32,
+    count: u32,
+    mask: u32,
+    tn: [f32; K],
+}
+
+impl Bvh {
+    /// Nearest hit per lane (see `closest_binary` for the contract). On the
+    /// binary tree: the four-wide descent gives the same hits but did not
+    /// measure faster for eye rays and stereo pairs (docs/benchmarks.md).
+    #[inline]
+    pub fn closest<const K: usize>(
+        &self,
+        packet: &Packet<K>,
+        stats: &mut TraversalStats,
+        test: impl NearestTest,
+    ) -> PacketHits<K> {
+        self.closest_binary(packet, stats, test)
+    }
+
+    /// Any-hit per lane (see `occlusion_binary` for the contract), on the
+    /// four-wide tree when there is one: it measured faster for shadow rays
+    /// (docs/benchmarks.md).
+    pub fn occlusion<const K: usize>(
+        &self,
+        packet: &SegmentPacket<K>,
+        stats: &mut TraversalStats,
+        test: &mut impl AnyHitTest,
+    ) {
+        if self.wide.is_empty() {
+            self.occlusion_binary(packet, stats, test)
+        } else {
+            self.occlusion_wide(packet, stats, test)
+        }
+    }
+
+    /// `closest` on the four-wide tree (which must exist).
+    #[inline]
+    pub fn closest_wide<const K: usize>(
+        &self,
+        packet: &Packet<K>,
+        stats: &mut TraversalStats,
+        mut test: impl NearestTest,
+    ) -> PacketHits<K> {
+        let none = SurfaceHit {
+            t: f32::INFINITY,
+            u: 0.0,
+            v: 0.0,
+        };
+        let mut out = PacketHits {
+            prim: [PacketHits::<K>::NO_HIT; K],
+            hit: [none; K],
+        };
+        if self.wide.is_empty() || packet.mask == 0 {
+            return out;
+        }
+        let rays: [SingleRay; K] = std::array::from_fn(|l| {
+            SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min)
+        });
+        if K == 1 || packet.mask.count_ones() == 1 {
+            let l = if K == 1 {
+                0
+            } else {
+                packet.mask.trailing_zeros() as usize
+            };
+            let mut state = LaneHit {
+                best: packet.t_max[l],
+                prim: PacketHits::<K>::NO_HIT,
+                hit: none,
+            };
+            let root = Entry {
+                child: 0,
+                count: 0,
+                tn: packet.t_min,
+            };
+            self.wide_single(root, &rays[l], &mut state, stats, |p, t| test.test(p, l, t));
+            out.prim[l] = state.prim;
+            out.hit[l] = state.hit;
+            return out;
+        }
+        let wide_rays: [WideRay; K] = std::array::from_fn(|l| WideRay::new(&rays[l]));
+        let pair = (K == 2).then(|| WidePair::new([&wide_rays[0], &wide_rays[1 % K]]));
+        let mut best = packet.t_max;
+        let mut stack = ArrayVec::<PacketEntry<K>, STACK>::new();
+        stack.push(PacketEntry {
+            child: 0,
+            count: 0,
+            mask: packet.mask,
+            tn: [packet.t_min; K],
+        });
+        while let Some(PacketEntry {
+            child,
+            count,
+            mut mask,
+            tn,
+        }) = stack.pop()
+        {
+            for (l, t) in tn.iter().enumerate() {
+                if mask & (1 << l) != 0 && *t > best[l] * CULL_SLACK {
+                    mask &= !(1 << l);
+                }
+            }
+            if mask == 0 {
+                continue;
+            }
+            if mask & (mask - 1) == 0 {
+                // One lane left in this subtree: finish it as a plain ray.
+                let l = mask.trailing_zeros() as usize;
+                let mut state = LaneHit {
+                    best: best[l],
+                    prim: out.prim[l],
+                    hit: out.hit[l],
+                };
+                let start = Entry {
+                    child,
+                    count,
+                    tn: tn[l],
+                };
+                self.wide_single(start, &rays[l], &mut state, stats, |p, t| {
+                    test.test(p, l, t)
+                });
+                (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
+                continue;
+            }
+            stats.nodes += 1;
+            if count > 0 {
+                let first = child as usize;
+                for &prim in &self.order[first..first + count as usize] {
+                    if K == 2 && mask == 0b11 {
+                        // Both rays of a stereo pair against one primitive at once.
+                        stats.prim_tests += 2;
+                        let found =
+                            test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
+                        for (l, h) in found.into_iter().enumerate() {
+                            if let Some(h) = h {
+                                if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
+                                    best[l] = h.t;
+                                    out.prim[l] = prim;
+                                    out.hit[l] = h;
+                                }
+                            }
+                        }
+                        continue;
+                    }
+                    let mut lanes = mask;
+                    while lanes != 0 {
+                        let l = lanes.trailing_zeros() as usize;
+                        lanes &= lanes - 1;
+                        stats.prim_tests += 1;
+                        // next_up lets an equal distance through, for the index tie-break.
+                        if let Some(h) = test.test(prim, l, best[l].next_up()) {
+                            if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
+                                best[l] = h.t;
+                                out.prim[l] = prim;
+                                out.hit[l] = h;
+                            }
+                        }
+                    }
+                }
+                continue;
+            }
+            let node = &self.wide[child as usize];
+            let mut lanes_in = [0u32; WIDTH];
+            let mut tn_in = [[0.0f32; K]; WIDTH];
+            let mut key = [f32::INFINITY; WIDTH];
+            if let Some(pair) = &pair {
+                // A stereo pair: both rays against the four children in one register.
+                if mask == 0b11 {
+                    stats.box_tests += 2 * WIDTH as u64;
+                    let (m, t) = pair.enter(node, [best[0], best[1 % K]]);
+                    for c in 0..WIDTH {
+                        lanes_in[c] = (m >> c) & 1 | ((m >> (c + WIDTH)) & 1) << 1;
+                        tn_in[c][0] = t[c];
+                        tn_in[c][1 % K] = t[c + WIDTH];
+                        key[c] = fmin(
+                            if m & (1 << c) != 0 {
+                                t[c]
+                            } else {
+                                f32::INFINITY
+                            },
+                            if m & (1 << (c + WIDTH)) != 0 {
+                                t[c + WIDTH]
+                            } else {
+                                f32::INFINITY
+                            },
+                        );
+                    }
+                }
+            }
+            // Each lane against the four children in one register.
+            let mut lanes = if pair.is_some() && mask == 0b11 {
+                0
+            } else {
+                mask
+            };
+            while lanes != 0 {
+                let l = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                stats.box_tests += WIDTH as u64;
+                let (m, t) = wide_rays[l].enter(node, best[l]);
+                for c in 0..WIDTH {
+                    if m & (1 << c) != 0 {
+                        lanes_in[c] |= 1 << l;
+                        tn_in[c][l] = t[c];
+                        key[c] = fmin(key[c], t[c]);
+                    }
+                }
+            }
+            // Nearest first: by the nearest entry among a child's lanes.
+            let mut order: ArrayVec<usize, WIDTH> = ArrayVec::new();
+            for c in 0..WIDTH {
+                if lanes_in[c] != 0 {
+                    let at = order
+                        .iter()
+                        .position(|&o| key[o] < key[c])
+                        .unwrap_or(order.len());
+                    order.insert(at, c);
+                }
+            }
+            for c in order {
+                let _ = stack.try_push(PacketEntry {
+                    child: node.child[c],
+                    count: node.count[c],
+                    mask: lanes_in[c],
+                    tn: tn_in[c],
+                });
+            }
+        }
+        out
+    }
+
+    /// One ray's descent of the four-wide subtree at `start`, improving `state`.
+    #[inline(always)]
+    fn wide_single(
+        &self,
+        start: Entry,
+        ray: &SingleRay,
+        state: &mut LaneHit,
+        stats: &mut TraversalStats,
+        mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
+    ) {
+        let wray = WideRay::new(ray);
+        let (mut best, mut prim_hit, mut hit) = (state.best, state.prim, state.hit);
+        let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
+        let mut stack = ArrayVec::<Entry, STACK>::new();
+        let mut current = (start.tn <= best * CULL_SLACK).then_some(start);
+        while let Some(Entry { child, count, .. }) = current {
+            nodes += 1;
+            if count > 0 {
+                let first = child as usize;
+                for &prim in &self.order[first..first + count as usize] {
+                    prims += 1;
+                    if let Some(h) = test(prim, best.next_up()) {
+                        if h.t < best || (h.t == best && prim < prim_hit) {
+                            best = h.t;
+                            prim_hit = prim;
+                            hit = h;
+                        }
+                    }
+                }
+            } else {
+                let node = &self.wide[child as usize];
+                boxes += WIDTH as u64;
+                let (m, t) = wray.enter(node, best);
+                if m != 0 {
+                    // The nearest child next, the others stacked farthest first.
+                    current = Some(take_nearest(&mut stack, node, m, &t));
+                    continue;
+                }
+            }
+            current = None;
+            while let Some(e) = stack.pop() {
+                if e.tn <= best * CULL_SLACK {
+                    current = Some(e);
+                    break;
+                }
+            }
+        }
+        (state.best, state.prim, state.hit) = (best, prim_hit, hit);
+        stats.nodes += nodes;
+        stats.box_tests += boxes;
+        stats.prim_tests += prims;
+    }
+
+    /// `occlusion` on the four-wide tree (which must exist).
+    pub fn occlusion_wide<const K: usize>(
+        &self,
+        packet: &SegmentPacket<K>,
+        stats: &mut TraversalStats,
+        test: &mut impl AnyHitTest,
+    ) {
+        if self.wide.is_empty() || packet.mask == 0 {
+            return;
+        }
+        let rays: [SingleRay; K] =
+            std::array::from_fn(|l| SingleRay::new(packet.origins[l], packet.dirs[l], 0.0));
+        let t_max = &packet.t_max;
+        if K == 1 || packet.mask.count_ones() == 1 {
+            let l = if K == 1 {
+                0
+            } else {
+                packet.mask.trailing_zeros() as usize
+            };
+            self.wide_occlusion_single((0, 0), &rays[l], t_max[l], stats, |p| test.test(p, l));
+            return;
+        }
+        let wide_rays: [WideRay; K] = std::array::from_fn(|l| WideRay::new(&rays[l]));
+        let mut live = packet.mask;
+        let mut stack = ArrayVec::<(u32, u32, u32), STACK>::new();
+        stack.push((0, 0, live));
+        while let Some((child, count, m)) = stack.pop() {
+            let mask = m & live;
+            if mask == 0 {
+                continue;
+            }
+            if mask & (mask - 1) == 0 {
+                let l = mask.trailing_zeros() as usize;
+                if self.wide_occlusion_single((child, count), &rays[l], t_max[l], stats, |p| {
+                    test.test(p, l)
+                }) {
+                    live &= !(1 << l);
+                }
+                continue;
+            }
+            stats.nodes += 1;
+            if count > 0 {
+                let first = child as usize;
+                for &prim in &self.order[first..first + count as usize] {
+                    if K == 2 && live == 0b11 {
+                        stats.prim_tests += 2;
+                        for (l, a) in test.test_pair(prim).into_iter().enumerate() {
+                            if a == AnyHit::Stop {
+                                live &= !(1 << l);
+                            }
+                        }
+                        continue;
+                    }
+                    let mut lanes = mask & live;
+                    while lanes != 0 {
+                        let l = lanes.trailing_zeros() as usize;
+                        lanes &= lanes - 1;
+                        stats.prim_tests += 1;
+                        if test.test(prim, l) == AnyHit::Stop {
+                            live &= !(1 << l);
+                        }
+                    }
+                }
+                if live == 0 {
+                    return;
+                }
+                continue;
+            }
+            let node = &self.wide[child as usize];
+            let mut lanes_in = [0u32; WIDTH];
+            let mut lanes = mask;
+            while lanes != 0 {
+                let l = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                stats.box_tests += WIDTH as u64;
+                let m = wide_rays[l].enters(node, t_max[l]);
+                for (c, lc) in lanes_in.iter_mut().enumerate() {
+                    *lc |= ((m >> c) & 1) << l;
+                }
+            }
+            for c in (0..WIDTH).rev() {
+                if lanes_in[c] != 0 {
+                    let _ = stack.try_push((node.child[c], node.count[c], lanes_in[c]));
+                }
+            }
+        }
+    }
+
+    /// One segment's any-hit descent of the four-wide subtree at `start`
+    /// (`(child, count)`); returns whether `test` said stop.
+    #[inline(always)]
+    fn wide_occlusion_single(
+        &self,
+        start: (u32, u32),
+        ray: &SingleRay,
+        t_max: f32,
+        stats: &mut TraversalStats,
+        mut test: impl FnMut(u32) -> AnyHit,
+    ) -> bool {
+        let wray = WideRay::new(ray);
+        let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
+        let mut stopped = false;
+        let mut stack = ArrayVec::<(u32, u32), STACK>::new();
+        stack.push(start);
+        'descent: while let Some((child, count)) = stack.pop() {
+            nodes += 1;
+            if count > 0 {
+                let first = child as usize;
+                for &prim in &self.order[first..first + count as usize] {
+                    prims += 1;
+                    if test(prim) == AnyHit::Stop {
+                        stopped = true;
+                        break 'descent;
+                    }
+                }
+                continue;
+            }
+            let node = &self.wide[child as usize];
+            boxes += WIDTH as u64;
+            let mut m = wray.enters(node, t_max);
+            while m != 0 {
+                let c = 31 - m.leading_zeros() as usize;
+                m &= !(1 << c);
+                let _ = stack.try_push((node.child[c], node.count[c]));
+            }
+        }
+        stats.nodes += nodes;
+        stats.box_tests += boxes;
+        stats.prim_tests += prims;
+        stopped
+    }
+}

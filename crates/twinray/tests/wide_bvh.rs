@@ -1,0 +1,327 @@
+//! The four-wide hierarchy against brute force: on random scenes of triangles
+//! and spheres and random rays, the nearest hit of every lane of a packet
+//! (K = 1, 2, 3, 4, 8 lanes, each with its own direction and `t_max`) is the
+//! nearest of all primitives — ties to the lower index — bit for bit what the
+//! binary tree returns; any-hit reaches every primitive a segment meets, and
+//! stops as brute force says. Nearest-first order is checked by counting the
+//! primitive tests on a ray down a row of objects.
+
+use twinray::bvh::{build, AnyHit, BuildOptions, Bvh, Packet, SegmentPacket, TraversalStats};
+use twinray::math::{Aabb, Ray, Vec3};
+use twinray::shapes::{Shape, Sphere, SurfaceHit, Triangle, TriangleNormals};
+
+/// A random scene: small triangles and spheres in a 20-unit cube, some
+/// triangles sharing a plane (ties in distance), a few large ones.
+fn scene(n: usize, seed: u64) -> Vec<Shape> {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let v = |s: f32, rng: &mut fastrand::Rng| {
+        Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5) * s
+    };
+    (0..n)
+        .map(|i| {
+            let c = v(20.0, &mut rng);
+            if i % 5 == 0 {
+                Shape::Sphere(Sphere {
+                    center: c,
+                    radius: 0.1 + rng.f32() * 0.8,
+                    inside: false,
+                })
+            } else {
+                let size = if i % 37 == 0 { 12.0 } else { 1.5 };
+                let (mut a, mut b, mut d) = (c + v(size, &mut rng), c + v(size, &mut rng), c);
+                if i % 7 == 0 {
+                    // On the plane z = 2: hits at equal distances.
+                    (a.z, b.z, d.z) = (2.0, 2.0, 2.0);
+                }
+                let nrm = (b - a).cross(d - a).normalize_or_zero();
+                Shape::Triangle(Triangle::new(a, b, d, nrm, TriangleNormals::Flat))
+            }
+        })
+        .collect()
+}
+
+fn hierarchy(shapes: &[Shape]) -> Bvh {
+    let boxes: Vec<Aabb> = shapes.iter().map(|s| s.bounds()).collect();
+    build(&boxes, &BuildOptions::default())
+}
+
+/// The nearest hit among all primitives with `t_min < t <= t_max` (the
+/// traversal's contract: an equal distance goes to the lower index).
+fn brute(shapes: &[Shape], ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, SurfaceHit)> {
+    let mut best: Option<(u32, SurfaceHit)> = None;
+    for (i, s) in shapes.iter().enumerate() {
+        if let Some(h) = s.intersect(ray, t_min, t_max.next_up()) {
+            if best.is_none_or(|(_, b)| h.t < b.t) {
+                best = Some((i as u32, h));
+            }
+        }
+    }
+    best
+}
+
+fn random_ray(rng: &mut fastrand::Rng) -> (Vec3, Vec3) {
+    let o = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5) * 40.0;
+    let target = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5) * 16.0;
+    let mut d = (target - o).normalize();
+    if rng.u32(..8) == 0 {
+        // Axis-parallel directions (zero components) too.
+        d = [Vec3::X, Vec3::NEG_Y, Vec3::Z][rng.usize(..3)];
+    }
+    (o, d)
+}
+
+/// A twin packet: lanes from nearby origins (the views) toward nearby points,
+/// sometimes unrelated rays; per-lane `t_max` finite or infinite; a random mask.
+fn packet<const K: usize>(rng: &mut fastrand::Rng) -> Packet<K> {
+    let (o, d) = random_ray(rng);
+    let twin = rng.bool();
+    let lanes: [(Vec3, Vec3); K] = std::array::from_fn(|l| {
+        if twin {
+            let shift = Vec3::new(0.3 * l as f32, 0.0, 0.0);
+            (
+                o + shift,
+                (d + Vec3::new(rng.f32(), rng.f32(), 0.0) * 0.01).normalize(),
+            )
+        } else {
+            random_ray(rng)
+        }
+    });
+    let mut mask = rng.u32(1..(1u32 << K));
+    if rng.bool() {
+        mask = (1 << K) - 1;
+    }
+    Packet {
+        origins: lanes.map(|l| l.0),
+        dirs: lanes.map(|l| l.1),
+        t_min: if rng.bool() { 0.0 } else { 1e-3 },
+        t_max: std::array::from_fn(|_| {
+            if rng.bool() {
+                f32::INFINITY
+            } else {
+                5.0 + rng.f32() * 40.0
+            }
+        }),
+        mask,
+    }
+}
+
+fn check_closest<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) -> u64 {
+    let test = |prim: u32, l: usize, t_max: f32| {
+        shapes[prim as usize].intersect(&Ray::new(p.origins[l], p.dirs[l]), p.t_min, t_max)
+    };
+    let mut st = TraversalStats::default();
+    let wide = bvh.closest_wide(p, &mut st, test);
+    let binary = bvh.closest_binary(p, &mut TraversalStats::default(), test);
+    let mut hits = 0;
+    for l in 0..K {
+        let got = wide.has_hit(l).then(|| (wide.prim[l], wide.hit[l]));
+        let expect = if p.mask & (1 << l) != 0 {
+            brute(
+                shapes,
+                &Ray::new(p.origins[l], p.dirs[l]),
+                p.t_min,
+                p.t_max[l],
+            )
+        } else {
+            None
+        };
+        assert_eq!(got, expect, "lane {l} of {K}, mask {:b}", p.mask);
+        // Bit for bit the binary tree's answer (f32 compared as bits).
+        assert_eq!(wide.prim[l], binary.prim[l]);
+        assert_eq!(wide.hit[l].t.to_bits(), binary.hit[l].t.to_bits());
+        assert_eq!(wide.hit[l].u.to_bits(), binary.hit[l].u.to_bits());
+        assert_eq!(wide.hit[l].v.to_bits(), binary.hit[l].v.to_bits());
+        // Alone, as a packet of one, the lane gets the same answer.
+        if p.mask & (1 << l) != 0 {
+            let one = Packet {
+                origins: [p.origins[l]],
+                dirs: [p.dirs[l]],
+                t_min: p.t_min,
+                t_max: [p.t_max[l]],
+                mask: 1,
+            };
+            let alone = bvh.closest_wide(&one, &mut st, |prim: u32, _: usize, t: f32| {
+                test(prim, l, t)
+            });
+            assert_eq!(alone.prim[0], wide.prim[l]);
+            assert_eq!(alone.hit[0], wide.hit[l]);
+        }
+        hits += got.is_some() as u64;
+    }
+    hits
+}
+
+fn check_occlusion<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) {
+    let segs = SegmentPacket {
+        origins: p.origins,
+        dirs: p.dirs,
+        t_max: p.t_max.map(|t| t.min(60.0)),
+        mask: p.mask,
+    };
+    let meets = |prim: u32, l: usize| {
+        shapes[prim as usize]
+            .intersect(&Ray::new(segs.origins[l], segs.dirs[l]), 0.0, segs.t_max[l])
+            .is_some()
+    };
+    // Without early exit: every primitive the segment meets is tested.
+    let mut seen: [Vec<u32>; K] = std::array::from_fn(|_| Vec::new());
+    bvh.occlusion_wide(
+        &segs,
+        &mut TraversalStats::default(),
+        &mut |prim: u32, l: usize| {
+            assert!(segs.mask & (1 << l) != 0, "masked lane {l} traced");
+            seen[l].push(prim);
+            AnyHit::Continue
+        },
+    );
+    // With early exit: stops for a lane at its first blocker, and no lane
+    // is tested after it stopped.
+    let mut stopped = [false; K];
+    bvh.occlusion_wide(
+        &segs,
+        &mut TraversalStats::default(),
+        &mut |prim: u32, l: usize| {
+            assert!(!stopped[l], "lane {l} tested after it stopped");
+            if meets(prim, l) {
+                stopped[l] = true;
+                AnyHit::Stop
+            } else {
+                AnyHit::Continue
+            }
+        },
+    );
+    for l in 0..K {
+        let expect: Vec<u32> = (0..shapes.len() as u32)
+            .filter(|&prim| segs.mask & (1 << l) != 0 && meets(prim, l))
+            .collect();
+        for prim in &expect {
+            assert!(
+                seen[l].contains(prim),
+                "lane {l}: occluder {prim} not tested"
+            );
+        }
+        assert_eq!(stopped[l], !expect.is_empty(), "lane {l}");
+    }
+}
+
+fn run<const K: usize>(shapes: &[Shape], bvh: &Bvh, rays: usize, seed: u64) -> u64 {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let mut hits = 0;
+    for _ in 0..rays {
+        let p = packet::<K>(&mut rng);
+        hits += check_closest(shapes, bvh, &p);
+        check_occlusion(shapes, bvh, &p);
+    }
+    hits
+}
+
+#[test]
+fn nearest_and_any_hit_match_brute_force_for_packets_of_every_width() {
+    for (n, seed) in [(1, 1), (3, 2), (9, 3), (300, 4), (2000, 5)] {
+        let shapes = scene(n, seed);
+        let bvh = hierarchy(&shapes);
+        assert!(!bvh.wide.is_empty());
+        let mut hits = 0;
+        hits += run::<1>(&shapes, &bvh, 300, seed);
+        hits += run::<2>(&shapes, &bvh, 300, seed + 10);
+        hits += run::<3>(&shapes, &bvh, 150, seed + 20);
+        hits += run::<4>(&shapes, &bvh, 150, seed + 30);
+        hits += run::<8>(&shapes, &bvh, 60, seed + 40);
+        if n >= 300 {
+            assert!(hits > 100, "{n} shapes: only {hits} hits");
+        }
+    }
+}
+
+#[test]
+fn every_node_has_at_most_four_children_and_leaves_cover_every_primitive_once() {
+    let shapes = scene(5000, 9);
+    let bvh = hierarchy(&shapes);
+    let mut seen = vec![0u32; shapes.len()];
+    let mut stack = vec![0usize];
+    let mut children = 0;
+    while let Some(i) = stack.pop() {
+        let node = &bvh.wide[i];
+        let used = (0..4)
+            .filter(|&c| node.bounds[0][c] <= node.bounds[1][c])
+            .count();
+        assert!(used >= 2, "node {i}: {used} children");
+        // Used slots first; the rest empty.
+        assert!((used..4).all(|c| node.count[c] == 0 && node.bounds[0][c] == f32::INFINITY));
+        children += used;
+        for c in 0..used {
+            if node.count[c] > 0 {
+                let first = node.child[c] as usize;
+                for &p in &bvh.order[first..first + node.count[c] as usize] {
+                    seen[p as usize] += 1;
+                }
+            } else {
+                stack.push(node.child[c] as usize);
+            }
+        }
+    }
+    assert!(seen.iter().all(|&s| s == 1));
+    // Collapsing removes binary levels: fewer nodes than the binary tree's
+    // inner nodes, with more than two children on average.
+    let inner = bvh.nodes.iter().filter(|n| !n.is_leaf()).count();
+    let wide = bvh.wide.len();
+    assert!(
+        wide < inner && children > 2 * wide,
+        "{wide} wide nodes, {children} children, {inner} binary inner nodes"
+    );
+}
+
+#[test]
+fn nearest_child_first_stops_a_ray_at_the_first_of_a_row() {
+    // 256 spheres in a row along z; a ray down the row hits the first. Nearest
+    // first, the traversal tests a handful of them; in any other order the
+    // boxes behind would not be culled.
+    let shapes: Vec<Shape> = (0..256)
+        .map(|i| {
+            Shape::Sphere(Sphere {
+                center: Vec3::new(0.0, 0.0, 3.0 * i as f32),
+                radius: 1.0,
+                inside: false,
+            })
+        })
+        .collect();
+    let bvh = hierarchy(&shapes);
+    for (o, d, first) in [
+        (Vec3::new(0.1, 0.0, -10.0), Vec3::Z, 0u32),
+        (Vec3::new(0.0, 0.1, 1000.0), Vec3::NEG_Z, 255),
+    ] {
+        for lanes in [1usize, 2] {
+            let mut st = TraversalStats::default();
+            let test = |prim: u32, _: usize, t: f32| {
+                shapes[prim as usize].intersect(&Ray::new(o, d), 0.0, t)
+            };
+            let hits = if lanes == 1 {
+                let p = Packet {
+                    origins: [o],
+                    dirs: [d],
+                    t_min: 0.0,
+                    t_max: [f32::INFINITY],
+                    mask: 1,
+                };
+                bvh.closest_wide(&p, &mut st, test).prim[0]
+            } else {
+                let p = Packet {
+                    origins: [o; 2],
+                    dirs: [d; 2],
+                    t_min: 0.0,
+                    t_max: [f32::INFINITY; 2],
+                    mask: 3,
+                };
+                let h = bvh.closest_wide(&p, &mut st, test);
+                assert_eq!(h.prim[0], h.prim[1]);
+                h.prim[0]
+            };
+            assert_eq!(hits, first);
+            assert!(
+                st.prim_tests <= 8 * lanes as u64,
+                "{lanes} lanes: {} primitive tests",
+                st.prim_tests
+            );
+        }
+    }
+}
