@@ -6,7 +6,8 @@ region, rendered with each sampling, enlarged 4x (nearest pixel), side by side.
 
 Left to right: --samples 1, --samples 4, --samples 16, --adaptive (default),
 and a 256-sample reference. Needs only the Python standard library: the
-renders are read as PFM and the figure written as PNG with zlib.
+renders are read as PFM and the figure written as PNG with zlib, sRGB-encoded
+as twinray's own 8-bit outputs are.
 """
 
 import argparse
@@ -48,6 +49,12 @@ def write_png(path, width, height, rows):
         f.write(png)
 
 
+def srgb(v):
+    """The sRGB curve, as twinray encodes its 8-bit outputs by default."""
+    v = max(0.0, min(1.0, v))
+    return 12.92 * v if v <= 0.0031308 else 1.055 * v ** (1 / 2.4) - 0.055
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("scene")
@@ -74,7 +81,7 @@ def main():
         for k, crop in enumerate(crops):
             for x in range(cw * z):
                 c = crop[y // z][x // z]
-                row += [max(0, min(255, round(v * 255))) for v in c]
+                row += [round(srgb(v) * 255) for v in c]
             if k + 1 < len(crops):
                 row += [255] * (3 * gap)
         rows.append(row)

@@ -2,6 +2,7 @@
 //! prints what they report, shows progress.
 
 mod bench;
+mod look_args;
 mod render_args;
 mod sampling;
 

@@ -15,6 +15,7 @@ use twinray::rig::budget::DepthBudget;
 use twinray::rig::choice::Interaxial;
 use twinray::rig::report as disparity;
 
+use crate::look_args::ColourArgs;
 use crate::sampling::SamplingArgs;
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -97,10 +98,6 @@ pub struct RenderArgs {
     /// at the end unless --quiet).
     #[arg(short, long)]
     pub verbose: bool,
-    /// Apply the sRGB transfer curve to 8-bit outputs, .png .jpg .mpo (default: values as
-    /// computed).
-    #[arg(long)]
-    pub srgb: bool,
     /// Largest image side a scene file may ask for.
     #[arg(long, default_value_t = 16384)]
     pub max_resolution: u32,
@@ -173,6 +170,9 @@ pub struct RenderArgs {
 
     #[command(flatten)]
     pub approx: ApproxArgs,
+
+    #[command(flatten)]
+    pub colour: ColourArgs,
 }
 
 /// The paper's approximations (sections 2.3–2.5): faster stereo, not exact.
@@ -334,10 +334,13 @@ impl RenderArgs {
                     InterlaceArg::Columns => InterlaceSpec::Columns,
                     InterlaceArg::Checker => InterlaceSpec::Checker,
                 }),
-                srgb: self.srgb,
+                srgb: self.colour.srgb,
                 depth: self.depth.depth,
                 quilt: self.depth.quilt.clone(),
                 stats: self.stats.clone(),
+                linear: self.colour.linear,
+                exposure: self.colour.exposure,
+                tonemap: self.colour.tonemap.into(),
             },
             limits: LimitSpec {
                 max_resolution: self.max_resolution,

@@ -12,7 +12,6 @@ fn main() -> twinray::Result<()> {
     spec.camera.size = Some([480, 360]);
     spec.rig.stereo = true; // interaxial and convergence fitted to the depth budget
     spec.output.layout = LayoutSpec::Anaglyph;
-    spec.output.srgb = true;
 
     let progress = |done: u64, total: u64| eprint!("\r{done}/{total} rows");
     let (written, messages) = Job::run(spec, &progress, &CancelToken::new())?;

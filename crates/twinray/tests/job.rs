@@ -70,13 +70,13 @@ fn a_cancelled_render_stops_with_cancelled() {
 #[test]
 fn the_stages_report_as_data() {
     let mut spec = pair("0.1");
-    spec.output.srgb = true;
+    spec.output.exposure = 1.0;
     spec.output.path = "pair.exr".into();
     let job = Job::check(spec).unwrap();
     assert!(job
         .messages()
         .iter()
-        .any(|m| m.level == Level::Warning && m.text.contains("stays linear")));
+        .any(|m| m.level == Level::Warning && m.text.contains("float files keep")));
     let loaded = job.load().unwrap();
     let plan = job.plan(&loaded).unwrap();
     assert!(plan

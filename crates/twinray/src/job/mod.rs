@@ -32,7 +32,8 @@ pub use preflight::{
 };
 pub use spec::{
     AnaglyphSpec, ApproximationSpec, CameraSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec,
-    LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, TraceSpec,
+    LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, TonemapSpec,
+    TraceSpec,
 };
 
 pub use crate::render::CancelToken;
@@ -176,18 +177,7 @@ impl Job {
         let pool = pool
             .build()
             .map_err(|e| Error::Invalid(format!("cannot start worker threads: {e}")))?;
-        let mut messages = Vec::new();
-        let ext = spec
-            .output
-            .path
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase())
-            .unwrap_or_default();
-        if spec.output.srgb && matches!(ext.as_str(), "exr" | "pfm") {
-            messages.push(Message::warning(format!(
-                "--srgb applies to 8-bit outputs; the .{ext} file stays linear"
-            )));
-        }
+        let messages = outputs::check_display(&spec.output)?;
         Ok(Job {
             spec,
             views: checked.views,

@@ -3,10 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-use super::spec::{AnaglyphSpec, InterlaceSpec, LayoutSpec, OutputSpec};
+use super::spec::{AnaglyphSpec, InterlaceSpec, LayoutSpec, OutputSpec, TonemapSpec};
+use super::Message;
 use crate::output::{
-    self, AnaglyphMethod, DepthChannels, InterlaceMode, Layout, QuiltSpec, StereoOptions,
-    WriteOptions,
+    self, AnaglyphMethod, DepthChannels, DisplayTransform, InterlaceMode, Layout, QuiltSpec,
+    StereoOptions, Tonemap, WriteOptions,
 };
 use crate::rig::Camera;
 use crate::rig::Rig;
@@ -32,6 +33,52 @@ pub(super) fn check_layout_format(layout: LayoutSpec, out: &Path) -> Result<()> 
         LayoutSpec::Mpo | LayoutSpec::Multiview => Ok(()),
         _ if ext == "mpo" => refuse("a .mpo output needs --layout mpo"),
         _ => output::ImageFormat::from_path(out).map(|_| ()),
+    }
+}
+
+/// Whether `out` is a float image (EXR, PFM): written as rendered, linear,
+/// without exposure or tone curve.
+fn is_float_output(out: &Path) -> bool {
+    let ext = out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    matches!(ext.as_str(), "exr" | "pfm")
+}
+
+/// Checks the colour settings: `--srgb` (the old spelling of the default)
+/// against `--linear`, the exposure; warns where they cannot apply.
+pub(super) fn check_display(o: &OutputSpec) -> Result<Vec<Message>> {
+    if o.srgb && o.linear {
+        return Err(Error::Invalid(
+            "--srgb and --linear contradict each other (sRGB is the default of 8-bit outputs)"
+                .into(),
+        ));
+    }
+    if !o.exposure.is_finite() || o.exposure.abs() > 64.0 {
+        return Err(Error::Invalid(format!(
+            "--exposure must be a number of stops between -64 and 64, got {}",
+            o.exposure
+        )));
+    }
+    let mut messages = Vec::new();
+    if is_float_output(&o.path) && (o.exposure != 0.0 || o.tonemap != TonemapSpec::Clamp) {
+        messages.push(Message::warning(
+            "--exposure and --tonemap apply to 8-bit outputs; float files keep the rendered values",
+        ));
+    }
+    Ok(messages)
+}
+
+/// The display transform of 8-bit outputs.
+pub(super) fn display_transform(o: &OutputSpec) -> DisplayTransform {
+    DisplayTransform {
+        exposure: o.exposure,
+        tonemap: match o.tonemap {
+            TonemapSpec::Clamp => Tonemap::Clamp,
+            TonemapSpec::Aces => Tonemap::Aces,
+            TonemapSpec::Agx => Tonemap::Agx,
+        },
     }
 }
 
@@ -101,7 +148,7 @@ pub(super) struct Targets<'a> {
 impl Targets<'_> {
     fn write_options(&self) -> WriteOptions {
         WriteOptions {
-            srgb: self.output.srgb,
+            srgb: !self.output.linear,
         }
     }
 
@@ -176,6 +223,16 @@ impl Targets<'_> {
                 self.effective_convergence,
             );
         }
+        // 8-bit outputs: exposure and tone curve before the views are
+        // composed (an anaglyph mixes tone-mapped eyes), sRGB when encoded.
+        let transform = display_transform(self.output);
+        let displayed: Vec<Image>;
+        let images = if multiview || is_float_output(out) || transform.is_identity() {
+            images
+        } else {
+            displayed = images.iter().map(|i| transform.apply(i)).collect();
+            &displayed
+        };
         if let (LayoutSpec::Quilt, Some(spec)) = (self.output.layout, self.quilt) {
             let quilt = output::compose_quilt(images, spec.layout)?;
             output::write_image(&files[0], &quilt, &self.write_options())?;

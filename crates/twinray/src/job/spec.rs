@@ -204,7 +204,8 @@ pub struct OutputSpec {
     pub squeeze: bool,
     pub anaglyph: Option<AnaglyphSpec>,
     pub interlace: Option<InterlaceSpec>,
-    /// sRGB transfer curve on 8-bit outputs.
+    /// Accepted for jobs saved before sRGB became the default of 8-bit
+    /// outputs; it changes nothing (see `linear`).
     pub srgb: bool,
     /// Z and disparity channels in .exr outputs.
     pub depth: bool,
@@ -212,6 +213,29 @@ pub struct OutputSpec {
     pub quilt: Option<String>,
     /// Statistics as JSON.
     pub stats: Option<PathBuf>,
+    /// 8-bit outputs store linear values (no sRGB curve; the default encodes
+    /// them with the sRGB curve, as viewers expect). Float outputs are always linear.
+    #[serde(default)]
+    pub linear: bool,
+    /// Exposure of 8-bit outputs in stops (values times 2^EV before the tone curve).
+    #[serde(default)]
+    pub exposure: f32,
+    /// Tone curve of 8-bit outputs.
+    #[serde(default)]
+    pub tonemap: TonemapSpec,
+}
+
+/// The tone curve of 8-bit outputs (see [`crate::output::display`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TonemapSpec {
+    /// Values above 1 clip.
+    #[default]
+    Clamp,
+    /// Narkowicz's ACES filmic fit.
+    Aces,
+    /// AgX (Blender 4's default view).
+    Agx,
 }
 
 /// How the views are delivered.

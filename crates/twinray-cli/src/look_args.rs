@@ -1,0 +1,47 @@
+//! How a render looks: the colour of 8-bit outputs.
+
+use clap::ValueEnum;
+use twinray::job::TonemapSpec;
+
+/// Colour of 8-bit outputs (PNG, JPEG, MPO, anaglyphs, quilts).
+#[derive(clap::Args, Clone, Debug, Default)]
+#[command(next_help_heading = "Colour of 8-bit outputs (.exr and .pfm stay as rendered)")]
+pub struct ColourArgs {
+    /// Store linear values in 8-bit outputs. The default applies the sRGB
+    /// curve, as image viewers expect.
+    #[arg(long, conflicts_with = "srgb")]
+    pub linear: bool,
+    /// The default (sRGB-encoded 8-bit outputs); kept so older commands run.
+    #[arg(long, hide = true)]
+    pub srgb: bool,
+    /// Exposure in stops: values times 2^EV before the tone curve.
+    #[arg(
+        long,
+        value_name = "EV",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub exposure: f32,
+    /// Tone curve: clamp (values above 1 clip; the default), aces (filmic
+    /// shoulder, Narkowicz's fit) or agx (Blender's default view).
+    #[arg(long, value_enum, default_value_t = TonemapArg::Clamp)]
+    pub tonemap: TonemapArg,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum TonemapArg {
+    #[default]
+    Clamp,
+    Aces,
+    Agx,
+}
+
+impl From<TonemapArg> for TonemapSpec {
+    fn from(t: TonemapArg) -> TonemapSpec {
+        match t {
+            TonemapArg::Clamp => TonemapSpec::Clamp,
+            TonemapArg::Aces => TonemapSpec::Aces,
+            TonemapArg::Agx => TonemapSpec::Agx,
+        }
+    }
+}
