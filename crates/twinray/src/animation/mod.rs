@@ -154,6 +154,8 @@ impl Animation {
                         "--depth writes EXR channels: not into a video".into(),
                     ));
                 }
+                // Refused before anything is rendered when it cannot run.
+                crate::video::find_ffmpeg()?;
                 FrameOutput::Video(spec.output.path.clone())
             }
             None => {
