@@ -41,8 +41,16 @@ pub fn run(spec: JobSpec, args: &RenderArgs) -> Result<Vec<PathBuf>> {
             .collect();
         bar.suspend(|| {
             print_messages(&fresh, args.verbose);
-            if r.skipped && !args.quiet {
+            if args.quiet {
+                return;
+            }
+            if r.skipped {
                 eprintln!("frame {}: done already, skipped", r.frame);
+            } else {
+                // As each frame is written: a driver (twinray-ray) follows these lines.
+                for path in &r.written {
+                    eprintln!("wrote {}", path.display());
+                }
             }
         });
     };
@@ -55,5 +63,9 @@ pub fn run(spec: JobSpec, args: &RenderArgs) -> Result<Vec<PathBuf>> {
     }
     let (written, messages) = result?;
     print_messages(&messages, args.verbose);
-    Ok(written)
+    // The frames' files were listed as they were written; a video is left.
+    Ok(written
+        .into_iter()
+        .filter(|p| twinray::video::Container::of(p).is_some())
+        .collect())
 }

@@ -213,6 +213,10 @@ pub struct AnimationArgs {
     /// Skip frames whose files exist already (resume an interrupted run).
     #[arg(long, requires = "frames")]
     pub skip_existing: bool,
+    /// Render only frames C..D of --frames (one machine's share): the camera
+    /// motion and the shot's rig stay those of the whole range.
+    #[arg(long, value_name = "C..D", requires = "frames")]
+    pub only: Option<String>,
     /// Split the still into N bands of rows, written as NAME_tileKofN, for
     /// `twinray merge` to assemble (all N, or only --tile K).
     #[arg(long, value_name = "N", conflicts_with = "frames")]
@@ -391,6 +395,7 @@ impl RenderArgs {
                     ShotRigArg::PerFrame => ShotRigSpec::PerFrame,
                 },
                 skip_existing: self.animation.skip_existing,
+                only: self.animation.only.clone(),
             },
             tile: match (self.animation.tiles, self.animation.tile) {
                 (Some(count), Some(index)) => Some(TileSpec { index, count }),

@@ -307,3 +307,36 @@ fn one_tile_alone_and_tile_errors() {
         );
     }
 }
+
+#[test]
+fn a_share_of_the_frames_equals_those_frames_of_the_whole_shot() {
+    // The automatic stereo rig of the shot and the orbit's angles are those
+    // of the whole range, whichever frames a machine renders.
+    let (whole, share) = (TempDir::new().unwrap(), TempDir::new().unwrap());
+    let scene = example();
+    let flags = [
+        "--frames", "0..5", "--orbit", "120", "--stereo", "--layout", "sbs", "--size", "40x30",
+        "-q",
+    ];
+    let out = whole.path().join("f_#.png");
+    let mut args = vec!["render", s(&scene), "-o", s(&out)];
+    args.extend(flags);
+    twinray(&args);
+    let out = share.path().join("f_#.png");
+    let mut args = vec!["render", s(&scene), "-o", s(&out), "--only", "4..5"];
+    args.extend(flags);
+    twinray(&args);
+    for f in [4, 5] {
+        let name = format!("f_{f}.png");
+        assert_eq!(
+            bytes(&share.path().join(&name)),
+            bytes(&whole.path().join(&name)),
+            "{name}"
+        );
+    }
+    assert!(!share.path().join("f_3.png").exists());
+    let mut args = vec!["render", s(&scene), "-o", s(&out), "--only", "4..9"];
+    args.extend(flags);
+    let r = run(&args);
+    assert!(String::from_utf8_lossy(&r.stderr).contains("not within"));
+}

@@ -61,6 +61,8 @@ pub struct Animation {
     motion: Motion,
     rig: ShotRigSpec,
     skip_existing: bool,
+    /// The frames rendered (all, or a machine's share).
+    only: FrameRange,
     output: FrameOutput,
     messages: Vec<Message>,
 }
@@ -115,6 +117,18 @@ impl Animation {
                 a.fps
             )));
         }
+        let only: FrameRange = match a.only.as_deref() {
+            Some(text) => text.parse().map_err(|_| {
+                Error::Invalid(format!("--only '{text}': give C..D, frames of --frames"))
+            })?,
+            None => frames,
+        };
+        if only.first < frames.first || only.last > frames.last {
+            return Err(Error::Invalid(format!(
+                "--only {}..{} is not within --frames {}..{}",
+                only.first, only.last, frames.first, frames.last
+            )));
+        }
         let motion = match (a.orbit, &a.path) {
             (Some(_), Some(_)) => {
                 return Err(Error::Invalid(
@@ -144,9 +158,10 @@ impl Animation {
         let mut messages = Vec::new();
         let output = match Container::of(&spec.output.path) {
             Some(_) => {
-                if a.skip_existing {
+                if a.skip_existing || a.only.is_some() {
                     return Err(Error::Invalid(
-                        "--skip-existing resumes frames written as images, not a video".into(),
+                        "--skip-existing and --only share frames written as images, not a video"
+                            .into(),
                     ));
                 }
                 if spec.output.depth {
@@ -183,6 +198,7 @@ impl Animation {
             motion,
             rig: a.rig,
             skip_existing: a.skip_existing,
+            only,
             output,
             messages,
         };
@@ -339,6 +355,9 @@ impl Animation {
         for (index, frame) in self.frames.iter().enumerate() {
             if cancel.is_cancelled() {
                 return Err(Error::Cancelled);
+            }
+            if !(self.only.first..=self.only.last).contains(&frame) {
+                continue;
             }
             let job = Job::check(self.frame_spec(loaded, frame, shot.as_ref())?)?;
             let plan = job.plan(loaded)?;

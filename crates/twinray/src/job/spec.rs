@@ -333,6 +333,10 @@ pub struct AnimationSpec {
     pub rig: ShotRigSpec,
     /// Skip frames whose files already exist (a resumed run).
     pub skip_existing: bool,
+    /// Render only these frames `C..D` of the shot (a machine's share): the
+    /// motion and the shot's rig stay those of the whole range.
+    #[serde(default)]
+    pub only: Option<String>,
 }
 
 impl Default for AnimationSpec {
@@ -344,6 +348,7 @@ impl Default for AnimationSpec {
             path: None,
             rig: ShotRigSpec::PerShot,
             skip_existing: false,
+            only: None,
         }
     }
 }
