@@ -21,6 +21,8 @@ use twinray::output::{self, WriteOptions};
 
 use render_args::RenderArgs;
 
+mod animation;
+
 #[derive(Parser)]
 #[command(
     name = "twinray",
@@ -41,6 +43,18 @@ enum Command {
     /// Compare two images: PSNR, largest difference, differing pixels. Exits 1 when
     /// they differ beyond --max-diff or --min-psnr.
     Compare(CompareArgs),
+    /// Assemble the tiles of a still (render --tiles N) into the whole image.
+    Merge(MergeArgs),
+}
+
+#[derive(clap::Args)]
+struct MergeArgs {
+    /// The tiles, NAME_tileKofN.ext, in any order (all N of one set).
+    #[arg(required = true)]
+    tiles: Vec<PathBuf>,
+    /// The whole image (.png, .exr or .pfm).
+    #[arg(short, long)]
+    output: PathBuf,
 }
 
 #[derive(clap::Args)]
@@ -136,14 +150,14 @@ fn install_signal_handler() {
 }
 
 /// Removes temporary files and exits with 130.
-fn interrupted() -> ! {
+pub(crate) fn interrupted() -> ! {
     output::remove_temporary_files();
     eprintln!("twinray: interrupted");
     std::process::exit(130);
 }
 
 /// Whether a render is in flight (a signal then cancels it).
-static RENDERING: AtomicBool = AtomicBool::new(false);
+pub(crate) static RENDERING: AtomicBool = AtomicBool::new(false);
 
 fn main() -> ExitCode {
     let cli = match parse_args() {
@@ -158,6 +172,9 @@ fn main() -> ExitCode {
         }
         Command::BenchStereo(args) => bench::run(args),
         Command::Compare(args) => run_compare(&args),
+        Command::Merge(args) => twinray::job::tiles::merge(&args.tiles, &args.output)
+            .map(|()| list_written(std::slice::from_ref(&args.output), false))
+            .map_err(Into::into),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -224,7 +241,7 @@ fn run_compare(args: &CompareArgs) -> Result<()> {
 /// Raised by ctrl-c: the render in flight stops at its next row.
 static CANCEL: OnceLock<CancelToken> = OnceLock::new();
 
-fn cancel_token() -> &'static CancelToken {
+pub(crate) fn cancel_token() -> &'static CancelToken {
     CANCEL.get_or_init(CancelToken::new)
 }
 
@@ -257,7 +274,7 @@ fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
 }
 
 /// Prints a stage's messages: warnings and notes always, details with -v.
-fn print_messages(messages: &[Message], verbose: bool) {
+pub(crate) fn print_messages(messages: &[Message], verbose: bool) {
     for m in messages {
         match m.level {
             Level::Warning => eprintln!("twinray: warning: {}", m.text),
@@ -274,26 +291,63 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
         println!("{}", spec.to_json());
         return Ok(Vec::new());
     }
+    if spec.animation.frames.is_some() {
+        return animation::run(spec, args);
+    }
+    if let (Some(count), None) = (args.animation.tiles, spec.tile) {
+        // Every tile, one after the other, from one loaded scene.
+        let mut written = Vec::new();
+        let mut loaded = None;
+        for index in 0..count {
+            let mut s = spec.clone();
+            s.tile = Some(twinray::job::TileSpec { index, count });
+            let job = Job::check(s)?;
+            let loaded = match &loaded {
+                Some(l) => l,
+                None => {
+                    let l = job.load()?;
+                    print_messages(&l.messages, args.verbose);
+                    loaded.insert(l)
+                }
+            };
+            written.extend(render_still(&job, loaded, args)?);
+        }
+        return Ok(written);
+    }
     let job = Job::check(spec)?;
-    print_messages(job.messages(), args.verbose);
     let loaded = job.load()?;
     print_messages(&loaded.messages, args.verbose);
-    let plan = job.plan(&loaded)?;
-    print_messages(&plan.messages, args.verbose);
+    render_still(&job, &loaded, args)
+}
 
-    let bar = if args.quiet || !std::io::stderr().is_terminal() {
-        ProgressBar::hidden()
-    } else {
-        let b = ProgressBar::new(1);
-        b.set_style(
-            ProgressStyle::with_template(
-                "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
-            )
+/// A progress bar on a terminal (hidden with --quiet or when stderr is not one).
+pub(crate) fn progress_bar(args: &RenderArgs, template: &str) -> ProgressBar {
+    if args.quiet || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::new(1);
+    b.set_style(
+        ProgressStyle::with_template(template)
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
-        );
-        b
-    };
+    );
+    b
+}
+
+/// Plans, renders and writes one still of a checked job.
+fn render_still(
+    job: &Job,
+    loaded: &twinray::job::Loaded,
+    args: &RenderArgs,
+) -> Result<Vec<PathBuf>> {
+    print_messages(job.messages(), args.verbose);
+    let plan = job.plan(loaded)?;
+    print_messages(&plan.messages, args.verbose);
+
+    let bar = progress_bar(
+        args,
+        "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
+    );
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
         bar.set_position(done);
@@ -307,5 +361,5 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     }
     let rendered = rendered?;
     print_messages(&rendered.messages, args.verbose);
-    Ok(job.write(&loaded, &plan, &rendered)?)
+    Ok(job.write(loaded, &plan, &rendered)?)
 }

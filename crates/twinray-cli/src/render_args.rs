@@ -5,8 +5,9 @@ use std::path::PathBuf;
 use clap::ValueEnum;
 
 use twinray::job::{
-    AnaglyphSpec, ApproximationSpec, CameraSpec, InterlaceSpec, JobSpec, LayoutSpec, LimitSpec,
-    MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, TraceSpec,
+    AnaglyphSpec, AnimationSpec, ApproximationSpec, CameraSpec, InterlaceSpec, JobSpec, LayoutSpec,
+    LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, ShotRigSpec, TileSpec,
+    TraceSpec,
 };
 use twinray::math::Vec3;
 use twinray::output::QuiltSpec;
@@ -173,6 +174,63 @@ pub struct RenderArgs {
 
     #[command(flatten)]
     pub colour: ColourArgs,
+
+    #[command(flatten)]
+    pub animation: AnimationArgs,
+}
+
+/// Frames, camera motion and video; tiles of a still.
+#[derive(clap::Args, Clone, Debug, Default)]
+#[command(next_help_heading = "Animation, video and tiles")]
+pub struct AnimationArgs {
+    /// Render frames A to B (both included: 0..239 is 240 frames). The output
+    /// name takes the frame number where it has #### (zero-padded to their
+    /// count) or {frame}; otherwise _#### is added. An .mp4 or .mkv output is
+    /// one video (H.264 through ffmpeg; sbs and tb with stereo metadata).
+    #[arg(long, value_name = "A..B")]
+    pub frames: Option<String>,
+    /// Frames per second of a video output (and of nothing else).
+    #[arg(long, default_value_t = 24.0, requires = "frames")]
+    pub fps: f64,
+    /// A turntable: the camera turns DEG degrees about the up axis through the
+    /// 'at' point over the frames (360: a seamless loop).
+    #[arg(
+        long,
+        value_name = "DEG",
+        allow_negative_numbers = true,
+        requires = "frames",
+        conflicts_with = "path"
+    )]
+    pub orbit: Option<f64>,
+    /// Camera keyframes, one a line: FRAME from X,Y,Z at X,Y,Z [up X,Y,Z]
+    /// [fov DEG], interpolated by a Catmull-Rom spline.
+    #[arg(long, value_name = "FILE", requires = "frames")]
+    pub path: Option<PathBuf>,
+    /// The automatic rig of a stereo animation: chosen once from depth passes
+    /// over sampled frames (per-shot: no jumps), or for each frame.
+    #[arg(long, value_enum, default_value_t = ShotRigArg::PerShot, requires = "frames")]
+    pub rig: ShotRigArg,
+    /// Skip frames whose files exist already (resume an interrupted run).
+    #[arg(long, requires = "frames")]
+    pub skip_existing: bool,
+    /// Render only frames C..D of --frames (one machine's share): the camera
+    /// motion and the shot's rig stay those of the whole range.
+    #[arg(long, value_name = "C..D", requires = "frames")]
+    pub only: Option<String>,
+    /// Split the still into N bands of rows, written as NAME_tileKofN, for
+    /// `twinray merge` to assemble (all N, or only --tile K).
+    #[arg(long, value_name = "N", conflicts_with = "frames")]
+    pub tiles: Option<u32>,
+    /// Render only tile K (0 to N-1) of --tiles N.
+    #[arg(long, value_name = "K", requires = "tiles")]
+    pub tile: Option<u32>,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug, Default)]
+pub enum ShotRigArg {
+    #[default]
+    PerShot,
+    PerFrame,
 }
 
 /// The paper's approximations (sections 2.3–2.5): faster stereo, not exact.
@@ -341,6 +399,22 @@ impl RenderArgs {
                 linear: self.colour.linear,
                 exposure: self.colour.exposure,
                 tonemap: self.colour.tonemap.into(),
+            },
+            animation: AnimationSpec {
+                frames: self.animation.frames.clone(),
+                fps: self.animation.fps,
+                orbit: self.animation.orbit,
+                path: self.animation.path.clone(),
+                rig: match self.animation.rig {
+                    ShotRigArg::PerShot => ShotRigSpec::PerShot,
+                    ShotRigArg::PerFrame => ShotRigSpec::PerFrame,
+                },
+                skip_existing: self.animation.skip_existing,
+                only: self.animation.only.clone(),
+            },
+            tile: match (self.animation.tiles, self.animation.tile) {
+                (Some(count), Some(index)) => Some(TileSpec { index, count }),
+                _ => None,
             },
             limits: LimitSpec {
                 max_resolution: self.max_resolution,

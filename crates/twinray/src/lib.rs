@@ -5,6 +5,7 @@
 //! compose and write images (`output`). A whole render, as front ends run
 //! it, is a [`job::Job`] made from a serialisable [`job::JobSpec`].
 
+pub mod animation;
 pub mod bvh;
 pub mod error;
 pub mod image;
@@ -20,6 +21,7 @@ pub mod shading;
 pub mod shapes;
 pub mod stats;
 pub mod texture;
+pub mod video;
 pub mod world;
 
 pub use error::{Error, Result};

@@ -24,6 +24,7 @@
 mod outputs;
 pub mod preflight;
 pub mod spec;
+pub mod tiles;
 
 pub use outputs::numbered;
 pub use preflight::{
@@ -35,6 +36,7 @@ pub use spec::{
     LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, TonemapSpec,
     TraceSpec,
 };
+pub use spec::{AnimationSpec, ShotRigSpec, TileSpec};
 
 pub use crate::render::CancelToken;
 
@@ -154,6 +156,8 @@ pub struct Plan {
     pub files: Vec<PathBuf>,
     pub build_seconds: f64,
     pub messages: Vec<Message>,
+    /// The pixel rows rendered: all of them, or a tile's.
+    pub rows: std::ops::Range<u32>,
 }
 
 /// The views rendered, in memory.
@@ -167,7 +171,17 @@ pub struct Rendered {
 impl Job {
     /// Checks the spec: every value and combination that can be refused
     /// before the scene is read, and the worker threads.
-    pub fn check(spec: JobSpec) -> Result<Job> {
+    pub fn check(mut spec: JobSpec) -> Result<Job> {
+        if spec.animation.frames.is_some() {
+            return Err(invalid(
+                "a spec with frames is an animation: run it with twinray::animation::Animation",
+            ));
+        }
+        if let Some(tile) = spec.tile {
+            tiles::check(&spec, tile)?;
+            // The tile's files are named after it: NAME_tileKofN.ext.
+            spec.output.path = tiles::tile_path(&spec.output.path, tile);
+        }
         let checked = Checked::of(&spec)?;
         let mut pool = rayon::ThreadPoolBuilder::new().stack_size(8 << 20);
         // Worker stacks of 8 MiB (reserved, not used): room beyond the depth cap.
@@ -265,7 +279,7 @@ impl Job {
         })
     }
 
-    fn view_overrides(&self) -> CameraOverrides {
+    pub(crate) fn view_overrides(&self) -> CameraOverrides {
         let c = &self.spec.camera;
         CameraOverrides {
             camera: c.camera.clone(),
@@ -311,9 +325,14 @@ impl Job {
         let (mut interaxial, mut convergence) = explicit
             .as_ref()
             .map_or((0.0, None), |c| (c.interaxial, c.convergence));
+        let rows = match self.spec.tile {
+            Some(t) => tiles::tile_rows(height, t)?,
+            None => 0..height,
+        };
+        let written = (width, rows.len() as u32);
         let mut files = self
             .targets(&rig, interaxial)
-            .plan((width, height), &self.spec.scene)?;
+            .plan(written, &self.spec.scene)?;
         self.check_memory(width, height)?;
 
         let mut build_seconds = 0.0;
@@ -333,7 +352,7 @@ impl Job {
             (interaxial, convergence) = (s.choice.interaxial, s.choice.convergence);
             files = self
                 .targets(&rig, interaxial)
-                .plan((width, height), &self.spec.scene)?;
+                .plan(written, &self.spec.scene)?;
             let fitted = self.cut(&camera, &rig)?;
             if fitted.is_some() {
                 cut = fitted;
@@ -353,13 +372,14 @@ impl Job {
             files,
             build_seconds,
             messages: Vec::new(),
+            rows,
         };
         plan.messages = plan_messages(&plan);
         Ok(plan)
     }
 
     /// The rig request of a job of several views.
-    fn rig_request(&self, at_distance: f64) -> Result<Option<RigRequest>> {
+    pub(crate) fn rig_request(&self, at_distance: f64) -> Result<Option<RigRequest>> {
         if self.views < 2 {
             return Ok(None);
         }
@@ -443,11 +463,12 @@ impl Job {
         cancel: &CancelToken,
     ) -> Result<Rendered> {
         let mut output = self.pool.install(|| {
-            render::render_cancellable(
+            render::render_rows(
                 &plan.world,
                 &plan.camera,
                 &plan.rig,
                 &self.options,
+                plan.rows.clone(),
                 progress,
                 cancel,
             )
@@ -517,6 +538,19 @@ impl Job {
             || a.fast
             || a.cut_distance.is_some()
             || a.cut_parallax.is_some()
+    }
+
+    /// The rendered views composed as one picture (a video frame: see
+    /// [`Animation`](crate::animation::Animation)), and how its eyes are packed.
+    pub fn compose_frame(
+        &self,
+        rendered: &Rendered,
+    ) -> Result<(crate::Image, crate::video::FramePacking)> {
+        outputs::compose_frame(
+            &self.spec.output,
+            self.quilt.as_ref(),
+            &rendered.output.images,
+        )
     }
 
     /// Writes the files (all or none) and the statistics; returns the files

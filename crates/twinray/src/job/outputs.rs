@@ -274,6 +274,46 @@ impl Targets<'_> {
     }
 }
 
+/// The views composed into one picture as the layout shows them (a video
+/// frame): one view as it is, a pair side by side, top-bottom, crossed,
+/// interlaced or as an anaglyph, or a quilt; with how the eyes are packed.
+pub(super) fn compose_frame(
+    output: &OutputSpec,
+    quilt: Option<&QuiltSpec>,
+    images: &[Image],
+) -> Result<(Image, crate::video::FramePacking)> {
+    use crate::video::FramePacking;
+    if let (LayoutSpec::Quilt, Some(spec)) = (output.layout, quilt) {
+        return Ok((
+            output::compose_quilt(images, spec.layout)?,
+            FramePacking::None,
+        ));
+    }
+    match images {
+        [one] => Ok((one.clone(), FramePacking::None)),
+        [left, right] => {
+            let (l, r, squeeze) = (left, right, output.squeeze);
+            Ok(match stereo_layout(output) {
+                Layout::SideBySide => (output::side_by_side(l, r, squeeze)?, FramePacking::SideBySide),
+                Layout::TopBottom => (output::top_bottom(l, r, squeeze)?, FramePacking::TopBottom),
+                Layout::Cross => (output::cross(l, r, squeeze)?, FramePacking::None),
+                Layout::Anaglyph(m) => (output::anaglyph(l, r, m)?, FramePacking::None),
+                Layout::Interlace(m) => (output::interlace(l, r, m)?, FramePacking::None),
+                Layout::Separate | Layout::Mpo | Layout::MultiviewExr => {
+                    return Err(Error::Invalid(format!(
+                        "a video shows one picture a frame: --layout {} is not one (use sbs, tb, anaglyph, cross, interlace or quilt)",
+                        output.layout.name()
+                    )))
+                }
+            })
+        }
+        _ => Err(Error::Invalid(format!(
+            "a video of {} views needs --layout quilt",
+            images.len()
+        ))),
+    }
+}
+
 /// The views' names in a multi-view EXR: `left`, `right` for a pair.
 fn view_names(n: usize) -> Vec<String> {
     match n {

@@ -28,6 +28,12 @@ pub struct JobSpec {
     pub trace: TraceSpec,
     pub output: OutputSpec,
     pub limits: LimitSpec,
+    /// Frames of an animation (none: a still).
+    #[serde(default)]
+    pub animation: AnimationSpec,
+    /// One band of the image (none: the whole image).
+    #[serde(default)]
+    pub tile: Option<TileSpec>,
 }
 
 /// The viewpoint and the image size; `None` keeps the file's.
@@ -335,4 +341,64 @@ impl JobSpec {
     pub fn from_json(text: &str) -> crate::Result<JobSpec> {
         serde_json::from_str(text).map_err(|e| crate::Error::Invalid(format!("job spec: {e}")))
     }
+}
+
+/// A sequence of frames (`--frames A..B`): the camera's motion, the rate and
+/// how the rig is chosen over the shot. Run by
+/// [`Animation`](crate::animation::Animation); a still ([`Job`](super::Job))
+/// refuses a spec with frames.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AnimationSpec {
+    /// Inclusive frame range `A..B` (`None`: a still).
+    pub frames: Option<String>,
+    /// Frames per second of a video output, and of keyframe times.
+    pub fps: f64,
+    /// A turntable: `from` turns this many degrees about the `up` axis
+    /// through `at` over the range (360: a seamless loop).
+    pub orbit: Option<f64>,
+    /// Keyframes of from/at/up/fov, interpolated by a Catmull-Rom spline.
+    pub path: Option<PathBuf>,
+    /// The automatic rig chosen once per shot (default) or per frame.
+    pub rig: ShotRigSpec,
+    /// Skip frames whose files already exist (a resumed run).
+    pub skip_existing: bool,
+    /// Render only these frames `C..D` of the shot (a machine's share): the
+    /// motion and the shot's rig stay those of the whole range.
+    #[serde(default)]
+    pub only: Option<String>,
+}
+
+impl Default for AnimationSpec {
+    fn default() -> Self {
+        AnimationSpec {
+            frames: None,
+            fps: 24.0,
+            orbit: None,
+            path: None,
+            rig: ShotRigSpec::PerShot,
+            skip_existing: false,
+            only: None,
+        }
+    }
+}
+
+/// When the automatic rig (interaxial, convergence) is chosen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ShotRigSpec {
+    /// Once, from depth passes over sampled frames: a rig that does not jump.
+    #[default]
+    PerShot,
+    /// For every frame on its own depths.
+    PerFrame,
+}
+
+/// One horizontal band of a still, for rendering across machines: tile
+/// `index` of `count`, merged by `twinray merge` into the one-machine image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TileSpec {
+    pub index: u32,
+    pub count: u32,
 }

@@ -75,8 +75,10 @@ impl FilmBand {
     }
 }
 
-/// The whole image of every view, as sums and weights.
+/// The image of every view (or its rows `first_row..first_row + height`: a
+/// tile), as sums and weights.
 pub(super) struct Film {
+    first_row: usize,
     width: usize,
     height: usize,
     sums: Vec<Vec<Color>>,
@@ -84,8 +86,10 @@ pub(super) struct Film {
 }
 
 impl Film {
-    pub(super) fn new(views: usize, width: usize, height: usize) -> Film {
+    pub(super) fn new(views: usize, width: usize, rows: std::ops::Range<usize>) -> Film {
+        let height = rows.len();
         Film {
+            first_row: rows.start,
             width,
             height,
             sums: vec![vec![Color::ZERO; width * height]; views],
@@ -93,19 +97,25 @@ impl Film {
         }
     }
 
-    /// Adds a band (call in band order: the sums are then the same on any run).
+    /// Adds a band's rows that the film holds (call in band order: the sums
+    /// are then the same on any run, and in a tile the same as in the whole).
     pub(super) fn add(&mut self, band: &FilmBand) {
-        let offset = band.first_row * self.width;
-        let n = band.rows * self.width;
+        let first = band.first_row.max(self.first_row);
+        let end = (band.first_row + band.rows).min(self.first_row + self.height);
+        if first >= end {
+            return;
+        }
+        let n = (end - first) * self.width;
+        let offset = (first - self.first_row) * self.width;
+        let band_offset = (first - band.first_row) * self.width;
         for (sums, band_sums) in self.sums.iter_mut().zip(&band.sums) {
-            for (s, b) in sums[offset..offset + n].iter_mut().zip(band_sums) {
+            let from = &band_sums[band_offset..band_offset + n];
+            for (s, b) in sums[offset..offset + n].iter_mut().zip(from) {
                 *s += *b;
             }
         }
-        for (s, b) in self.weights[offset..offset + n]
-            .iter_mut()
-            .zip(&band.weights)
-        {
+        let from = &band.weights[band_offset..band_offset + n];
+        for (s, b) in self.weights[offset..offset + n].iter_mut().zip(from) {
             *s += *b;
         }
     }
@@ -137,7 +147,7 @@ mod tests {
         let row = SampleRow::new(vec![x], Pattern::Fixed { dx, y });
         let mut band = FilmBand::new(1, (5, 5), 0..5, filter);
         band.splat(filter, &row, &[vec![Color::new(1.0, 1.0, 1.0)]]);
-        let mut film = Film::new(1, 5, 5);
+        let mut film = Film::new(1, 5, 0..5);
         film.add(&band);
         let touched = film.weights.iter().filter(|&&w| w > 0.0).count();
         (film, touched)

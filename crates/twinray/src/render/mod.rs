@@ -254,6 +254,41 @@ pub fn render_cancellable(
     progress: &(dyn Fn(u64, u64) + Sync),
     cancel: &CancelToken,
 ) -> crate::Result<RenderOutput> {
+    let rows = 0..camera.height;
+    render_rows(world, camera, rig, opts, rows, progress, cancel)
+}
+
+/// Rows from which a band of the image may start or end: the bands of
+/// samples the film and the adaptive refinement are made of (see
+/// [`render_rows`]).
+pub const TILE_ROW_ALIGNMENT: u32 = BAND_ROWS as u32;
+
+/// Pixel rows `rows` of every view (a tile of the image: one machine's
+/// share), each pixel bit for bit as [`render_cancellable`] makes it: the
+/// samples are those of the whole image, with the halo of bands a filter
+/// reaches across the tile's edges. `rows` must start at a multiple of
+/// [`TILE_ROW_ALIGNMENT`] and end at one or at the image's height.
+#[allow(clippy::too_many_arguments)]
+pub fn render_rows(
+    world: &World,
+    camera: &Camera,
+    rig: &Rig,
+    opts: &RenderOptions,
+    rows: std::ops::Range<u32>,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    cancel: &CancelToken,
+) -> crate::Result<RenderOutput> {
+    let aligned = |r: u32| r.is_multiple_of(TILE_ROW_ALIGNMENT);
+    if rows.start >= rows.end
+        || rows.end > camera.height
+        || !aligned(rows.start)
+        || !(aligned(rows.end) || rows.end == camera.height)
+    {
+        return Err(crate::Error::Invalid(format!(
+            "rows {}..{} of a {}-row image: a band starts at a multiple of {TILE_ROW_ALIGNMENT} and ends at one or at the last row",
+            rows.start, rows.end, camera.height
+        )));
+    }
     opts.trace.validate()?;
     let views = rig.views.len();
     if views == 0 || views > MAX_VIEWS {
@@ -316,6 +351,7 @@ pub fn render_cancellable(
         views,
         width: camera.width as usize,
         height: camera.height as usize,
+        rows: rows.start as usize..rows.end as usize,
         done: AtomicU64::new(0),
         total: AtomicU64::new(0),
     };
@@ -441,6 +477,8 @@ struct Run<'j, 'a> {
     views: usize,
     width: usize,
     height: usize,
+    /// The pixel rows rendered (a tile), of `height`.
+    rows: std::ops::Range<usize>,
     done: AtomicU64,
     total: AtomicU64,
 }
@@ -517,11 +555,11 @@ impl Run<'_, '_> {
 
     /// One ray through each pixel centre.
     fn centers(&self) -> Option<Sampled> {
-        let (w, h) = (self.width, self.height);
+        let (w, h, y0) = (self.width, self.rows.len(), self.rows.start);
         self.plan(h);
         let (grids, counts) = self.lattice(w, h, |j| Pattern::Fixed {
             dx: 0.0,
-            y: j as f32,
+            y: (y0 + j) as f32,
         })?;
         Some(Sampled {
             images: grids
@@ -540,16 +578,18 @@ impl Run<'_, '_> {
     }
 
     /// The pixel corners, traced once each (every pixel row shares its edges).
+    /// Those of the rows rendered, top edge to bottom edge.
     fn corner_lattice(&self) -> Option<(Vec<Vec<Color>>, TraceCounts)> {
-        self.lattice(self.width + 1, self.height + 1, |j| Pattern::Fixed {
+        let y0 = self.rows.start;
+        self.lattice(self.width + 1, self.rows.len() + 1, |j| Pattern::Fixed {
             dx: -0.5,
-            y: j as f32 - 0.5,
+            y: (y0 + j) as f32 - 0.5,
         })
     }
 
     /// The SPD procedure: each pixel the mean of its four corners.
     fn corners(&self) -> Option<Sampled> {
-        let (w, h) = (self.width, self.height);
+        let (w, h) = (self.width, self.rows.len());
         self.plan(h + 1);
         let (grids, counts) = self.corner_lattice()?;
         let images = grids
@@ -578,9 +618,13 @@ impl Run<'_, '_> {
     /// `samples` points of each pixel's sequence, filtered into the film.
     fn stratified(&self, samples: u32, filter: Filter, seed: u32) -> Option<Sampled> {
         let (w, h) = (self.width, self.height);
-        let bands = h.div_ceil(BAND_ROWS);
-        self.plan(bands);
-        let (bands, counts) = self.tasks(bands, |ctx, tracer, b| {
+        // The bands whose samples reach the rows rendered, halo included.
+        let halo = film::halo(filter);
+        let first = self.rows.start.saturating_sub(halo) / BAND_ROWS;
+        let end = (self.rows.end + halo).min(h).div_ceil(BAND_ROWS);
+        self.plan(end - first);
+        let (bands, counts) = self.tasks(end - first, |ctx, tracer, i| {
+            let b = first + i;
             let rows = b * BAND_ROWS..((b + 1) * BAND_ROWS).min(h);
             let mut band = FilmBand::new(self.views, (w, h), rows.clone(), filter);
             let mut colors = Vec::new();
@@ -598,14 +642,14 @@ impl Run<'_, '_> {
             }
             band
         })?;
-        let mut film = Film::new(self.views, w, h);
+        let mut film = Film::new(self.views, w, self.rows.clone());
         for band in &bands {
             film.add(band);
         }
         Some(Sampled {
             images: film.images(),
             counts,
-            samples_per_view: (w * h) as u64 * u64::from(samples),
+            samples_per_view: (w * self.rows.len()) as u64 * u64::from(samples),
             max_per_pixel: samples,
             refined: 0,
         })
@@ -614,17 +658,21 @@ impl Run<'_, '_> {
     /// Section 2.6: the corners, then each pixel row refined where its
     /// cells' corners differ (in any view).
     fn adaptive(&self, threshold: f32, max_samples: u32) -> Option<Sampled> {
-        let (w, h) = (self.width, self.height);
-        self.plan(h + 1 + h.div_ceil(BAND_ROWS));
+        let (w, h) = (self.width, self.rows.len());
+        let (y0, y_end) = (self.rows.start, self.rows.end);
+        // The rows start on a band's first row (render_rows checks it).
+        let first_band = y0 / BAND_ROWS;
+        let bands = y_end.div_ceil(BAND_ROWS) - first_band;
+        self.plan(h + 1 + bands);
         let (corners, mut counts) = self.corner_lattice()?;
-        let corner = |v: usize, x: usize, y: usize| corners[v][y * (w + 1) + x];
-        let bands = h.div_ceil(BAND_ROWS);
-        let (bands, refine_counts) = self.tasks(bands, |ctx, tracer, b| {
+        let corner = |v: usize, x: usize, y: usize| corners[v][(y - y0) * (w + 1) + x];
+        let (bands, refine_counts) = self.tasks(bands, |ctx, tracer, i| {
+            let b = first_band + i;
             let mut refiner = Refiner::new(self.views, w, threshold, max_samples);
             let mut trace = |row: &SampleRow, colors: &mut Vec<RowColors>| {
                 ctx.trace(tracer, row, colors);
             };
-            (b * BAND_ROWS..((b + 1) * BAND_ROWS).min(h))
+            (b * BAND_ROWS..((b + 1) * BAND_ROWS).min(y_end))
                 .map(|y| {
                     let mut out = vec![Vec::new(); self.views];
                     let report = refiner.refine_row(
