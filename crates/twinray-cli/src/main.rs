@@ -2,6 +2,7 @@
 //! prints what they report, shows progress.
 
 mod bench;
+mod preview;
 mod render_args;
 mod sampling;
 
@@ -40,6 +41,10 @@ enum Command {
     /// Compare two images: PSNR, largest difference, differing pixels. Exits 1 when
     /// they differ beyond --max-diff or --min-psnr.
     Compare(CompareArgs),
+    /// Set the rig by eye: a live preview in the browser (render flags as for
+    /// `render`; -o names the files of "Render full size").
+    #[command(mut_arg("output", |a| a.required_unless_present(clap::builder::Resettable::<clap::Id>::Reset)))]
+    Preview(Box<preview::PreviewArgs>),
 }
 
 #[derive(clap::Args)]
@@ -142,7 +147,7 @@ fn interrupted() -> ! {
 }
 
 /// Whether a render is in flight (a signal then cancels it).
-static RENDERING: AtomicBool = AtomicBool::new(false);
+pub(crate) static RENDERING: AtomicBool = AtomicBool::new(false);
 
 fn main() -> ExitCode {
     let cli = match parse_args() {
@@ -157,6 +162,7 @@ fn main() -> ExitCode {
         }
         Command::BenchStereo(args) => bench::run(args),
         Command::Compare(args) => run_compare(&args),
+        Command::Preview(args) => preview::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -223,13 +229,13 @@ fn run_compare(args: &CompareArgs) -> Result<()> {
 /// Raised by ctrl-c: the render in flight stops at its next row.
 static CANCEL: OnceLock<CancelToken> = OnceLock::new();
 
-fn cancel_token() -> &'static CancelToken {
+pub(crate) fn cancel_token() -> &'static CancelToken {
     CANCEL.get_or_init(CancelToken::new)
 }
 
 /// The spec of a `render` command line: its flags, or `--job FILE` with
 /// SCENE and -o on top.
-fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
+pub(crate) fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
     let flags = args.spec();
     let Some(path) = &args.job else {
         return Ok(flags);
@@ -256,7 +262,7 @@ fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
 }
 
 /// Prints a stage's messages: warnings and notes always, details with -v.
-fn print_messages(messages: &[Message], verbose: bool) {
+pub(crate) fn print_messages(messages: &[Message], verbose: bool) {
     for m in messages {
         match m.level {
             Level::Warning => eprintln!("twinray: warning: {}", m.text),
