@@ -3,6 +3,7 @@
 
 mod bench;
 mod look_args;
+mod preview;
 mod render_args;
 mod sampling;
 
@@ -43,6 +44,10 @@ enum Command {
     /// Compare two images: PSNR, largest difference, differing pixels. Exits 1 when
     /// they differ beyond --max-diff or --min-psnr.
     Compare(CompareArgs),
+    /// Set the rig by eye: a live preview in the browser (render flags as for
+    /// `render`; -o names the files of "Render full size").
+    #[command(mut_arg("output", |a| a.required_unless_present(clap::builder::Resettable::<clap::Id>::Reset)))]
+    Preview(Box<preview::PreviewArgs>),
     /// Assemble the tiles of a still (render --tiles N) into the whole image.
     Merge(MergeArgs),
 }
@@ -175,6 +180,7 @@ fn main() -> ExitCode {
         Command::Merge(args) => twinray::job::tiles::merge(&args.tiles, &args.output)
             .map(|()| list_written(std::slice::from_ref(&args.output), false))
             .map_err(Into::into),
+        Command::Preview(args) => preview::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -247,7 +253,7 @@ pub(crate) fn cancel_token() -> &'static CancelToken {
 
 /// The spec of a `render` command line: its flags, or `--job FILE` with
 /// SCENE and -o on top.
-fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
+pub(crate) fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
     let flags = args.spec();
     let Some(path) = &args.job else {
         return Ok(flags);

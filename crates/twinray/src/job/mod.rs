@@ -21,8 +21,10 @@
 //! Error messages name the command line's flags (`--interaxial`), the names a
 //! spec's fields have on the command line (`rig.interaxial`).
 
+mod command;
 mod outputs;
 pub mod preflight;
+mod preview;
 pub mod spec;
 pub mod tiles;
 
@@ -31,6 +33,7 @@ pub use preflight::{
     available_memory, check_memory, check_threads, estimate_render_memory, human_bytes,
     lights_warning, MANY_LIGHTS, MAX_THREADS,
 };
+pub use preview::Pass;
 pub use spec::{
     AnaglyphSpec, ApproximationSpec, CameraSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec,
     LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, TonemapSpec,
@@ -171,7 +174,18 @@ pub struct Rendered {
 impl Job {
     /// Checks the spec: every value and combination that can be refused
     /// before the scene is read, and the worker threads.
-    pub fn check(mut spec: JobSpec) -> Result<Job> {
+    pub fn check(spec: JobSpec) -> Result<Job> {
+        Job::checked(spec, None)
+    }
+
+    /// Checks the spec as [`Job::check`] does, for a job that runs on
+    /// `pool` (whose threads replace the spec's `threads`): a front end that
+    /// checks a spec per change (the preview) keeps one pool.
+    pub fn check_in(spec: JobSpec, pool: Arc<rayon::ThreadPool>) -> Result<Job> {
+        Job::checked(spec, Some(pool))
+    }
+
+    fn checked(mut spec: JobSpec, pool: Option<Arc<rayon::ThreadPool>>) -> Result<Job> {
         if spec.animation.frames.is_some() {
             return Err(invalid(
                 "a spec with frames is an animation: run it with twinray::animation::Animation",
@@ -183,14 +197,10 @@ impl Job {
             spec.output.path = tiles::tile_path(&spec.output.path, tile);
         }
         let checked = Checked::of(&spec)?;
-        let mut pool = rayon::ThreadPoolBuilder::new().stack_size(8 << 20);
-        // Worker stacks of 8 MiB (reserved, not used): room beyond the depth cap.
-        if let Some(n) = spec.trace.threads {
-            pool = pool.num_threads(n);
-        }
-        let pool = pool
-            .build()
-            .map_err(|e| Error::Invalid(format!("cannot start worker threads: {e}")))?;
+        let pool = match pool {
+            Some(pool) => pool,
+            None => Arc::new(worker_pool(spec.trace.threads)?),
+        };
         let messages = outputs::check_display(&spec.output)?;
         Ok(Job {
             spec,
@@ -199,7 +209,7 @@ impl Job {
             budget: checked.budget,
             interaxial: checked.interaxial,
             options: checked.options,
-            pool: Arc::new(pool),
+            pool,
             messages,
         })
     }
@@ -462,12 +472,23 @@ impl Job {
         progress: &(dyn Fn(u64, u64) + Sync),
         cancel: &CancelToken,
     ) -> Result<Rendered> {
+        self.render_with(plan, &self.options, progress, cancel)
+    }
+
+    /// [`Job::render`] with other render options (a preview's coarse passes).
+    fn render_with(
+        &self,
+        plan: &Plan,
+        options: &RenderOptions,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        cancel: &CancelToken,
+    ) -> Result<Rendered> {
         let mut output = self.pool.install(|| {
             render::render_rows(
                 &plan.world,
                 &plan.camera,
                 &plan.rig,
-                &self.options,
+                options,
                 plan.rows.clone(),
                 progress,
                 cancel,
@@ -486,7 +507,7 @@ impl Job {
             self.pool
                 .install(|| outputs::measure_depth(&plan.world, &plan.camera, &plan.rig))
         });
-        messages.extend(self.render_messages(plan, &output));
+        messages.extend(self.render_messages(plan, options, &output));
         Ok(Rendered {
             output,
             depth,
@@ -494,8 +515,7 @@ impl Job {
         })
     }
 
-    fn render_messages(&self, plan: &Plan, r: &RenderOutput) -> Vec<Message> {
-        let o = &self.options;
+    fn render_messages(&self, plan: &Plan, o: &RenderOptions, r: &RenderOutput) -> Vec<Message> {
         let pixels = f64::from(plan.width) * f64::from(plan.height);
         let mut m = vec![
             Message::info(format!(
@@ -656,6 +676,17 @@ impl Job {
         .concat();
         Ok((written, messages))
     }
+}
+
+/// The worker threads of a job: `threads` of them (default: every core),
+/// with stacks of 8 MiB (reserved, not used): room beyond the depth cap.
+fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut pool = rayon::ThreadPoolBuilder::new().stack_size(8 << 20);
+    if let Some(n) = threads {
+        pool = pool.num_threads(n);
+    }
+    pool.build()
+        .map_err(|e| Error::Invalid(format!("cannot start worker threads: {e}")))
 }
 
 /// The verbose account of a plan: scene, rig, the rig's choice and report,

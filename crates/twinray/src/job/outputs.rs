@@ -203,6 +203,33 @@ impl Targets<'_> {
         Ok(files)
     }
 
+    /// The images the layout delivers, composed in memory as [`Targets::write`]
+    /// would write them (before 8-bit quantisation): one frame for a
+    /// side-by-side, cross, top-bottom, anaglyph, interlaced or quilt layout;
+    /// the views as they are for separate files, MPO and multi-view EXR.
+    pub fn compose(&self, images: &[Image]) -> Result<Vec<Image>> {
+        if images.len() < 2 {
+            return Ok(images.to_vec());
+        }
+        if let (LayoutSpec::Quilt, Some(spec)) = (self.output.layout, self.quilt) {
+            return Ok(vec![output::compose_quilt(images, spec.layout)?]);
+        }
+        if images.len() > 2 {
+            return Ok(images.to_vec());
+        }
+        let (left, right) = (&images[0], &images[1]);
+        let squeeze = self.output.squeeze;
+        let frame = match stereo_layout(self.output) {
+            Layout::Separate | Layout::Mpo | Layout::MultiviewExr => return Ok(images.to_vec()),
+            Layout::SideBySide => output::side_by_side(left, right, squeeze)?,
+            Layout::Cross => output::cross(left, right, squeeze)?,
+            Layout::TopBottom => output::top_bottom(left, right, squeeze)?,
+            Layout::Anaglyph(method) => output::anaglyph(left, right, method)?,
+            Layout::Interlace(mode) => output::interlace(left, right, mode)?,
+        };
+        Ok(vec![frame])
+    }
+
     /// Writes the images (a set of files: all or none); returns the files
     /// written (`files` from [`Targets::plan`], for the quilt and depth cases).
     pub fn write(

@@ -153,6 +153,27 @@ fn encode_png(
         .map_err(image_failure)
 }
 
+/// Encodes `img` as an 8-bit PNG in memory with the fastest compression:
+/// for frames sent as they are rendered (a preview), where encoding time
+/// matters more than size. Lossless, unlike JPEG, whose chroma subsampling
+/// would blur an anaglyph's colour fringes, which carry the depth.
+pub fn png_bytes(img: &Image, opts: &WriteOptions) -> Result<Vec<u8>> {
+    use ::image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    use ::image::ImageEncoder;
+    check_image(img, "image")?;
+    let rgb = to_rgb8(img, opts);
+    let mut out = Vec::new();
+    PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Adaptive)
+        .write_image(
+            &rgb,
+            img.width,
+            img.height,
+            ::image::ExtendedColorType::Rgb8,
+        )
+        .map_err(|e| Error::Invalid(format!("cannot encode a PNG: {e}")))?;
+    Ok(out)
+}
+
 /// Quality of every JPEG twinray writes (also the eyes of an MPO).
 pub const JPEG_QUALITY: u8 = 95;
 

@@ -48,7 +48,7 @@ pub use atomic::{commit_all, remove_temporary_files, write_text, Staged};
 pub use compare::{compare, difference_image, Difference};
 pub use depth_channels::{stage_exr_with_depth, DepthChannels};
 pub use display::{DisplayTransform, Tonemap};
-pub use encode::{read_image, stage_image, write_image, ImageFormat, WriteOptions};
+pub use encode::{png_bytes, read_image, stage_image, write_image, ImageFormat, WriteOptions};
 pub use floating_window::{apply_floating_window, mask_edges};
 pub use layouts::{cross, interlace, separate_paths, side_by_side, top_bottom, InterlaceMode};
 pub use mpo::write_mpo;

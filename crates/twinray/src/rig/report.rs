@@ -22,6 +22,7 @@ use serde::Serialize;
 use super::budget::DepthBudget;
 use super::choice::{plan_rig, PlannedRig, RigChoice, RigRequest};
 use super::depth_pass::{stride_for, DepthStats, OuterPasses, REPORT_COLUMNS};
+use super::histogram::DisparityHistogram;
 use super::window::{find_violations, FloatingWindow, WindowViolation};
 use super::{pair_disparity, Camera, Rig, View};
 use crate::world::World;
@@ -243,6 +244,8 @@ pub struct Settled {
     pub report: DisparityReport,
     /// Seconds of the depth passes.
     pub depth_seconds: f64,
+    /// The visible disparities, binned (from the report's depth passes).
+    pub histogram: DisparityHistogram,
 }
 
 impl Settled {
@@ -276,10 +279,12 @@ pub fn settle(
         None => OuterPasses::measure(world, camera, &rig, stride),
     };
     let report = report(camera, &rig, &request.budget, screen_width_m, &passes);
+    let histogram = DisparityHistogram::measure(camera, &rig, &request.budget, &passes);
     Ok(Settled {
         rig,
         choice,
         report,
         depth_seconds: start.elapsed().as_secs_f64(),
+        histogram,
     })
 }

@@ -1,0 +1,112 @@
+//! `JobSpec::to_args` is the inverse of the `render` command's flags: the
+//! arguments it gives, passed to `twinray render --print-job`, describe the
+//! same spec (the preview shows them as the command reproducing its view).
+
+use std::process::Command;
+
+use twinray::job::{
+    AnaglyphSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec, MethodSpec, ReprojectModeSpec,
+};
+
+/// The spec `twinray render ARGS --print-job` prints.
+fn printed(args: &[String]) -> JobSpec {
+    let out = Command::new(env!("CARGO_BIN_EXE_twinray"))
+        .arg("render")
+        .args(args)
+        .arg("--print-job")
+        .output()
+        .expect("the binary runs");
+    assert!(
+        out.status.success(),
+        "twinray render {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    JobSpec::from_json(&String::from_utf8_lossy(&out.stdout)).unwrap()
+}
+
+fn specs() -> Vec<JobSpec> {
+    let base = JobSpec::new("scenes/example.nff", "out dir/pair.png");
+    let mut stereo = base.clone();
+    stereo.camera.size = Some([480, 270]);
+    stereo.camera.from = Some([-1.5, 2.25, 4.0]);
+    stereo.camera.at = Some([0.0, -0.5, 0.1]);
+    stereo.camera.up = Some([0.0, 1.0, 0.0]);
+    stereo.camera.fov = Some(37.5);
+    stereo.rig.stereo = true;
+    stereo.rig.interaxial = Some("0.123".into());
+    stereo.rig.convergence = Some("near".into());
+    stereo.rig.depth_budget = Some("-0.5%,+1.5%".into());
+    stereo.rig.floating_window = true;
+    stereo.rig.screen_width = 2.5;
+    stereo.output.layout = LayoutSpec::Anaglyph;
+    stereo.output.anaglyph = Some(AnaglyphSpec::GreenMagenta);
+    stereo.output.srgb = true;
+    stereo.sampling.samples = Some(4);
+    stereo.sampling.filter = Some(FilterSpec::Gaussian);
+    stereo.sampling.seed = Some(7);
+    stereo.approximations.fast = true;
+    stereo.approximations.reproject = true;
+    stereo.approximations.reproject_mode = ReprojectModeSpec::Paper;
+    stereo.approximations.reproject_threshold = 0.25;
+    stereo.trace.max_depth = 3;
+    stereo.trace.min_weight = Some(0.01);
+    stereo.trace.threads = Some(2);
+
+    let mut views = base.clone();
+    views.rig.views = Some(8);
+    views.rig.view_cone = Some(20.0);
+    views.rig.method = MethodSpec::Independent;
+    views.rig.views_per_batch = Some(2);
+    views.output.layout = LayoutSpec::Quilt;
+    views.output.quilt = Some("4x2".into());
+    views.sampling.adaptive = Some(0.02);
+    views.sampling.max_samples = Some(64);
+    views.limits.max_resolution = 4096;
+    views.limits.max_vertices = 99;
+    views.limits.max_triangles = 12345;
+    views.output.stats = Some("stats.json".into());
+
+    let mut interlaced = base.clone();
+    interlaced.rig.stereo = true;
+    interlaced.rig.convergence = Some("-2".into()); // refused by check, not by the flags' parser
+    interlaced.output.layout = LayoutSpec::Interlace;
+    interlaced.output.interlace = Some(InterlaceSpec::Checker);
+    interlaced.sampling.spd = true;
+    interlaced.approximations.cut_distance = Some(12.5);
+    interlaced.camera.camera = Some("Camera.001".into());
+
+    let mut depth = base.clone();
+    depth.output.path = "d.exr".into();
+    depth.output.depth = true;
+    depth.rig.stereo = true;
+    depth.output.layout = LayoutSpec::Sbs;
+    depth.output.squeeze = true;
+    depth.approximations.merge_secondary = true;
+    depth.approximations.cut_parallax = Some(0.75);
+
+    vec![base, stereo, views, interlaced, depth]
+}
+
+#[test]
+fn to_args_gives_the_flags_of_the_spec() {
+    for spec in specs() {
+        let args = spec.to_args();
+        assert_eq!(printed(&args), spec, "{args:?}");
+    }
+}
+
+#[test]
+fn defaults_are_left_out_and_negative_values_joined() {
+    let base = JobSpec::new("a.nff", "b.png");
+    assert_eq!(base.to_args(), vec!["a.nff", "-o", "b.png"]);
+    let mut spec = base;
+    spec.rig.stereo = true;
+    spec.rig.depth_budget = Some("-6px,12px".into());
+    spec.camera.from = Some([-1.0, 0.0, 2.0]);
+    let args = spec.to_args();
+    assert!(
+        args.contains(&"--depth-budget=-6px,12px".to_string()),
+        "{args:?}"
+    );
+    assert!(args.contains(&"--from=-1,0,2".to_string()), "{args:?}");
+}

@@ -1,0 +1,305 @@
+//! The page's controls, and the job spec they describe on top of the
+//! command line's.
+//!
+//! `Settings` is what the page sends on every change: the rig, the layout
+//! it shows, the sampling, the camera. [`Settings::spec`] lays it over the
+//! spec of the `preview` command's flags; the job's own checks
+//! ([`twinray::Job::check`]) then refuse bad values with the command line's
+//! messages. Only what the page adds (a layout the command line has not,
+//! the eye of a single-eye view) is checked here.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use twinray::job::{JobSpec, LayoutSpec, SamplingSpec};
+
+/// How the page shows the views.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum View {
+    /// Red-cyan (Dubois) anaglyph.
+    #[default]
+    Anaglyph,
+    /// Left | right, for parallel viewing.
+    Sbs,
+    /// Right | left, for cross-eyed viewing.
+    Cross,
+    /// The views one after another, animated in the page.
+    Wiggle,
+    /// One view (`eye`).
+    Single,
+    /// A Looking Glass quilt (`quilt`).
+    Quilt,
+}
+
+impl View {
+    /// The layout of the job (wiggle and single eye take the views as they are).
+    pub fn layout(self) -> LayoutSpec {
+        match self {
+            View::Anaglyph => LayoutSpec::Anaglyph,
+            View::Sbs => LayoutSpec::Sbs,
+            View::Cross => LayoutSpec::Cross,
+            View::Wiggle | View::Single => LayoutSpec::Separate,
+            View::Quilt => LayoutSpec::Quilt,
+        }
+    }
+}
+
+/// The viewpoint as the page's numbers: `--from`, `--at`, `--up`, `--fov`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSettings {
+    pub from: [f32; 3],
+    pub at: [f32; 3],
+    pub up: [f32; 3],
+    /// Vertical field of view, degrees.
+    pub fov: f32,
+}
+
+/// The page's controls.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Settings {
+    /// Views rendered (2: a stereo pair).
+    pub views: usize,
+    /// `auto` or a distance between adjacent views (scene units).
+    pub interaxial: String,
+    /// `auto`, `near`, `inf` or a distance.
+    pub convergence: String,
+    /// `NEAR,FAR` in per cent or pixels (empty: the default, -1%,+2%).
+    pub depth_budget: String,
+    pub view: View,
+    /// The view a single-eye display shows (0: the leftmost).
+    pub eye: usize,
+    /// The grid of a quilt, `COLSxROWS`.
+    pub quilt: String,
+    /// Samples per pixel of the final pass (`None`: the command line's
+    /// sampling, adaptive by default).
+    pub samples: Option<u32>,
+    /// The paper's approximations (`--fast`).
+    pub fast: bool,
+    /// `None`: the command line's (or the scene's) camera.
+    pub camera: Option<CameraSettings>,
+}
+
+impl Default for Settings {
+    fn default() -> Settings {
+        Settings {
+            views: 2,
+            interaxial: "auto".into(),
+            convergence: "auto".into(),
+            depth_budget: String::new(),
+            view: View::Anaglyph,
+            eye: 0,
+            quilt: "4x2".into(),
+            samples: None,
+            fast: false,
+            camera: None,
+        }
+    }
+}
+
+/// A setting the page sent that the job cannot take.
+#[derive(Debug, PartialEq, Eq)]
+pub struct Refused(pub String);
+
+impl Settings {
+    /// The page's first settings: the command line's rig and layout where
+    /// it gave them, a stereo pair in anaglyph otherwise.
+    pub fn from_spec(spec: &JobSpec) -> Settings {
+        let d = Settings::default();
+        let r = &spec.rig;
+        let view = match spec.output.layout {
+            LayoutSpec::Sbs => View::Sbs,
+            LayoutSpec::Cross => View::Cross,
+            LayoutSpec::Quilt => View::Quilt,
+            LayoutSpec::Separate if r.views.is_some_and(|n| n > 2) => View::Wiggle,
+            _ => View::Anaglyph,
+        };
+        let views = match (r.views, view) {
+            (Some(n), _) => n,
+            (None, View::Quilt) => 8,
+            (None, _) => 2,
+        };
+        Settings {
+            views,
+            interaxial: r.interaxial.clone().unwrap_or(d.interaxial),
+            convergence: r.convergence.clone().unwrap_or(d.convergence),
+            depth_budget: r.depth_budget.clone().unwrap_or_default(),
+            view,
+            quilt: spec.output.quilt.clone().unwrap_or(d.quilt),
+            samples: None,
+            fast: spec.approximations.fast,
+            ..d
+        }
+    }
+
+    /// The spec these settings describe over `base` (the command line's),
+    /// rendering `size` to `output`.
+    pub fn spec(&self, base: &JobSpec, size: Option<[u32; 2]>, output: &Path) -> JobSpec {
+        let mut spec = base.clone();
+        spec.camera.size = size;
+        if let Some(c) = self.camera {
+            spec.camera.from = Some(c.from);
+            spec.camera.at = Some(c.at);
+            spec.camera.up = Some(c.up);
+            spec.camera.fov = Some(c.fov);
+        }
+        let r = &mut spec.rig;
+        // A pair is --stereo; a quilt of as many views as tiles needs no --views.
+        let quilt_tiles = self
+            .quilt
+            .parse::<twinray::output::QuiltSpec>()
+            .ok()
+            .map(|q| q.layout.tiles());
+        r.stereo = self.views == 2 && self.view != View::Quilt;
+        let whole_quilt = self.view == View::Quilt && quilt_tiles == Some(self.views);
+        r.views = (!r.stereo && !whole_quilt).then_some(self.views);
+        let text = |s: &str| (!s.trim().is_empty()).then(|| s.trim().to_string());
+        // `auto` is the default interaxial, and then the default convergence
+        // (with a given interaxial the default is the scene's `at` point).
+        let auto = |s: &Option<String>| s.as_deref() == Some("auto");
+        r.interaxial = text(&self.interaxial).filter(|i| i != "auto");
+        r.convergence = text(&self.convergence);
+        if r.interaxial.is_none() && auto(&r.convergence) {
+            r.convergence = None;
+        }
+        r.depth_budget = text(&self.depth_budget);
+        // The command line's --view-cone spaces the views until the page
+        // asks for an interaxial of its own.
+        if r.interaxial.is_some() {
+            r.view_cone = None;
+        }
+        let o = &mut spec.output;
+        o.path = output.to_path_buf();
+        o.layout = self.view.layout();
+        o.quilt = (self.view == View::Quilt).then(|| self.quilt.clone());
+        o.anaglyph = o.anaglyph.filter(|_| self.view == View::Anaglyph);
+        o.squeeze = false;
+        o.interlace = None;
+        o.depth = false;
+        o.stats = None;
+        if let Some(n) = self.samples {
+            spec.sampling = SamplingSpec {
+                samples: Some(n),
+                ..SamplingSpec::default()
+            };
+        }
+        spec.approximations.fast = self.fast;
+        spec
+    }
+
+    /// What only the page can get wrong (the job checks the rest).
+    pub fn check(&self) -> Result<(), Refused> {
+        if self.view == View::Single && self.eye >= self.views {
+            return Err(Refused(format!(
+                "eye {}: the views are numbered 0 to {}",
+                self.eye,
+                self.views.saturating_sub(1)
+            )));
+        }
+        if self.views < 2 {
+            return Err(Refused(format!(
+                "views {}: a stereo preview needs at least 2 views",
+                self.views
+            )));
+        }
+        if let Some(c) = &self.camera {
+            let finite = c
+                .from
+                .iter()
+                .chain(&c.at)
+                .chain(&c.up)
+                .all(|v| v.is_finite());
+            if !finite || !c.fov.is_finite() {
+                return Err(Refused("the camera's numbers must be finite".into()));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The file name a full-size render of `scene` writes: `-o`'s if given,
+/// else the scene's stem with `.png`.
+pub fn output_name(scene: &Path, output: &Path) -> PathBuf {
+    if !output.as_os_str().is_empty() {
+        return output.to_path_buf();
+    }
+    let stem = scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "render".into());
+    PathBuf::from(format!("{stem}.png"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_lay_over_the_command_line() {
+        let mut base = JobSpec::new("s.nff", "");
+        base.trace.max_depth = 3;
+        base.output.srgb = true;
+        let mut s = Settings::from_spec(&base);
+        assert_eq!(s, Settings::default());
+        s.interaxial = "0.25".into();
+        s.view = View::Cross;
+        s.samples = Some(4);
+        let spec = s.spec(&base, Some([48, 27]), Path::new("/tmp/x.png"));
+        assert_eq!(spec.trace.max_depth, 3);
+        assert!(spec.output.srgb);
+        assert!(spec.rig.stereo);
+        assert_eq!(spec.rig.views, None);
+        assert_eq!(spec.rig.interaxial.as_deref(), Some("0.25"));
+        assert_eq!(spec.rig.depth_budget, None);
+        assert_eq!(spec.output.layout, LayoutSpec::Cross);
+        assert_eq!(spec.sampling.samples, Some(4));
+        assert_eq!(spec.camera.size, Some([48, 27]));
+    }
+
+    #[test]
+    fn the_command_lines_rig_becomes_the_first_settings() {
+        let mut base = JobSpec::new("s.nff", "");
+        base.rig.views = Some(8);
+        base.rig.interaxial = Some("0.1".into());
+        base.output.layout = LayoutSpec::Quilt;
+        base.output.quilt = Some("4x2".into());
+        let s = Settings::from_spec(&base);
+        assert_eq!((s.views, s.view), (8, View::Quilt));
+        assert_eq!(s.interaxial, "0.1");
+    }
+
+    #[test]
+    fn what_only_the_page_can_get_wrong_is_refused() {
+        let s = Settings {
+            view: View::Single,
+            eye: 2,
+            ..Settings::default()
+        };
+        assert_eq!(
+            s.check(),
+            Err(Refused("eye 2: the views are numbered 0 to 1".into()))
+        );
+        assert!(Settings {
+            views: 1,
+            ..Settings::default()
+        }
+        .check()
+        .is_err());
+        assert!(Settings::default().check().is_ok());
+    }
+
+    #[test]
+    fn the_output_is_named_after_the_scene() {
+        assert_eq!(
+            output_name(Path::new("a/balls.nff"), Path::new("")),
+            PathBuf::from("balls.png")
+        );
+        assert_eq!(
+            output_name(Path::new("a/balls.nff"), Path::new("x.jpg")),
+            PathBuf::from("x.jpg")
+        );
+    }
+}

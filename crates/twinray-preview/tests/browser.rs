@@ -1,0 +1,323 @@
+//! The page in a real browser: Debian's Chromium, headless, driven through
+//! the DevTools protocol (a few commands over its WebSocket). It waits for
+//! the first frames, moves the interaxial slider with the mouse, checks that
+//! the image changed, and saves a screenshot that it inspects (not blank,
+//! the frame and the controls drawn).
+//!
+//! Without Chromium the test prints a notice and passes, except under CI
+//! (`CI=true`), where `.ci/run` installs it and a missing browser fails.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use base64::Engine;
+use futures_util::{SinkExt, StreamExt};
+use serde_json::{json, Value};
+use tokio::net::TcpListener;
+use tokio_tungstenite::tungstenite::Message;
+
+use twinray::job::{CancelToken, JobSpec};
+use twinray_preview::Preview;
+
+type Socket =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+fn chromium() -> Option<PathBuf> {
+    if let Ok(p) = std::env::var("TWINRAY_CHROMIUM") {
+        return Some(PathBuf::from(p));
+    }
+    ["/usr/bin/chromium", "/usr/bin/chromium-browser"]
+        .iter()
+        .map(PathBuf::from)
+        .find(|p| p.exists())
+}
+
+/// The browser process, killed when dropped.
+struct Browser {
+    child: Child,
+    _profile: tempfile::TempDir,
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts headless Chromium with a fresh profile; returns it and the
+/// DevTools WebSocket URL of the browser.
+async fn launch(binary: &Path) -> (Browser, String) {
+    let profile = tempfile::tempdir().unwrap();
+    let child = Command::new(binary)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--remote-debugging-port=0",
+            "--window-size=1400,950",
+        ])
+        .arg(format!("--user-data-dir={}", profile.path().display()))
+        .arg("about:blank")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("chromium starts");
+    let browser = Browser {
+        child,
+        _profile: profile,
+    };
+    // Chromium writes its port and the browser's path when it listens.
+    let port_file = browser._profile.path().join("DevToolsActivePort");
+    let start = Instant::now();
+    loop {
+        if let Ok(text) = std::fs::read_to_string(&port_file) {
+            let mut lines = text.lines();
+            if let (Some(port), Some(path)) = (lines.next(), lines.next()) {
+                return (browser, format!("ws://127.0.0.1:{port}{path}"));
+            }
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "chromium did not open its DevTools port"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+/// A DevTools connection, with the page's session once attached.
+struct DevTools {
+    socket: Socket,
+    next_id: u64,
+    session: Option<String>,
+}
+
+impl DevTools {
+    async fn call(&mut self, method: &str, params: Value) -> Value {
+        self.next_id += 1;
+        let id = self.next_id;
+        let mut message = json!({ "id": id, "method": method, "params": params });
+        if let Some(s) = &self.session {
+            message["sessionId"] = json!(s);
+        }
+        self.socket
+            .send(Message::Text(message.to_string().into()))
+            .await
+            .unwrap();
+        loop {
+            let answer = tokio::time::timeout(Duration::from_secs(60), self.socket.next())
+                .await
+                .unwrap_or_else(|_| panic!("{method}: no answer"));
+            let Some(Ok(Message::Text(text))) = answer else {
+                continue;
+            };
+            let value: Value = serde_json::from_str(text.as_str()).unwrap();
+            if value["id"] == id {
+                assert!(value.get("error").is_none(), "{method}: {value}");
+                return value["result"].clone();
+            }
+        }
+    }
+
+    /// The value of a JavaScript expression in the page.
+    async fn eval(&mut self, expression: &str) -> Value {
+        let r = self
+            .call(
+                "Runtime.evaluate",
+                json!({ "expression": expression, "returnByValue": true, "awaitPromise": true }),
+            )
+            .await;
+        assert!(r.get("exceptionDetails").is_none(), "{expression}: {r}");
+        r["result"]["value"].clone()
+    }
+
+    /// Waits until `expression` is true in the page.
+    async fn wait_for(&mut self, expression: &str, what: &str) {
+        let start = Instant::now();
+        while self.eval(expression).await != json!(true) {
+            assert!(
+                start.elapsed() < Duration::from_secs(90),
+                "waited for {what}"
+            );
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    }
+}
+
+/// The frame as drawn: a fingerprint of its pixels (the page decodes the
+/// server's PNG; the test reads it back through a canvas).
+const FRAME_PIXELS: &str = r#"(() => {
+  const img = document.getElementById("frame");
+  const c = document.createElement("canvas");
+  c.width = img.naturalWidth; c.height = img.naturalHeight;
+  const g = c.getContext("2d");
+  g.drawImage(img, 0, 0);
+  const d = g.getImageData(0, 0, c.width, c.height).data;
+  let sum = 0, weighted = 0;
+  for (let i = 0; i < d.length; i++) { sum += d[i]; weighted = (weighted + d[i] * (i % 9973)) % 1000000007; }
+  return { width: c.width, height: c.height, sum, weighted };
+})()"#;
+
+/// Waits for the last pass of the newest change, drawn.
+const FINAL_FRAME: &str = "(() => { const p = window.twinrayPreview; const h = p && p.lastHeader; \
+     return !!h && h.generation === p.generation && h.pass + 1 === h.passes \
+       && document.getElementById('frame').complete; })()";
+
+#[tokio::test]
+async fn the_page_in_chromium() {
+    let Some(binary) = chromium() else {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "chromium is not installed (CI installs it: .ci/run)"
+        );
+        eprintln!(
+            "notice: chromium not found: the browser test is skipped (apt-get install chromium)"
+        );
+        return;
+    };
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
+    let mut spec = JobSpec::new(&scene, "");
+    spec.camera.size = Some([640, 360]);
+    spec.sampling.samples = Some(1);
+    let preview = Preview::new(spec, 320).unwrap();
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("http://{}/", listener.local_addr().unwrap());
+    let stop = CancelToken::new();
+    tokio::spawn(preview.clone().serve(listener, stop.clone()));
+
+    let (_browser, devtools_url) = launch(&binary).await;
+    let (socket, _) = tokio_tungstenite::connect_async(devtools_url)
+        .await
+        .unwrap();
+    let mut dt = DevTools {
+        socket,
+        next_id: 0,
+        session: None,
+    };
+    let target = dt.call("Target.createTarget", json!({ "url": url })).await;
+    let attached = dt
+        .call(
+            "Target.attachToTarget",
+            json!({ "targetId": target["targetId"], "flatten": true }),
+        )
+        .await;
+    dt.session = attached["sessionId"].as_str().map(String::from);
+
+    dt.wait_for(
+        "!!(window.twinrayPreview && window.twinrayPreview.frames > 0)",
+        "the first frame",
+    )
+    .await;
+    dt.wait_for(FINAL_FRAME, "the full-size frame").await;
+    let before = dt.eval(FRAME_PIXELS).await;
+    assert_eq!(before["width"], 320, "{before}");
+    let generation = dt.eval("window.twinrayPreview.generation").await;
+    let interaxial = dt.eval("window.twinrayPreview.info.rig.interaxial").await;
+
+    // Move the interaxial slider: a click near its right end.
+    let rect = dt
+        .eval("(() => { const r = document.getElementById('interaxial').getBoundingClientRect(); return [r.x, r.y, r.width, r.height]; })()")
+        .await;
+    let (x, y) = (
+        rect[0].as_f64().unwrap() + rect[2].as_f64().unwrap() * 0.85,
+        rect[1].as_f64().unwrap() + rect[3].as_f64().unwrap() * 0.5,
+    );
+    for kind in ["mousePressed", "mouseReleased"] {
+        dt.call(
+            "Input.dispatchMouseEvent",
+            json!({ "type": kind, "x": x, "y": y, "button": "left", "clickCount": 1 }),
+        )
+        .await;
+    }
+    dt.wait_for(
+        &format!("window.twinrayPreview.generation > {generation}"),
+        "the change to reach the server",
+    )
+    .await;
+    dt.wait_for(FINAL_FRAME, "the new frame").await;
+    let after = dt.eval(FRAME_PIXELS).await;
+    assert_ne!(before, after, "the frame did not change");
+    let moved = dt.eval("window.twinrayPreview.info.rig.interaxial").await;
+    assert!(
+        moved.as_f64().unwrap() > interaxial.as_f64().unwrap(),
+        "interaxial {interaxial} -> {moved}"
+    );
+    assert_eq!(
+        dt.eval("document.getElementById('interaxial-auto').checked")
+            .await,
+        json!(false)
+    );
+    assert_eq!(
+        dt.eval("window.twinrayPreview.errors.length").await,
+        json!(0)
+    );
+
+    // The controls are on the page, drawn with a size.
+    let layout = dt
+        .eval(r#"(() => { const out = {}; for (const id of ["frame", "interaxial", "convergence", "budget-near", "views", "layout", "samples", "fast", "histogram", "command", "render-full", "from"]) { const e = document.getElementById(id); const r = e && e.getBoundingClientRect(); out[id] = r ? [r.x, r.y, r.width, r.height] : null; } out.scale = window.devicePixelRatio; out.command = document.getElementById("command").value; return out; })()"#)
+        .await;
+    for (id, r) in layout.as_object().unwrap() {
+        if let Some(r) = r.as_array() {
+            assert!(
+                r[2].as_f64().unwrap() > 0.0 && r[3].as_f64().unwrap() > 0.0,
+                "{id}: {r:?}"
+            );
+        }
+    }
+    assert!(layout["command"]
+        .as_str()
+        .unwrap()
+        .starts_with("twinray render "));
+
+    // The screenshot, saved and inspected.
+    let shot = dt
+        .call("Page.captureScreenshot", json!({ "format": "png" }))
+        .await;
+    let png = base64::engine::general_purpose::STANDARD
+        .decode(shot["data"].as_str().unwrap())
+        .unwrap();
+    let path = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("preview-page.png");
+    std::fs::write(&path, &png).unwrap();
+    eprintln!("screenshot: {}", path.display());
+    let image = image::load_from_memory(&png).unwrap().to_rgb8();
+    let scale = layout["scale"].as_f64().unwrap_or(1.0);
+    let region = |id: &str| {
+        let r = layout[id].as_array().unwrap();
+        let v: Vec<u32> = r
+            .iter()
+            .map(|v| (v.as_f64().unwrap() * scale) as u32)
+            .collect();
+        (v[0], v[1], v[2], v[3])
+    };
+    // Distinct colours in a rectangle of the screenshot.
+    let colours = |(x, y, w, h): (u32, u32, u32, u32)| {
+        let mut seen = std::collections::HashSet::new();
+        for j in y..(y + h).min(image.height()) {
+            for i in x..(x + w).min(image.width()) {
+                seen.insert(image.get_pixel(i, j).0);
+            }
+        }
+        seen.len()
+    };
+    let whole = colours((0, 0, image.width(), image.height()));
+    assert!(whole > 500, "the screenshot looks blank: {whole} colours");
+    let frame = colours(region("frame"));
+    assert!(frame > 200, "the frame looks blank: {frame} colours");
+    let histogram = colours(region("histogram"));
+    assert!(
+        histogram > 3,
+        "the histogram is not drawn: {histogram} colours"
+    );
+    let slider = colours(region("interaxial"));
+    assert!(
+        slider > 3,
+        "the interaxial slider is not drawn: {slider} colours"
+    );
+    stop.cancel();
+}
