@@ -18,7 +18,7 @@ use serde::Serialize;
 use tokio::sync::mpsc;
 
 use twinray::job::{CancelToken, Job, Loaded, Plan};
-use twinray::output::{self, WriteOptions};
+use twinray::output;
 use twinray::Error;
 
 /// A change of settings, planned and ready to render.
@@ -305,9 +305,7 @@ impl Session {
             };
             let rendered = job.render_sampled(&reduced, pass.sampling, &progress, cancel)?;
             let render_ms = start.elapsed().as_secs_f64() * 1e3;
-            let srgb = WriteOptions {
-                srgb: job.spec().output.srgb,
-            };
+            let srgb = job.write_options();
             let images = job
                 .compose(&reduced, &rendered)?
                 .iter()

@@ -7,7 +7,6 @@ mod common;
 use std::sync::Arc;
 
 use twinray::job::{CancelToken, Job, JobSpec, LayoutSpec, Pass};
-use twinray::math::Vec3;
 use twinray::output::{self, WriteOptions};
 use twinray::render::Sampling;
 
@@ -132,6 +131,8 @@ fn compose_gives_what_write_writes() {
         let mut spec = pair([40, 30]);
         spec.rig.interaxial = Some("0.3".into());
         spec.output.layout = layout;
+        // A display transform that is not the identity: compose must apply it.
+        spec.output.exposure = 0.5;
         spec.output.path = dir.path().join(format!("{}.png", layout.name()));
         let job = Job::check(spec).unwrap();
         let loaded = job.load().unwrap();
@@ -145,13 +146,16 @@ fn compose_gives_what_write_writes() {
         let written = job.write(&loaded, &plan, &rendered).unwrap();
         assert_eq!(written.len(), frames);
         for (image, file) in composed.iter().zip(&written) {
+            // The composed image, encoded as the job encodes 8-bit files
+            // (sRGB by default), reads back as the written file does.
+            let encoded = dir.path().join("encoded.png");
+            std::fs::write(
+                &encoded,
+                output::png_bytes(image, &job.write_options()).unwrap(),
+            )
+            .unwrap();
             let read = output::read_image(file).unwrap();
-            let quantised: Vec<_> = image
-                .pixels
-                .iter()
-                .map(|c| (c.clamp(Vec3::ZERO, Vec3::ONE) * 255.0).round() / 255.0)
-                .collect();
-            assert_eq!(read.pixels, quantised, "{layout:?}");
+            assert_eq!(read, output::read_image(&encoded).unwrap(), "{layout:?}");
         }
     }
 }

@@ -27,7 +27,6 @@ use std::path::PathBuf;
 
 use crate::job::{CancelToken, Job, JobSpec, LayoutSpec, Level, Loaded, Message, ShotRigSpec};
 use crate::output::encode::to_rgb8;
-use crate::output::WriteOptions;
 use crate::rig::camera_overrides as view;
 use crate::rig::choice as rig_choice;
 use crate::rig::depth_pass::DepthRange;
@@ -398,8 +397,7 @@ impl Animation {
                             crf: VIDEO_CRF,
                         })?),
                     };
-                    let srgb = self.spec.output.srgb;
-                    writer.push(&to_rgb8(&picture, &WriteOptions { srgb }))?;
+                    writer.push(&to_rgb8(&picture, &job.write_options()))?;
                     Vec::new()
                 }
             };

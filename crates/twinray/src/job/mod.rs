@@ -561,16 +561,15 @@ impl Job {
     }
 
     /// The rendered views composed as one picture (a video frame: see
-    /// [`Animation`](crate::animation::Animation)), and how its eyes are packed.
+    /// [`Animation`](crate::animation::Animation)), as an 8-bit file shows
+    /// it (exposure and tone curve applied; encode with
+    /// [`Job::write_options`]), and how its eyes are packed.
     pub fn compose_frame(
         &self,
         rendered: &Rendered,
     ) -> Result<(crate::Image, crate::video::FramePacking)> {
-        outputs::compose_frame(
-            &self.spec.output,
-            self.quilt.as_ref(),
-            &rendered.output.images,
-        )
+        let shown = outputs::displayed(&self.spec.output, &rendered.output.images);
+        outputs::compose_frame(&self.spec.output, self.quilt.as_ref(), &shown)
     }
 
     /// Writes the files (all or none) and the statistics; returns the files

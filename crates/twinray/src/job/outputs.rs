@@ -82,6 +82,23 @@ pub(super) fn display_transform(o: &OutputSpec) -> DisplayTransform {
     }
 }
 
+/// The views as an 8-bit output shows them: exposure and tone curve
+/// applied (before any composition: an anaglyph mixes tone-mapped eyes).
+/// The sRGB curve comes at encoding ([`WriteOptions::srgb`]).
+pub(super) fn displayed(o: &OutputSpec, images: &[Image]) -> Vec<Image> {
+    let transform = display_transform(o);
+    if transform.is_identity() {
+        images.to_vec()
+    } else {
+        images.iter().map(|i| transform.apply(i)).collect()
+    }
+}
+
+/// How 8-bit outputs are encoded: sRGB unless `--linear`.
+pub(super) fn write_options(o: &OutputSpec) -> WriteOptions {
+    WriteOptions { srgb: !o.linear }
+}
+
 /// `--depth` needs float outputs that hold one view each or all views.
 pub(super) fn check_depth_output(out: &Path, separate_or_multiview: bool) -> Result<()> {
     let exr = out
@@ -147,9 +164,7 @@ pub(super) struct Targets<'a> {
 
 impl Targets<'_> {
     fn write_options(&self) -> WriteOptions {
-        WriteOptions {
-            srgb: !self.output.linear,
-        }
+        write_options(self.output)
     }
 
     fn stereo_options(&self) -> StereoOptions {
@@ -252,13 +267,12 @@ impl Targets<'_> {
         }
         // 8-bit outputs: exposure and tone curve before the views are
         // composed (an anaglyph mixes tone-mapped eyes), sRGB when encoded.
-        let transform = display_transform(self.output);
-        let displayed: Vec<Image>;
-        let images = if multiview || is_float_output(out) || transform.is_identity() {
+        let shown: Vec<Image>;
+        let images = if multiview || is_float_output(out) {
             images
         } else {
-            displayed = images.iter().map(|i| transform.apply(i)).collect();
-            &displayed
+            shown = displayed(self.output, images);
+            &shown
         };
         if let (LayoutSpec::Quilt, Some(spec)) = (self.output.layout, self.quilt) {
             let quilt = output::compose_quilt(images, spec.layout)?;

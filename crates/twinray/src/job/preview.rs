@@ -9,8 +9,9 @@
 
 use std::sync::Arc;
 
-use super::{Job, Loaded, Plan, Rendered};
+use super::{outputs, Job, Loaded, Plan, Rendered};
 use crate::image::Image;
+use crate::output::WriteOptions;
 use crate::render::Sampling;
 use crate::rig::camera_overrides as view;
 use crate::rig::{Camera, Rig, View};
@@ -130,12 +131,18 @@ impl Job {
         self.render_with(plan, &options, progress, cancel)
     }
 
-    /// The images the job's layout delivers, composed in memory (what
-    /// [`Job::write`] would encode): one frame for side-by-side, cross,
-    /// top-bottom, anaglyph, interlaced and quilt layouts, the views
-    /// themselves otherwise.
+    /// The images the job's layout delivers, composed in memory as an 8-bit
+    /// file shows them (what [`Job::write`] would encode: exposure and tone
+    /// curve applied; encode them with [`Job::write_options`]): one frame
+    /// for side-by-side, cross, top-bottom, anaglyph, interlaced and quilt
+    /// layouts, the views themselves otherwise.
     pub fn compose(&self, plan: &Plan, rendered: &Rendered) -> Result<Vec<Image>> {
-        self.targets(&plan.rig, plan.interaxial)
-            .compose(&rendered.output.images)
+        let shown = outputs::displayed(&self.spec.output, &rendered.output.images);
+        self.targets(&plan.rig, plan.interaxial).compose(&shown)
+    }
+
+    /// How the job's 8-bit images are encoded (sRGB unless `--linear`).
+    pub fn write_options(&self) -> WriteOptions {
+        outputs::write_options(&self.spec.output)
     }
 }
