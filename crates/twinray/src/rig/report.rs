@@ -287,23 +287,8 @@ pub fn settle(
 #[cfg(test)]
 mod tests {
     use super::super::depth_pass::DepthPass;
+    use super::super::test_camera as camera;
     use super::*;
-    use crate::math::Vec3;
-    use crate::scene::Viewpoint;
-
-    fn camera() -> Camera {
-        let vp = Viewpoint {
-            from: Vec3::ZERO,
-            at: Vec3::Y,
-            up: Vec3::Z,
-            angle_deg: 60.0,
-            angle_span: Default::default(),
-            hither: 0.0,
-            width: 201,
-            height: 101,
-        };
-        Camera::new(&vp, 201, 101)
-    }
 
     /// Depth passes of the outer views: one row of the image's middle
     /// columns (no window edge in reach), at the given depths.
