@@ -17,6 +17,10 @@
 //! enclosing sphere hundreds of millions of units wide (where a primitive's
 //! own test reports hits outside its box).
 //!
+//! At pixel centres a second reference leaves out the renderer's driver,
+//! rows and film too: each pixel's ray traced by `Tracer::trace_eye` alone,
+//! one tracer for the whole image.
+//!
 //! What is exact under each sampling (README, docs/stereo.md):
 //! * pixel centres, the SPD corners and `--samples N` (stratified, any
 //!   filter): every view equals its own mono render (tests named
@@ -30,10 +34,11 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use twinray::bvh::Packet;
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::LoadOptions;
 use twinray::render::{
-    render, Filter, Method, RenderOptions, RenderOutput, Sampling, TraceSettings,
+    render, Filter, Method, RenderOptions, RenderOutput, Sampling, TraceSettings, Tracer,
 };
 use twinray::rig::{Camera, Rig, View};
 use twinray::{Image, World};
@@ -424,6 +429,64 @@ fn adaptive_twin_equals_independent_with_joint_refinement() {
         for v in 0..case.views {
             assert_eq!(
                 differences(&twin.images[v], &independent.images[v]),
+                None,
+                "seed {seed}, view {v}: (x, y, differing pixels)"
+            );
+        }
+    }
+}
+
+/// View `view` at pixel centres without the renderer's driver, sampler or
+/// film: one ray per pixel through one tracer (whose shadow cache carries
+/// over the whole image, unlike the renderer's, fresh for every row).
+fn traced_one_by_one(world: &World, camera: &Camera, view: View) -> Image {
+    let eye = if view.offset != 0.0 {
+        camera.eye + camera.right * view.offset
+    } else {
+        camera.eye
+    };
+    let mut tracer = Tracer::new(world, TraceSettings::default());
+    let mut image = Image::new(camera.width, camera.height);
+    for y in 0..camera.height {
+        for x in 0..camera.width {
+            let column = (x as i32 + view.shift) as f32;
+            let packet = Packet {
+                origins: [eye],
+                dirs: [camera.direction(column, y as f32)],
+                t_min: camera.hither,
+                t_max: [f32::INFINITY],
+                mask: 1,
+            };
+            image.pixels[(y * camera.width + x) as usize] = tracer.trace_eye(&packet, &[0])[0];
+        }
+    }
+    image
+}
+
+#[test]
+fn every_view_at_pixel_centres_equals_its_rays_traced_one_by_one() {
+    // The most independent reference: no driver, rows, film or batches.
+    for (seed, case) in [(50, &STEREO[1]), (51, &MULTI_VIEW[1])] {
+        let world = world(seed, 80, 60, seed == 51);
+        let camera = Camera::new(&world.scene.viewpoint, 80, 60);
+        let at = (world.scene.viewpoint.at - world.scene.viewpoint.from).length() as f64;
+        let rig = Rig::multi_view(
+            &camera,
+            case.views,
+            case.interaxial,
+            case.convergence.map(|c| c * at),
+        )
+        .expect("rig");
+        let twin = run(
+            &world,
+            &camera,
+            &rig,
+            &options(Method::Twin, Sampling::Centers, 0),
+        );
+        for (v, view) in rig.views.iter().enumerate() {
+            let traced = traced_one_by_one(&world, &camera, *view);
+            assert_eq!(
+                differences(&twin.images[v], &traced),
                 None,
                 "seed {seed}, view {v}: (x, y, differing pixels)"
             );

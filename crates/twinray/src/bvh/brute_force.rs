@@ -85,14 +85,63 @@ fn random_unit(rng: &mut fastrand::Rng) -> Vec3 {
     }
 }
 
-/// `count` shapes of every kind in a cube of half-side 10: spheres (some
-/// inside-out), triangles (some large, some slivers, some in one plane with
-/// others), cones and cylinders (some inside-out).
+/// About `count` shapes of every kind in a cube of half-side 10: a floor
+/// with spheres resting on it, spheres (some inside-out), triangles (some large, some slivers, some in one plane
+/// with others, some in stacks a hair apart), cones and cylinders (some
+/// inside-out).
 pub fn random_shapes(rng: &mut fastrand::Rng, count: usize) -> Vec<Shape> {
     let mut shapes = Vec::with_capacity(count);
+    // A floor at z = -2, and small spheres resting on it (below): where a
+    // sphere meets the floor, a ray enters the sphere's box a hair before
+    // it hits the floor, whichever the traversal visits first.
+    let floor = [
+        Vec3::new(-12.0, -12.0, -2.0),
+        Vec3::new(12.0, -12.0, -2.0),
+        Vec3::new(12.0, 12.0, -2.0),
+        Vec3::new(-12.0, 12.0, -2.0),
+    ];
+    for [a, b, c] in [[0, 1, 2], [0, 2, 3]] {
+        let (a, b, c) = (floor[a], floor[b], floor[c]);
+        shapes.push(Shape::Triangle(Triangle::new(
+            a,
+            b,
+            c,
+            Vec3::Z,
+            TriangleNormals::Flat,
+        )));
+    }
     while shapes.len() < count {
+        if rng.u8(..6) == 0 {
+            let radius = 0.1 + rng.f32() * 0.5;
+            let at = random_point(rng, 10.0);
+            shapes.push(Shape::Sphere(Sphere {
+                center: Vec3::new(at.x, at.y, -2.0 + radius),
+                radius,
+                inside: false,
+            }));
+            continue;
+        }
         let at = random_point(rng, 10.0);
         let size = 0.1 + rng.f32() * if rng.u8(..10) == 0 { 8.0 } else { 1.5 };
+        if rng.u8(..12) == 0 {
+            // A stack of parallel triangles a hair apart: boxes entered within
+            // a fraction of a per cent of each other's hits (the culling slack).
+            let (e1, e2) = (random_point(rng, size), random_point(rng, size));
+            let n = e1.cross(e2).normalize_or_zero();
+            if n != Vec3::ZERO {
+                for k in 0..5 {
+                    let a = at + n * (k as f32 * 0.01 * size);
+                    shapes.push(Shape::Triangle(Triangle::new(
+                        a,
+                        a + e1,
+                        a + e2,
+                        n,
+                        TriangleNormals::Flat,
+                    )));
+                }
+            }
+            continue;
+        }
         let shape = match rng.u8(..4) {
             0 => Some(Shape::Sphere(Sphere {
                 center: at,
