@@ -19,7 +19,7 @@
 //! batch starts), by one thread: the images do not depend on the thread count.
 //!
 //! What may be shared (the bound of `--share-tolerance E`, see
-//! docs/stereo.md#shared-shading): the receiving and the giving surfaces both
+//! docs/stereo.md, "Shared shading across views"): the receiving and the giving surfaces both
 //! have mirror + transmission weights of at most `E`, so the secondary colour
 //! taken differs from the sample's own by at most `E × L`, `L` the largest
 //! radiance a secondary ray returns (≤ 1 in scenes whose light fits the
