@@ -6,7 +6,7 @@ usage: python3 scenes/make_scenes.py   (from the project root; rewrites scenes/*
 Every scene is small enough to render in well under a second at test sizes,
 and between them they hold every NFF entity and every material kind:
 mirrors, glass, smooth patches, cones, cylinders, and floors and walls
-parallel to the interocular line (where the twin method shares rays).
+parallel to the views' right axis (where the twin method shares rays).
 """
 import math
 import os

@@ -224,3 +224,176 @@ pub fn light_contribution(
     }
     c * light * through
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::loaders::nff::parse_nff;
+    use crate::loaders::LoadOptions;
+
+    fn world(text: &str) -> World {
+        let scene = parse_nff(text, std::path::Path::new("t.nff"), &LoadOptions::default())
+            .expect("test scene");
+        World::new(scene)
+    }
+
+    fn point<'a>(material: &'a Material, normal: Vec3) -> SurfacePoint<'a> {
+        SurfacePoint {
+            point: Vec3::new(1.0, 2.0, 0.0),
+            normal,
+            t: 3.0,
+            material,
+            color: Color::new(0.5, 0.25, 1.0),
+        }
+    }
+
+    #[test]
+    fn transmittance_is_the_same_in_any_order_past_sixteen_factors() {
+        let mut rng = fastrand::Rng::with_seed(9);
+        let mut factors: Vec<f32> = (0..23).map(|_| 0.3 + 0.7 * rng.f32()).collect();
+        let product = |f: &[f32]| {
+            let mut t = Transmittance::default();
+            for &x in f {
+                assert_eq!(t.meet(x), AnyHit::Continue);
+            }
+            t.value()
+        };
+        let first = product(&factors);
+        for _ in 0..20 {
+            rng.shuffle(&mut factors);
+            assert_eq!(product(&factors).to_bits(), first.to_bits());
+        }
+        // All 23 factors count, not only the 16 kept inline.
+        let mut sorted = factors.clone();
+        sorted.sort_unstable_by(f32::total_cmp);
+        assert_eq!(first.to_bits(), sorted.iter().product::<f32>().to_bits());
+        assert!(first < product(&factors[..16]));
+        // An opaque object stops the ray: nothing gets through.
+        let mut t = Transmittance::default();
+        t.meet(0.5);
+        assert_eq!(t.meet(0.0), AnyHit::Stop);
+        assert_eq!(t.value(), 0.0);
+        assert_eq!(Transmittance::default().value(), 1.0);
+    }
+
+    #[test]
+    fn a_moved_origin_leaves_the_surface_by_a_margin_that_grows_with_the_coordinates() {
+        let n = Vec3::Z;
+        let near = offset_point(Vec3::new(0.5, 0.5, 0.0), n, 1.0);
+        let far = offset_point(Vec3::new(5e4, 0.5, 0.0), n, 1.0);
+        assert!(near.z > 0.0 && far.z > near.z * 1000.0);
+        assert_eq!((near.x, near.y), (0.5, 0.5), "moved along the normal only");
+        // At the origin, a floor of 1e-3 on the scale still moves it.
+        assert!(offset_point(Vec3::ZERO, n, 0.0).z > 0.0);
+    }
+
+    #[test]
+    fn no_shadow_ray_toward_a_light_behind_the_surface() {
+        let m = Material::default();
+        let sp = point(&m, Vec3::Z);
+        let above = Light::point(Vec3::new(1.0, 2.0, 10.0), None);
+        let below = Light::point(Vec3::new(1.0, 2.0, -10.0), None);
+        let (dir, dist, _) = toward_light(&sp, &above).expect("lit side");
+        assert!((dir - Vec3::Z).length() < 1e-6 && (dist - 10.0).abs() < 1e-5);
+        assert!(toward_light(&sp, &below).is_none());
+    }
+
+    #[test]
+    fn ambient_diffuse_and_highlight_follow_the_model() {
+        let m = Material {
+            kd: 0.5,
+            ks: 0.2,
+            t: 0.1,
+            shine: 10.0,
+            emission: Color::new(0.0, 0.1, 0.0),
+            ..Material::default()
+        };
+        let sp = point(&m, Vec3::Z);
+        // ambient = max(0, 1 - Kd - Ks - T) = 0.2, times the colour, plus emission.
+        let a = ambient(&sp);
+        assert!((a - (sp.color * 0.2 + m.emission)).abs().max_element() < 1e-6);
+        // A light at 60 degrees, seen along the mirror direction: Lambert and a
+        // full highlight; half of it gets through.
+        let l = Vec3::new(3f32.sqrt() / 2.0, 0.0, 0.5);
+        let view_dir = -crate::math::reflect(-l, sp.normal);
+        let light = Color::new(1.0, 0.5, 1.0);
+        let c = light_contribution(&sp, view_dir, l, light, 0.5);
+        let expect = (sp.color * (0.5 * 0.5) + Color::splat(0.2)) * light * 0.5;
+        assert!((c - expect).abs().max_element() < 1e-5, "{c} vs {expect}");
+        // Seen from elsewhere, the highlight fades (Shine 10).
+        let aside = light_contribution(&sp, Vec3::new(0.0, 0.6, -0.8), l, light, 0.5);
+        assert!(aside.x < c.x && aside.x >= (sp.color * 0.25 * light * 0.5).x);
+    }
+
+    /// Two glass spheres and an opaque one on the x axis, a light beyond them.
+    const ROW: &str = "b 0 0 0\nv\nfrom 0 -10 0\nat 0 0 0\nup 0 0 1\nangle 30\nhither 0.01\n\
+        resolution 8 8\nl 20 0 0\n\
+        f 1 1 1 0 0 1 0.5 1\ns 2 0 0 0.5\n\
+        f 1 1 1 0 0 1 0.8 1\ns 4 0 0 0.5\n\
+        f 1 1 1 1 0 1 0 1\ns 6 0 3 0.5\n";
+
+    #[test]
+    fn shadow_packets_multiply_the_glass_and_name_the_opaque_blocker() {
+        let w = world(ROW);
+        let opaque = (0..w.scene.shapes.len() as u32)
+            .find(|&p| w.transmission_of(p) == 0.0)
+            .expect("the opaque sphere");
+        // Lane 0 through both glass spheres; lane 1 into the opaque one;
+        // lane 2 stops short of everything; lane 3 masked off.
+        let (o, up) = (Vec3::ZERO, Vec3::new(6.0, 0.0, 3.0));
+        let segments = SegmentPacket {
+            origins: [o, o, o, o],
+            dirs: [Vec3::X, up.normalize(), Vec3::X, Vec3::X],
+            t_max: [10.0, 20.0, 1.0, 10.0],
+            mask: 0b0111,
+        };
+        let mut stats = TraversalStats::default();
+        let (through, blocker) = shadow_packet(&w, &segments, &mut stats);
+        assert_eq!(through[0].to_bits(), (0.5f32 * 0.8).to_bits());
+        assert_eq!((through[1], blocker[1]), (0.0, Some(opaque)));
+        assert_eq!((through[2], blocker[2]), (1.0, None));
+        assert_eq!(blocker[0], None, "glass is no blocker for the cache");
+        // Each lane alone gets the same.
+        for l in 0..3 {
+            let alone = SegmentPacket {
+                origins: [segments.origins[l]],
+                dirs: [segments.dirs[l]],
+                t_max: [segments.t_max[l]],
+                mask: 1,
+            };
+            let (t, b) = shadow_packet(&w, &alone, &mut stats);
+            assert_eq!((t[0].to_bits(), b[0]), (through[l].to_bits(), blocker[l]));
+        }
+        assert!(blocks(&w, opaque, o, up.normalize(), 20.0));
+        assert!(!blocks(&w, opaque, o, up.normalize(), 5.0), "short of it");
+        assert!(!blocks(&w, opaque, o, Vec3::X, 20.0), "beside it");
+    }
+
+    #[test]
+    fn objects_beyond_a_cut_still_cast_shadows() {
+        // A cut at depth 5 in front of the camera (at y = -10) puts every
+        // sphere (depth 10) beyond it, in the far hierarchy: the shadows are
+        // the same as without the cut (section 2.3 cuts eye rays only).
+        let whole = world(ROW);
+        let scene =
+            parse_nff(ROW, std::path::Path::new("t.nff"), &LoadOptions::default()).expect("scene");
+        let cut = crate::world::Cut {
+            eye: Vec3::new(0.0, -10.0, 0.0),
+            forward: Vec3::Y,
+            depth: 5.0,
+        };
+        let split = World::with_cut(scene, Some(cut));
+        assert!(split.far.is_some() && split.cut_primitives() == 3);
+        let segments = SegmentPacket {
+            origins: [Vec3::ZERO; 2],
+            dirs: [Vec3::X, Vec3::new(6.0, 0.0, 3.0).normalize()],
+            t_max: [10.0, 20.0],
+            mask: 0b11,
+        };
+        let mut stats = TraversalStats::default();
+        let (a, _) = shadow_packet(&whole, &segments, &mut stats);
+        let (b, _) = shadow_packet(&split, &segments, &mut stats);
+        assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits));
+        assert_eq!(b[1], 0.0);
+    }
+}

@@ -187,3 +187,184 @@ impl World {
             + self.far.as_ref().map_or(0, Bvh::memory_bytes)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::loaders::nff::parse_nff;
+    use crate::loaders::LoadOptions;
+    use crate::math::Color;
+
+    fn scene(text: &str) -> Scene {
+        parse_nff(text, std::path::Path::new("t.nff"), &LoadOptions::default()).expect("test scene")
+    }
+
+    const HEADER: &str = "b 0 0 0\nv\nfrom 0 -10 1\nat 0 0 1\nup 0 0 1\nangle 40\nhither 0.01\n\
+        resolution 8 8\nl 0 -5 5\n";
+
+    /// Each shape as comparable bits, with its material's colour and its group.
+    fn shape_keys(s: &Scene) -> Vec<([u32; 6], [u32; 3], u32)> {
+        let mut keys: Vec<_> = (0..s.shapes.len())
+            .map(|i| {
+                let b = s.shapes[i].bounds();
+                let m = &s.materials[s.shape_material[i] as usize];
+                (
+                    [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z].map(f32::to_bits),
+                    m.color.to_array().map(f32::to_bits),
+                    s.shape_group[i],
+                )
+            })
+            .collect();
+        keys.sort_unstable();
+        keys
+    }
+
+    #[test]
+    fn shapes_in_leaf_order_keep_their_materials_and_groups() {
+        let mut text = HEADER.to_string();
+        let mut rng = fastrand::Rng::with_seed(4);
+        for i in 0..60 {
+            let (x, y, z) = (rng.f32() * 10.0 - 5.0, rng.f32() * 10.0, rng.f32() * 3.0);
+            text += &format!("f {} 0.5 0.5 1 0 1 0 1\n", i as f32 / 60.0);
+            text += &if i % 2 == 0 {
+                format!("s {x} {y} {z} 0.3\n")
+            } else {
+                format!(
+                    "p 4\n{x} {y} {z}\n{} {y} {z}\n{} {} {z}\n{x} {} {z}\n",
+                    x + 1.0,
+                    x + 1.0,
+                    y + 1.0,
+                    y + 1.0
+                )
+            };
+        }
+        let before = scene(&text);
+        let keys = shape_keys(&before);
+        let world = World::new(before);
+        assert_eq!(shape_keys(&world.scene), keys);
+        // The hierarchy indexes the reordered shapes directly.
+        let n = world.scene.shapes.len() as u32;
+        assert_eq!(world.bvh.order, (0..n).collect::<Vec<_>>());
+        assert!(world.far.is_none() && world.cut_primitives() == 0);
+    }
+
+    #[test]
+    fn a_box_is_beyond_a_cut_only_if_all_of_it_is() {
+        let cut = Cut {
+            eye: Vec3::new(0.0, -10.0, 0.0),
+            forward: Vec3::Y,
+            depth: 10.0,
+        };
+        let at = |y0: f32, y1: f32| Aabb {
+            min: Vec3::new(-1.0, y0, -1.0),
+            max: Vec3::new(1.0, y1, 1.0),
+        };
+        assert!(cut.beyond(&at(0.0, 2.0)), "from depth 10 on");
+        assert!(!cut.beyond(&at(-0.5, 2.0)), "straddles it");
+        assert!(!cut.beyond(&at(-5.0, -1.0)), "in front");
+        assert!(!cut.beyond(&Aabb::EMPTY));
+        // Looking along a diagonal, a box's nearest corner decides.
+        let diagonal = Cut {
+            forward: Vec3::new(1.0, 1.0, 0.0).normalize(),
+            ..cut
+        };
+        let corner_depth = |b: &Aabb| (b.min - diagonal.eye).dot(diagonal.forward);
+        let b = at(5.0, 6.0);
+        assert!(Cut {
+            depth: corner_depth(&b),
+            ..diagonal
+        }
+        .beyond(&b));
+        assert!(!Cut {
+            depth: corner_depth(&b) + 0.01,
+            ..diagonal
+        }
+        .beyond(&b));
+    }
+
+    #[test]
+    fn a_cut_takes_whole_groups_and_keeps_those_that_reach_across_it() {
+        // Beyond depth 15 (y > 5): two spheres; a polygon from y = 0 to 20
+        // reaches across, and its triangles beyond stay with it.
+        let text = format!(
+            "{HEADER}f 1 0 0 1 0 1 0 1\ns 0 8 1 0.5\ns 2 9 1 0.5\ns 0 2 1 0.5\n\
+             f 0 1 0 1 0 1 0 1\np 6\n-1 0 0\n1 0 0\n1 10 0\n1 20 0\n-1 20 0\n-1 10 0\n"
+        );
+        let cut = Cut {
+            eye: Vec3::new(0.0, -10.0, 1.0),
+            forward: Vec3::Y,
+            depth: 15.0,
+        };
+        let world = World::with_cut(scene(&text), Some(cut));
+        assert_eq!(world.cut_primitives(), 2);
+        let far = world.far.as_ref().expect("far hierarchy");
+        for &p in &far.order {
+            assert!(matches!(world.scene.shapes[p as usize], Shape::Sphere(_)));
+            assert!(cut.beyond(&world.scene.shapes[p as usize].bounds()));
+        }
+        let triangles = world
+            .bvh
+            .order
+            .iter()
+            .filter(|&&p| matches!(world.scene.shapes[p as usize], Shape::Triangle(_)))
+            .count();
+        assert_eq!(triangles, 4, "the polygon stays whole, before the cut");
+    }
+
+    #[test]
+    fn coplanar_means_flat_triangles_of_one_plane_and_one_material() {
+        let text = format!(
+            "{HEADER}f 1 1 1 1 0 1 0 1\n\
+             p 4\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n\
+             p 3\n5 5 0\n6 5 0\n6 6 0\n\
+             p 3\n0 0 1\n1 0 1\n1 1 1\n\
+             pp 3\n0 3 0 0 0 1\n1 3 0 0 0 1\n1 4 0 0 0 1\n\
+             p 3\n0 6 0\n1 6 0\n1 7 1\n\
+             s 0 0 3 1\n\
+             f 0 0 1 1 0 1 0 1\np 3\n2 0 0\n3 0 0\n3 1 0\n"
+        );
+        let world = World::new(scene(&text));
+        let s = &world.scene;
+        // Find shapes by where they are (the world reorders them).
+        let find = |x: f32, y: f32, z: f32| -> Vec<u32> {
+            (0..s.shapes.len() as u32)
+                .filter(|&p| {
+                    let b = s.shapes[p as usize].bounds();
+                    b.min.x <= x
+                        && x <= b.max.x
+                        && b.min.y <= y
+                        && y <= b.max.y
+                        && b.min.z <= z
+                        && z <= b.max.z
+                })
+                .collect()
+        };
+        let quad = find(0.5, 0.5, 0.0);
+        assert_eq!(quad.len(), 2, "two triangles of the quad");
+        let (a, b) = (quad[0], quad[1]);
+        assert!(world.coplanar(a, b) && world.coplanar(a, a));
+        let far_same_plane = find(5.9, 5.1, 0.0)[0];
+        assert!(
+            world.coplanar(a, far_same_plane),
+            "another polygon of the plane"
+        );
+        let above = find(0.9, 0.1, 1.0)[0];
+        assert!(!world.coplanar(a, above), "a parallel plane");
+        let tilted = find(0.9, 6.5, 0.5)[0];
+        assert!(
+            !world.coplanar(a, tilted),
+            "a plane through the quad's plane"
+        );
+        let patch = find(0.9, 3.1, 0.0)[0];
+        assert!(!world.coplanar(a, patch), "a smooth patch");
+        let sphere = find(0.0, 0.0, 3.0)[0];
+        assert!(!world.coplanar(a, sphere) && !world.coplanar(sphere, sphere));
+        let other_material = find(2.9, 0.1, 0.0)[0];
+        assert!(!world.coplanar(a, other_material), "another material");
+        assert_eq!(
+            world.material_of(other_material).color,
+            Color::new(0.0, 0.0, 1.0)
+        );
+        assert_eq!(world.transmission_of(a), 0.0);
+    }
+}

@@ -43,20 +43,20 @@ fn check_scene(name: &str, width: u32, height: u32, interaxials: &[f32], samplin
     let world = world(name);
     let cam = camera(&world, width, height);
     let conv = default_convergence(&world);
-    for &b in interaxials {
+    for &interaxial in interaxials {
         for convergence in [None, Some(conv), Some(conv * 0.4)] {
-            let rig = Rig::stereo(&cam, b, convergence).unwrap();
+            let rig = Rig::stereo(&cam, interaxial, convergence).unwrap();
             let reference = run(&world, &cam, &rig, &options(Method::Independent, sampling));
             let twin = run(&world, &cam, &rig, &options(Method::Twin, sampling));
             for v in 0..2 {
                 let what =
-                    format!("{name} b={b} convergence={convergence:?} view {v} {sampling:?}");
+                    format!("{name} interaxial={interaxial} convergence={convergence:?} view {v} {sampling:?}");
                 assert_same_pixels(&reference.images[v], &twin.images[v], &what);
             }
             // Same rays traced; one eye-ray descent per sample for both views.
             assert_eq!(
                 reference.counts.rays, twin.counts.rays,
-                "{name} b={b}: ray counts"
+                "{name} interaxial={interaxial}: ray counts"
             );
             assert_eq!(
                 2 * twin.counts.eye_traversals,
@@ -111,7 +111,7 @@ fn interaxial_zero_gives_identical_eyes() {
         &rig,
         &options(Method::Twin, Sampling::Centers),
     );
-    assert_same_pixels(&out.images[0], &out.images[1], "b=0");
+    assert_same_pixels(&out.images[0], &out.images[1], "interaxial 0");
 }
 
 #[test]

@@ -6,6 +6,8 @@
 //! The hierarchy knows nothing of shapes: it holds boxes and a permutation of
 //! primitive indices, and asks a `NearestTest` or `AnyHitTest` to test primitives.
 
+#[cfg(test)]
+pub(crate) mod brute_force;
 mod build;
 mod traverse;
 

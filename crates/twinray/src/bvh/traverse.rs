@@ -822,10 +822,11 @@ impl Bvh {
 
 #[cfg(test)]
 mod tests {
+    use super::super::brute_force;
     use super::super::{build, primitive_box, BuildOptions};
     use super::*;
     use crate::math::{Aabb, Ray};
-    use crate::shapes::Sphere;
+    use crate::shapes::{Shape, Sphere};
 
     fn spheres(n: usize) -> Vec<Sphere> {
         let mut rng = fastrand::Rng::with_seed(7);
@@ -1058,5 +1059,115 @@ mod tests {
             }
         }
         assert!(entered > 1000, "{entered}");
+    }
+
+    /// The tracer's nearest test: a pair of lanes through `intersect_pair`.
+    struct PacketTest<'a, const K: usize> {
+        shapes: &'a [Shape],
+        packet: &'a Packet<K>,
+    }
+
+    impl<const K: usize> NearestTest for PacketTest<'_, K> {
+        fn test(&mut self, prim: u32, lane: usize, t_max: f32) -> Option<SurfaceHit> {
+            let ray = Ray::new(self.packet.origins[lane], self.packet.dirs[lane]);
+            self.shapes[prim as usize].intersect(&ray, self.packet.t_min, t_max)
+        }
+
+        fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
+            let p = self.packet;
+            let rays = [0, 1 % K].map(|l| Ray::new(p.origins[l], p.dirs[l]));
+            self.shapes[prim as usize].intersect_pair(&rays, p.t_min, t_max)
+        }
+    }
+
+    fn hit_bits(h: &SurfaceHit) -> [u32; 3] {
+        [h.t.to_bits(), h.u.to_bits(), h.v.to_bits()]
+    }
+
+    /// `packets` random packets of `K` lanes: every lane's nearest hit and
+    /// every primitive its segment meets equal the brute-force answers.
+    fn check_against_brute_force<const K: usize>(
+        shapes: &[Shape],
+        bvh: &Bvh,
+        rng: &mut fastrand::Rng,
+        packets: usize,
+    ) -> usize {
+        let mut stats = TraversalStats::default();
+        let mut hits_seen = 0;
+        for n in 0..packets {
+            let packet = brute_force::random_packet::<K>(rng);
+            let expect = brute_force::closest_hits(shapes, &packet);
+            let got = bvh.closest(
+                &packet,
+                &mut stats,
+                PacketTest {
+                    shapes,
+                    packet: &packet,
+                },
+            );
+            for l in 0..K {
+                let what = format!("K={K}, packet {n}, lane {l}: {packet:?}");
+                assert_eq!(got.prim[l], expect.prim[l], "{what}");
+                if expect.has_hit(l) {
+                    hits_seen += 1;
+                    assert_eq!(hit_bits(&got.hit[l]), hit_bits(&expect.hit[l]), "{what}");
+                }
+            }
+            // Any-hit: every primitive on each lane's segment is met, and a
+            // lane that stops at its first is blocked exactly when one exists.
+            let segments = brute_force::segments_of(&packet);
+            let mut met: [Vec<u32>; K] = std::array::from_fn(|_| Vec::new());
+            bvh.occlusion(&segments, &mut stats, &mut |p: u32, l: usize| {
+                let ray = Ray::new(segments.origins[l], segments.dirs[l]);
+                if shapes[p as usize]
+                    .intersect(&ray, 0.0, segments.t_max[l])
+                    .is_some()
+                {
+                    met[l].push(p);
+                }
+                AnyHit::Continue
+            });
+            let mut blocked = 0u32;
+            bvh.occlusion(&segments, &mut stats, &mut |p: u32, l: usize| {
+                let ray = Ray::new(segments.origins[l], segments.dirs[l]);
+                if shapes[p as usize]
+                    .intersect(&ray, 0.0, segments.t_max[l])
+                    .is_some()
+                {
+                    blocked |= 1 << l;
+                    return AnyHit::Stop;
+                }
+                AnyHit::Continue
+            });
+            for (l, met) in met.iter_mut().enumerate() {
+                let expect = brute_force::occluders(shapes, &segments, l);
+                met.sort_unstable();
+                assert_eq!(*met, expect, "K={K}, packet {n}, lane {l}: occluders");
+                assert_eq!(
+                    blocked & (1 << l) != 0,
+                    !expect.is_empty(),
+                    "K={K}, lane {l}"
+                );
+            }
+        }
+        hits_seen
+    }
+
+    #[test]
+    fn packets_of_every_width_match_brute_force_on_random_shapes_and_rays() {
+        // Spheres, triangles (slivers and coplanar ones), cones, inside-out
+        // shapes; lanes with their own origins, directions, t_max and masks.
+        let mut rng = fastrand::Rng::with_seed(17);
+        let shapes = brute_force::random_shapes(&mut rng, 300);
+        let boxes: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+        let bvh = build(&boxes, &BuildOptions::default());
+        let hits = check_against_brute_force::<1>(&shapes, &bvh, &mut rng, 400)
+            + check_against_brute_force::<2>(&shapes, &bvh, &mut rng, 400)
+            + check_against_brute_force::<3>(&shapes, &bvh, &mut rng, 200)
+            + check_against_brute_force::<4>(&shapes, &bvh, &mut rng, 200)
+            + check_against_brute_force::<8>(&shapes, &bvh, &mut rng, 100)
+            + check_against_brute_force::<32>(&shapes, &bvh, &mut rng, 40);
+        // The rays found something to disagree about.
+        assert!(hits > 1000, "{hits} lanes hit");
     }
 }

@@ -27,7 +27,7 @@
 //! `ConvergenceAngle` 0° (assumes parallel optical axes: a rig that converges
 //! by shifting the image planes, not by toe-in), `BaselineLength` in metres,
 //! and `AxisDistanceX/Y/Z` in metres of this viewpoint from the base one
-//! (left 0; right +baseline along X, i.e. to the right).
+//! (left 0; right +interaxial along X, i.e. to the right).
 
 use std::path::Path;
 
@@ -511,7 +511,7 @@ mod tests {
     }
 
     #[test]
-    fn large_baselines_fit_signed_rationals() {
+    fn large_interaxials_fit_signed_rationals() {
         let fields = attribute_ifd_entries(2, 3999.5, 3999.5);
         let ax = fields
             .iter()

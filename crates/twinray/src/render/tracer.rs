@@ -748,3 +748,212 @@ impl<const K: usize> NearestTest for NearestShape<'_, K> {
         self.shapes[prim as usize].intersect_pair(&rays, self.packet.t_min, t_max)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::loaders::nff::parse_nff;
+    use crate::loaders::LoadOptions;
+    use crate::rig::Camera;
+
+    /// Mirrors (a floor and a wall parallel to the eyes, spheres), glass,
+    /// opaque blockers, a cone, and six coloured lights.
+    const SCENE: &str =
+        "b 0.1 0.1 0.2\nv\nfrom 0 -8 2\nat 0 0 1\nup 0 0 1\nangle 45\nhither 0.01\n\
+        resolution 64 48\n\
+        l -5 -5 6 0.4 0.3 0.3\nl 5 -4 5 0.3 0.4 0.3\nl 0 -2 8 0.3 0.3 0.4\nl -3 3 3 0.3 0.3 0.3\n\
+        l 4 2 1 0.2 0.3 0.2\nl 0 -7 1 0.2 0.2 0.3\n\
+        f 0.8 0.8 0.7 0.6 0.3 20 0 1\np 4\n-6 -6 0\n6 -6 0\n6 6 0\n-6 6 0\n\
+        f 0.9 0.9 0.9 0.1 0.8 100 0 1\np 4\n-6 5 0\n6 5 0\n6 5 5\n-6 5 5\n\
+        f 0.9 0.2 0.2 0.7 0.2 30 0 1\ns -1.5 0 1 0.8\n\
+        f 0.9 0.9 0.9 0.1 0.8 200 0 1\ns 1.5 1 1.2 1\n\
+        f 0.9 0.95 1 0.05 0.1 200 0.8 1.5\ns 0 -2 0.8 0.7\n\
+        f 0.2 0.8 0.3 0.8 0 10 0 1\ns -0.3 -4 1.6 0.3\ns 0.6 -3.5 0.5 0.25\n\
+        f 0.3 0.4 0.9 0.7 0.2 30 0 1\nc\n2.5 -1.5 0 0.6\n2.5 -1.5 2 0.1\n";
+
+    fn world(text: &str) -> World {
+        let scene = parse_nff(text, std::path::Path::new("t.nff"), &LoadOptions::default())
+            .expect("test scene");
+        World::new(scene)
+    }
+
+    fn bits(c: Color) -> [u32; 3] {
+        c.to_array().map(f32::to_bits)
+    }
+
+    /// `count` random packets of `K` eye rays: each lane an eye `offset`
+    /// apart along the camera's right axis, through a pixel near the
+    /// packet's (the views' rays of one sample, or of nearby samples).
+    fn eye_packets<const K: usize>(
+        camera: &Camera,
+        rng: &mut fastrand::Rng,
+        count: usize,
+    ) -> Vec<Packet<K>> {
+        (0..count)
+            .map(|_| {
+                let (x, y) = (
+                    rng.f32() * camera.width as f32,
+                    rng.f32() * camera.height as f32,
+                );
+                let spread = if rng.bool() { 0.0 } else { 3.0 };
+                let all = if K == 32 { u32::MAX } else { (1u32 << K) - 1 };
+                let mask = if rng.bool() {
+                    all
+                } else {
+                    (rng.u32(..) & all).max(1)
+                };
+                Packet {
+                    origins: std::array::from_fn(|l| camera.eye_at(l as f32 * 0.11 - 0.5)),
+                    dirs: std::array::from_fn(|_| {
+                        let dx = (rng.f32() - 0.5) * spread;
+                        let dy = (rng.f32() - 0.5) * spread;
+                        camera.direction(x + dx, y + dy)
+                    }),
+                    t_min: camera.hither,
+                    t_max: [f32::INFINITY; K],
+                    mask,
+                }
+            })
+            .collect()
+    }
+
+    /// A packet of `K` lanes through one tracer (its shadow cache filled by
+    /// the packets before) gives each lane, bit for bit, what the lane alone
+    /// gives through another tracer, and traces the same rays.
+    fn packets_equal_single_lanes<const K: usize>(world: &World, seed: u64, count: usize) {
+        let camera = Camera::new(&world.scene.viewpoint, 64, 48);
+        let mut rng = fastrand::Rng::with_seed(seed);
+        let mut packed = Tracer::new(world, TraceSettings::default());
+        let mut single = Tracer::new(world, TraceSettings::default());
+        let views: [usize; K] = std::array::from_fn(|l| l);
+        for (n, packet) in eye_packets::<K>(&camera, &mut rng, count)
+            .iter()
+            .enumerate()
+        {
+            let colors = packed.trace_eye(packet, &views);
+            for (l, &lane_color) in colors.iter().enumerate() {
+                if packet.mask & (1 << l) == 0 {
+                    continue;
+                }
+                let alone = Packet {
+                    origins: [packet.origins[l]],
+                    dirs: [packet.dirs[l]],
+                    t_min: packet.t_min,
+                    t_max: [f32::INFINITY],
+                    mask: 1,
+                };
+                let color = single.trace_eye(&alone, &[l]);
+                assert_eq!(
+                    bits(lane_color),
+                    bits(color[0]),
+                    "K={K}, packet {n}, lane {l}: {lane_color:?} vs {:?}",
+                    color[0]
+                );
+            }
+        }
+        let (p, s) = (packed.finish(), single.finish());
+        assert_eq!(p.rays, s.rays, "K={K}: the same rays");
+        assert_eq!(p.per_view_hits, s.per_view_hits, "K={K}: hits per view");
+        assert!(p.rays.shadow > 0 && p.rays.reflected > 0 && p.rays.refracted > 0);
+        assert!(
+            p.closest_traversals < s.closest_traversals,
+            "K={K}: descents shared"
+        );
+    }
+
+    #[test]
+    fn a_packet_of_k_lanes_gives_what_k_single_lane_calls_give() {
+        let w = world(SCENE);
+        packets_equal_single_lanes::<2>(&w, 1, 600);
+        packets_equal_single_lanes::<4>(&w, 2, 300);
+        packets_equal_single_lanes::<8>(&w, 3, 150);
+        packets_equal_single_lanes::<32>(&w, 4, 40);
+    }
+
+    #[test]
+    fn with_the_shadow_cache_inside_a_huge_sphere_lanes_still_equal_single_calls() {
+        // The fuzzer's mutant: a glass sphere 2e8 wide around everything,
+        // whose wall's shadow rays pass cones that their test says they hit.
+        let w = world(include_str!(
+            "../../tests/data/fuzz/twin-differs-huge-sphere.nff"
+        ));
+        packets_equal_single_lanes::<2>(&w, 5, 800);
+        packets_equal_single_lanes::<4>(&w, 6, 400);
+    }
+
+    #[test]
+    fn a_donor_keeps_its_colour_and_its_trees_largest_coefficient() {
+        let w = world(SCENE);
+        let camera = Camera::new(&w.scene.viewpoint, 64, 48);
+        let mut tracer = Tracer::new(&w, TraceSettings::default());
+        let mut donor = Donor::default();
+        let (mut mirrors, mut diffuse) = (0, 0);
+        for y in 0..48 {
+            for x in 0..64 {
+                let packet = Packet {
+                    origins: [camera.eye],
+                    dirs: [camera.direction(x as f32, y as f32)],
+                    t_min: camera.hither,
+                    t_max: [f32::INFINITY],
+                    mask: 1,
+                };
+                let hits = tracer.eye_hits(&packet, &[0]);
+                let traced = tracer.shade_eye(&packet, &hits, SecondaryRays::Own)[0];
+                tracer.shade_donor(&packet, &hits, SecondaryRays::Own, &mut donor);
+                assert_eq!(bits(donor.color), bits(traced), "pixel ({x}, {y})");
+                if !hits.has_hit(0) {
+                    continue;
+                }
+                let m = w.material_of(hits.prim[0]);
+                let own = m.ks.max(m.mirror).max(m.t);
+                // The tree holds at least the surface hit; a surface that spawns
+                // nothing holds only its own.
+                assert!(donor.tree_coefficient >= own);
+                if m.mirror == 0.0 && m.t == 0.0 {
+                    diffuse += 1;
+                    assert_eq!(donor.tree_coefficient, own, "pixel ({x}, {y})");
+                } else if donor.tree_coefficient > own {
+                    mirrors += 1;
+                }
+            }
+        }
+        assert!(
+            diffuse > 0 && mirrors > 0,
+            "{diffuse} diffuse, {mirrors} deeper trees"
+        );
+    }
+
+    #[test]
+    fn merged_secondary_rays_are_taken_only_when_asked() {
+        // Two views' rays onto the mirror floor: merged on request (approximate,
+        // counted), their own rays otherwise (what each lane alone gives).
+        let w = world(SCENE);
+        let camera = Camera::new(&w.scene.viewpoint, 64, 48);
+        let mut tracer = Tracer::new(&w, TraceSettings::default());
+        let (mut merged_differs, mut pairs) = (0, 0);
+        for x in 0..64 {
+            let packet = Packet {
+                origins: [camera.eye_at(-0.2), camera.eye_at(0.2)],
+                dirs: [camera.direction(x as f32, 44.0); 2],
+                t_min: camera.hither,
+                t_max: [f32::INFINITY; 2],
+                mask: 0b11,
+            };
+            let hits = tracer.eye_hits(&packet, &[0, 1]);
+            if !(hits.has_hit(0) && hits.has_hit(1)) {
+                continue;
+            }
+            pairs += 1;
+            let before = tracer.counts.merged_rays;
+            let own = tracer.shade_eye(&packet, &hits, SecondaryRays::Own);
+            assert_eq!(tracer.counts.merged_rays, before);
+            let merged = tracer.shade_eye(&packet, &hits, SecondaryRays::MergedOnPlanes);
+            if bits(merged[0]) != bits(own[0]) || bits(merged[1]) != bits(own[1]) {
+                merged_differs += 1;
+            }
+        }
+        assert!(pairs > 32, "{pairs}");
+        assert!(tracer.counts.merged_rays > 0);
+        assert!(merged_differs > 0, "merging changed no colour");
+    }
+}

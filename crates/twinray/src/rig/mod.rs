@@ -176,25 +176,27 @@ pub fn pair_disparity(camera: &Camera, a: View, b: View, depth: f64) -> f64 {
         - camera.focal_pixels() * f64::from(b.offset - a.offset) / depth
 }
 
+/// The rig tests' camera: at the origin looking along +y, 60 degrees,
+/// 201 x 101 pixels.
+#[cfg(test)]
+pub(crate) fn test_camera() -> Camera {
+    let vp = crate::scene::Viewpoint {
+        from: crate::math::Vec3::ZERO,
+        at: crate::math::Vec3::Y,
+        up: crate::math::Vec3::Z,
+        angle_deg: 60.0,
+        angle_span: Default::default(),
+        hither: 0.0,
+        width: 201,
+        height: 101,
+    };
+    Camera::new(&vp, 201, 101)
+}
+
 #[cfg(test)]
 mod tests {
+    use super::test_camera as camera;
     use super::*;
-    use crate::math::Vec3;
-    use crate::scene::Viewpoint;
-
-    fn camera() -> Camera {
-        let vp = Viewpoint {
-            from: Vec3::ZERO,
-            at: Vec3::Y,
-            up: Vec3::Z,
-            angle_deg: 60.0,
-            angle_span: Default::default(),
-            hither: 0.0,
-            width: 201,
-            height: 101,
-        };
-        Camera::new(&vp, 201, 101)
-    }
 
     #[test]
     fn stereo_offsets_are_symmetric() {

@@ -283,3 +283,128 @@ pub fn settle(
         depth_seconds: start.elapsed().as_secs_f64(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::depth_pass::DepthPass;
+    use super::super::test_camera as camera;
+    use super::*;
+
+    /// Depth passes of the outer views: one row of the image's middle
+    /// columns (no window edge in reach), at the given depths.
+    fn passes(rig: &Rig, depths: &[f32]) -> OuterPasses {
+        let pass = |view: View| DepthPass {
+            view,
+            columns: (0..depths.len() as u32).map(|i| 90 + i).collect(),
+            rows: vec![50],
+            depth: depths.to_vec(),
+        };
+        OuterPasses {
+            left: pass(rig.views[0]),
+            right: pass(*rig.views.last().expect("views")),
+            stride: 1,
+        }
+    }
+
+    /// `x_b − x_a` for a point at depth `z`, from the views' offsets and shifts.
+    fn disparity(cam: &Camera, a: View, b: View, z: f64) -> f64 {
+        f64::from(a.shift - b.shift)
+            - f64::from(b.offset - a.offset) / f64::from(cam.pixel_size) / z
+    }
+
+    #[test]
+    fn adjacent_disparities_are_the_outer_ones_over_the_gaps() {
+        let cam = camera();
+        for views in [2, 5] {
+            let rig = Rig::multi_view(&cam, views, 0.1, Some(8.0)).expect("rig");
+            let (first, last) = (rig.views[0], rig.views[views - 1]);
+            let depths = [6.0, 4.0, f32::INFINITY, 20.0, 9.0];
+            let r = report(
+                &cam,
+                &rig,
+                &DepthBudget::default(),
+                1.2,
+                &passes(&rig, &depths),
+            );
+            let gaps = (views - 1) as f64;
+            let outer = r.outer_px.expect("something visible");
+            let adjacent = r.adjacent_px.expect("something visible");
+            for (got, z) in [(outer.near, 4.0), (outer.far, 20.0)] {
+                assert!(
+                    (got - disparity(&cam, first, last, z)).abs() < 1e-9,
+                    "{views} views"
+                );
+            }
+            assert!((adjacent.near - outer.near / gaps).abs() < 1e-12);
+            assert!((adjacent.far - outer.far / gaps).abs() < 1e-12);
+            let percent = r.adjacent_percent.expect("percent");
+            assert!((percent.near - adjacent.near / 201.0 * 100.0).abs() < 1e-12);
+            assert_eq!(r.infinity_px, f64::from(first.shift - last.shift) / gaps);
+            assert_eq!(r.views_measured, [0, views - 1]);
+            assert_eq!(r.samples_per_view, depths.len());
+            let d = r.depth.expect("stats");
+            assert_eq!((d.nearest, d.farthest, d.hit_fraction), (4.0, 20.0, 0.8));
+            // Nearer is further in front of the screen.
+            assert!(adjacent.near < adjacent.far);
+        }
+    }
+
+    #[test]
+    fn a_rig_beyond_the_budget_or_diverging_is_warned_about() {
+        let cam = camera();
+        let budget = DepthBudget::default(); // -1 % .. +2 %: -2.01 .. +4.02 px
+        let gentle = Rig::stereo(&cam, 0.02, Some(8.0)).expect("rig");
+        let r = report(&cam, &gentle, &budget, 1.2, &passes(&gentle, &[6.0, 12.0]));
+        assert!(r.within_budget && !r.diverges, "{:?}", r.adjacent_px);
+        assert!(r.warnings().is_empty());
+        assert!(r.lines().iter().any(|l| l.contains("): within")));
+        // Ten times the interaxial: the near point far in front of the screen.
+        let wide = Rig::stereo(&cam, 0.5, Some(8.0)).expect("rig");
+        let r = report(&cam, &wide, &budget, 1.2, &passes(&wide, &[2.0, 12.0]));
+        assert!(!r.within_budget);
+        assert!(r.adjacent_px.is_some_and(|a| a.near < r.budget_px.near));
+        assert!(r.lines().iter().any(|l| l.ends_with("EXCEEDED")));
+        assert!(r.warnings()[0].contains("exceed the depth budget"));
+        // Converged near, points far away: on a cinema screen they diverge.
+        let near = Rig::stereo(&cam, 0.15, Some(3.0)).expect("rig");
+        let far = passes(&near, &[3.0, 1e6]);
+        let tv = report(&cam, &near, &budget, 1.2, &far);
+        let cinema = report(&cam, &near, &budget, 20.0, &far);
+        let mm = |r: &DisparityReport| r.far_on_screen_mm.expect("far");
+        assert!((mm(&cinema) / mm(&tv) - 20.0 / 1.2).abs() < 1e-9);
+        assert!(
+            !tv.diverges && cinema.diverges,
+            "{} mm, {} mm",
+            mm(&tv),
+            mm(&cinema)
+        );
+        assert!(cinema
+            .warnings()
+            .iter()
+            .any(|w| w.contains("far points diverge")));
+    }
+
+    #[test]
+    fn nothing_visible_is_reported_as_such_and_within_the_budget() {
+        let cam = camera();
+        let rig = Rig::stereo(&cam, 0.3, None).expect("rig");
+        let r = report(
+            &cam,
+            &rig,
+            &DepthBudget::default(),
+            1.2,
+            &passes(&rig, &[f32::INFINITY; 4]),
+        );
+        assert_eq!(
+            (r.depth, r.adjacent_px, r.far_on_screen_mm),
+            (None, None, None)
+        );
+        assert!(r.within_budget && !r.diverges && r.window_violations.is_empty());
+        assert_eq!(
+            r.lines().last().map(String::as_str),
+            Some("depth: nothing visible")
+        );
+        assert!(r.warnings().is_empty());
+        assert_eq!(r.infinity_px, 0.0, "parallel views");
+    }
+}
