@@ -10,7 +10,9 @@ mod common;
 use common::*;
 use twinray::math::{Color, Vec3};
 use twinray::output::compare;
-use twinray::render::{Approximations, Method, RenderOptions, Sampling, SharedShading};
+use twinray::render::{
+    Approximations, Method, RenderOptions, RenderOutput, Sampling, SharedShading,
+};
 use twinray::rig::{Camera, Rig};
 use twinray::scene::{Light, Material, Viewpoint};
 use twinray::{Image, Scene, World};
@@ -92,6 +94,13 @@ fn rig(world: &World, views: usize, spacing: f32, convergence: Option<f64>) -> (
     let cam = Camera::new(vp, vp.width, vp.height);
     let rig = Rig::multi_view(&cam, views, spacing, convergence).expect("rig");
     (cam, rig)
+}
+
+/// The exact twin render and the shared-shading one (default tolerance).
+fn exact_and_shared(world: &World, cam: &Camera, rig: &Rig) -> (RenderOutput, RenderOutput) {
+    let exact = run(world, cam, rig, &options(Method::Twin, Sampling::Centers));
+    let shared = run(world, cam, rig, &shared(SharedShading::DEFAULT_TOLERANCE));
+    (exact, shared)
 }
 
 fn max_diff(a: &Image, b: &Image) -> f32 {
@@ -186,18 +195,7 @@ fn a_mirror_is_traced_by_every_view() {
     // (and between any key views); no view takes another's.
     let world = World::new(faint_mirror_scene(0.7));
     let (cam, rig) = rig(&world, 8, 0.15, Some(8.0));
-    let exact = run(
-        &world,
-        &cam,
-        &rig,
-        &options(Method::Twin, Sampling::Centers),
-    );
-    let out = run(
-        &world,
-        &cam,
-        &rig,
-        &shared(SharedShading::DEFAULT_TOLERANCE),
-    );
+    let (exact, out) = exact_and_shared(&world, &cam, &rig);
     for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
         assert!(max_diff(a, b) <= 1e-6, "view {v}");
     }
@@ -287,18 +285,7 @@ fn shadow_edge_scene() -> Scene {
 fn a_shadow_edge_between_the_views_samples_is_kept() {
     let world = World::new(shadow_edge_scene());
     let (cam, rig) = rig(&world, 8, 0.07, Some(10.0));
-    let exact = run(
-        &world,
-        &cam,
-        &rig,
-        &options(Method::Twin, Sampling::Centers),
-    );
-    let out = run(
-        &world,
-        &cam,
-        &rig,
-        &shared(SharedShading::DEFAULT_TOLERANCE),
-    );
+    let (exact, out) = exact_and_shared(&world, &cam, &rig);
     assert!(out.counts.cache_edge_refusals > 0, "the edges are seen");
     for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
         assert!(max_diff(a, b) <= 1e-6, "view {v}");
@@ -369,18 +356,7 @@ fn busy_scene() -> Scene {
 fn a_scene_with_shadows_mirrors_and_glass_stays_close() {
     let world = World::new(busy_scene());
     let (cam, rig) = rig(&world, 12, 0.06, Some(7.0));
-    let exact = run(
-        &world,
-        &cam,
-        &rig,
-        &options(Method::Twin, Sampling::Centers),
-    );
-    let out = run(
-        &world,
-        &cam,
-        &rig,
-        &shared(SharedShading::DEFAULT_TOLERANCE),
-    );
+    let (exact, out) = exact_and_shared(&world, &cam, &rig);
     assert!(out.counts.cache_hits > 0 && out.counts.cache_edge_refusals > 0);
     assert!(out.counts.rays.shadow < exact.counts.rays.shadow);
     for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {

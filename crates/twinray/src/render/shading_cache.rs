@@ -19,7 +19,7 @@
 //! batch starts), by one thread: the images do not depend on the thread count.
 //!
 //! What may be shared (the bound of `--share-tolerance E`, see
-//! docs/stereo.md#shared-shading): the receiving and the giving surfaces both
+//! docs/stereo.md, "Shared shading across views"): the receiving and the giving surfaces both
 //! have mirror + transmission weights of at most `E`, so the secondary colour
 //! taken differs from the sample's own by at most `E × L`, `L` the largest
 //! radiance a secondary ray returns (≤ 1 in scenes whose light fits the
@@ -230,6 +230,12 @@ mod tests {
     use crate::render::sampler::Pattern;
     use crate::scene::Viewpoint;
 
+    /// The rig's centre view, unshifted.
+    const CENTRE: View = View {
+        offset: 0.0,
+        shift: 0,
+    };
+
     fn camera() -> Camera {
         let vp = Viewpoint {
             from: Vec3::new(0.0, 0.0, 5.0),
@@ -255,13 +261,7 @@ mod tests {
     fn filled(camera: &Camera, through: impl Fn(usize) -> f32) -> ShadingCache {
         let mut cache = ShadingCache::default();
         cache.start_row(1);
-        cache.begin_leader(
-            View {
-                offset: 0.0,
-                shift: 0,
-            },
-            64,
-        );
+        cache.begin_leader(CENTRE, 64);
         for x in 0..64 {
             let p = seen(camera, x);
             let t = (p - camera.eye).length();
@@ -326,13 +326,7 @@ mod tests {
         let camera = camera();
         let mut cache = filled(&camera, |_| 1.0);
         cache.start_row(1);
-        cache.begin_leader(
-            View {
-                offset: 0.0,
-                shift: 0,
-            },
-            64,
-        );
+        cache.begin_leader(CENTRE, 64);
         assert_eq!(look(&cache, &camera, 20, 3, 0.0), None);
     }
 }

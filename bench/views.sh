@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# What does the N-th view cost? For each scene and each number of views N, the
+# CPU time of rendering N views (the twin method, exact and with the shared
+# shading cache, --share-shading) divided by that of one mono view, measured in
+# one run, mono first; and the shared views' worst PSNR and largest difference
+# against the exact views. One ray per pixel centre (--samples 1) everywhere.
+# Writes CSV; with matplotlib, the plot docs/images/views-cost.png.
+#
+# Time: CPU seconds (user + sys) of the whole command, on THREADS threads
+# (default 1), so that other work on a shared machine does not count; the
+# views are written as PFM (raw floats: writing costs next to nothing). The
+# command's load, build and render are in it; its wall seconds and the
+# --stats render_s are in the CSV too.
+#
+# usage (from the project root, after cargo build --release):
+#   bench/views.sh [SIZE] [VIEWS] [INTERAXIAL] [CSV] [SCENE...]
+#   defaults: SIZE=210x280  VIEWS=1,2,4,8,16,32,48,96  INTERAXIAL=0.02
+#             CSV=docs/views-bench.csv  SCENES=balls mount tetra tree gears (../shared)
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+size=${1:-210x280}
+counts=${2:-1,2,4,8,16,32,48,96}
+b=${3:-0.02}
+csv=${4:-docs/views-bench.csv}
+shift $(( $# > 4 ? 4 : $# )) || true
+spd=${SPD:-../shared/scenes/spd}
+scenes=("$@")
+if [[ ${#scenes[@]} -eq 0 ]]; then
+  for n in balls mount tetra tree gears; do scenes+=("$spd/$n.nff"); done
+fi
+bin=${TWINRAY:-target/release/twinray}
+threads=${THREADS:-1}
+[[ -x $bin ]] || { echo "build first: cargo build --release" >&2; exit 2; }
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+common=(--size "$size" --samples 1 -q --threads "$threads")
+
+# CPU seconds of a command (user + sys), its wall seconds in $tmp/wall.
+cpu() { /usr/bin/time -f "%U %S %e" -o "$tmp/time" "$@"; read -r u s e < "$tmp/time"; echo "$e" > "$tmp/wall"; python3 -c "print($u + $s)"; }
+# A render's --stats render_s, and a counter of it.
+render_s() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time']['render_s'])" "$1"; }
+counter() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))[sys.argv[2]])" "$1" "$2"; }
+shadow_rays() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['rays']['shadow'])" "$1"; }
+
+echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals" > "$csv"
+for scene in "${scenes[@]}"; do
+  name=$(basename "$scene" .nff)
+  mono=$(cpu "$bin" render "$scene" -o "$tmp/mono.pfm" "${common[@]}" --stats "$tmp/mono.json" 2>/dev/null)
+  echo "$name,$size,$threads,0,mono,$mono,1,$(cat "$tmp/wall"),$(render_s "$tmp/mono.json"),,,$(shadow_rays "$tmp/mono.json"),0,0,0,0" >> "$csv"
+  for n in ${counts//,/ }; do
+    rm -f "$tmp"/exact_*.pfm "$tmp"/shared_*.pfm
+    rig=(--views "$n" --interaxial "$b")
+    [[ $n -eq 1 ]] && rig=()
+    for mode in exact shared; do
+      extra=()
+      [[ $mode == shared && $n -gt 1 ]] && extra=(--share-shading)
+      [[ $mode == shared && $n -eq 1 ]] && continue
+      s=$(cpu "$bin" render "$scene" -o "$tmp/$mode.pfm" "${common[@]}" "${rig[@]}" "${extra[@]}" \
+        --stats "$tmp/$mode.json" 2>/dev/null)
+      wall=$(cat "$tmp/wall")
+      worst=inf; maxabs=0
+      if [[ $mode == shared ]]; then
+        for e in "$tmp"/exact_*.pfm; do  # exact_0.pfm ... (a pair: exact_L.pfm, exact_R.pfm)
+          read -r p m < <("$bin" compare "$e" "$tmp/shared_${e#"$tmp"/exact_}" \
+            | sed 's/^psnr_db \([^ ]*\) *max_abs \([^ ]*\).*/\1 \2/')
+          worst=$(python3 -c "print(min(float('$worst'), float('$p')))")
+          maxabs=$(python3 -c "print(max($maxabs, $m))")
+        done
+      fi
+      shadow=$(shadow_rays "$tmp/$mode.json")
+      hits=$(counter "$tmp/$mode.json" cache_hits)
+      entries=$(counter "$tmp/$mode.json" cache_entries)
+      fb=$(counter "$tmp/$mode.json" cache_fallbacks)
+      edge=$(counter "$tmp/$mode.json" cache_edge_refusals)
+      ratio=$(python3 -c "print(f'{$s / $mono:.3f}')")
+      echo "$name,$size,$threads,$n,$mode,$s,$ratio,$wall,$(render_s "$tmp/$mode.json"),$worst,$maxabs,$shadow,$hits,$entries,$fb,$edge" >> "$csv"
+      printf '%-8s %4s views %-6s %7.3f CPU s %8s x mono  worst %s dB  max %s\n' "$name" "$n" "$mode" "$s" "$ratio" "$worst" "$maxabs"
+    done
+  done
+done
+if python3 -c "import matplotlib" 2>/dev/null; then
+  python3 bench/plot_views.py "$csv" docs/images/views-cost.png
+else
+  echo "(matplotlib not installed: no plot; pip install matplotlib)" >&2
+fi
