@@ -509,6 +509,13 @@ el.renderFull.addEventListener("click", async () => {
 
 // ---------------------------------------------------------------- start
 
+$("reload").addEventListener("click", async () => {
+  const r = await fetch("/api/reload", { method: "POST" });
+  const state = await r.json();
+  if (state.error) showError(state.error);
+  else location.reload();
+});
+
 async function start() {
   const r = await fetch("/api/state");
   const state = await r.json();
@@ -518,6 +525,7 @@ async function start() {
   if (state.error) {
     showError(state.error);
     setStatus("the scene could not be read");
+    $("reload").hidden = false;
     return;
   }
   if (state.preview_size) {
