@@ -495,3 +495,31 @@ async fn the_page_is_served() {
     assert_eq!(state["full_size"], json!([192, 108]));
     assert_eq!(state["settings"]["view"], "anaglyph");
 }
+
+#[tokio::test]
+async fn fast_and_the_camera_reach_the_job() {
+    let server = serve(base(&example())).await;
+    let (mut socket, session) = server.connect().await;
+    let camera = json!({ "from": [1.0, -6.0, 2.5], "at": [0.0, 0.0, 0.8], "up": [0.0, 0.0, 1.0], "fov": 35.0 });
+    let (status, info) = server
+        .change(
+            session,
+            json!({ "fast": true, "samples": 1, "interaxial": "0.2", "camera": camera }),
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK, "{info}");
+    let command = info["command"].as_str().unwrap();
+    for flag in [
+        "--fast",
+        "--from '1,-6,2.5'",
+        "--at '0,0,0.8'",
+        "--up '0,0,1'",
+        "--fov 35",
+    ] {
+        assert!(command.contains(flag), "{flag} not in {command}");
+    }
+    assert_eq!(info["camera"]["from"], json!([1.0, -6.0, 2.5]));
+    assert!((info["camera"]["fov"].as_f64().unwrap() - 35.0).abs() < 1e-3);
+    let frames = frames_of(&mut socket, info["generation"].as_u64().unwrap()).await;
+    assert_eq!(frames.len(), 4);
+}

@@ -331,6 +331,76 @@ async fn the_page_in_chromium() {
         json!(0)
     );
 
+    // Orbit: a drag across the image turns the camera about its `at` point;
+    // the wheel dollies it.
+    let stage = dt
+        .eval("(() => { const r = document.getElementById('stage').getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; })()")
+        .await;
+    let (cx, cy) = (stage[0].as_f64().unwrap(), stage[1].as_f64().unwrap());
+    let before_orbit = dt.eval("window.twinrayPreview.info.camera").await;
+    let generation = dt.eval("window.twinrayPreview.generation").await;
+    for (kind, dx) in [
+        ("mousePressed", 0.0),
+        ("mouseMoved", 40.0),
+        ("mouseMoved", 80.0),
+        ("mouseReleased", 80.0),
+    ] {
+        dt.call(
+            "Input.dispatchMouseEvent",
+            json!({ "type": kind, "x": cx + dx, "y": cy, "button": "left", "buttons": 1, "clickCount": 1 }),
+        )
+        .await;
+    }
+    dt.wait_for(
+        &format!("window.twinrayPreview.generation > {generation}"),
+        "the orbit to reach the server",
+    )
+    .await;
+    dt.wait_for(FINAL_FRAME, "the orbited frame").await;
+    let orbited = dt.eval("window.twinrayPreview.info.camera").await;
+    assert_eq!(
+        orbited["at"], before_orbit["at"],
+        "the orbit keeps its centre"
+    );
+    assert_ne!(
+        orbited["from"], before_orbit["from"],
+        "the camera did not move"
+    );
+    let distance = |c: &Value| {
+        let (f, a) = (c["from"].as_array().unwrap(), c["at"].as_array().unwrap());
+        f.iter()
+            .zip(a)
+            .map(|(f, a)| (f.as_f64().unwrap() - a.as_f64().unwrap()).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    assert!((distance(&orbited) - distance(&before_orbit)).abs() < 1e-3 * distance(&before_orbit));
+    let shown = dt.eval("document.getElementById('from').value").await;
+    assert_ne!(shown, json!(""));
+    let generation = dt.eval("window.twinrayPreview.generation").await;
+    dt.call(
+        "Input.dispatchMouseEvent",
+        json!({ "type": "mouseWheel", "x": cx, "y": cy, "deltaX": 0, "deltaY": 120 }),
+    )
+    .await;
+    dt.wait_for(
+        &format!("window.twinrayPreview.generation > {generation}"),
+        "the dolly to reach the server",
+    )
+    .await;
+    let dollied = dt.eval("window.twinrayPreview.info.camera").await;
+    assert!(
+        distance(&dollied) > distance(&orbited) * 1.05,
+        "{dollied} {orbited}"
+    );
+    assert!(dt
+        .eval("document.getElementById('command').value")
+        .await
+        .as_str()
+        .unwrap()
+        .contains("--from"));
+    dt.wait_for(FINAL_FRAME, "the dollied frame").await;
+
     // The controls are on the page, drawn with a size.
     let layout = dt
         .eval(r#"(() => { const out = {}; for (const id of ["frame", "interaxial", "convergence", "budget-near", "views", "layout", "samples", "fast", "histogram", "command", "render-full", "from"]) { const e = document.getElementById(id); const r = e && e.getBoundingClientRect(); out[id] = r ? [r.x, r.y, r.width, r.height] : null; } out.scale = window.devicePixelRatio; out.command = document.getElementById("command").value; return out; })()"#)
