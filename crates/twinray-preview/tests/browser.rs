@@ -401,6 +401,45 @@ async fn the_page_in_chromium() {
         .contains("--from"));
     dt.wait_for(FINAL_FRAME, "the dollied frame").await;
 
+    // Render full size: the button runs the job and offers the file.
+    let button = dt
+        .eval("(() => { const r = document.getElementById('render-full').getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; })()")
+        .await;
+    for kind in ["mousePressed", "mouseReleased"] {
+        dt.call(
+            "Input.dispatchMouseEvent",
+            json!({ "type": kind, "x": button[0], "y": button[1], "button": "left", "clickCount": 1 }),
+        )
+        .await;
+    }
+    dt.wait_for(
+        "document.querySelectorAll('#downloads a').length > 0",
+        "the full-size render's file",
+    )
+    .await;
+    let download = dt
+        .eval("(async () => { const a = document.querySelector('#downloads a'); const r = await fetch(a.href); const b = await r.arrayBuffer(); return [a.download, r.status, b.byteLength]; })()")
+        .await;
+    assert_eq!(download[1], 200, "{download}");
+    assert!(download[2].as_u64().unwrap() > 1000, "{download}");
+
+    // The command, copied.
+    let copy = dt
+        .eval("(() => { const r = document.getElementById('copy').getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; })()")
+        .await;
+    for kind in ["mousePressed", "mouseReleased"] {
+        dt.call(
+            "Input.dispatchMouseEvent",
+            json!({ "type": kind, "x": copy[0], "y": copy[1], "button": "left", "clickCount": 1 }),
+        )
+        .await;
+    }
+    dt.wait_for(
+        "document.getElementById('copy').textContent === 'Copied'",
+        "the copy",
+    )
+    .await;
+
     // The controls are on the page, drawn with a size.
     let layout = dt
         .eval(r#"(() => { const out = {}; for (const id of ["frame", "interaxial", "convergence", "budget-near", "views", "layout", "samples", "fast", "histogram", "command", "render-full", "from"]) { const e = document.getElementById(id); const r = e && e.getBoundingClientRect(); out[id] = r ? [r.x, r.y, r.width, r.height] : null; } out.scale = window.devicePixelRatio; out.command = document.getElementById("command").value; return out; })()"#)
@@ -465,5 +504,27 @@ async fn the_page_in_chromium() {
         slider > 3,
         "the interaxial slider is not drawn: {slider} colours"
     );
+
+    // Wiggle: the page alternates the views by itself.
+    if given.is_none() {
+        dt.eval("(() => { const l = document.getElementById('layout'); l.value = 'wiggle'; l.dispatchEvent(new Event('change')); return true; })()")
+            .await;
+        dt.wait_for(
+            "window.twinrayPreview.info.view === 'wiggle'",
+            "the wiggle layout",
+        )
+        .await;
+        dt.wait_for(FINAL_FRAME, "the wiggle frames").await;
+        let mut shown = std::collections::HashSet::new();
+        for _ in 0..10 {
+            shown.insert(
+                dt.eval("document.getElementById('frame').src")
+                    .await
+                    .to_string(),
+            );
+            tokio::time::sleep(Duration::from_millis(60)).await;
+        }
+        assert_eq!(shown.len(), 2, "wiggle showed {shown:?}");
+    }
     stop.cancel();
 }
