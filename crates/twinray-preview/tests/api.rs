@@ -523,3 +523,35 @@ async fn fast_and_the_camera_reach_the_job() {
     let frames = frames_of(&mut socket, info["generation"].as_u64().unwrap()).await;
     assert_eq!(frames.len(), 4);
 }
+
+#[tokio::test]
+async fn a_change_refused_by_the_plan_leaves_the_last_view_rendering() {
+    let server = serve(base(&example())).await;
+    let (mut socket, session) = server.connect().await;
+    let (status, good) = server
+        .change(session, json!({ "interaxial": "0.2", "samples": 64 }))
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    let generation = good["generation"].as_u64().unwrap();
+    next_frame(&mut socket).await;
+    // Views converged so near that their image shifts exceed the width: the
+    // plan refuses it, with the library's message, after the render in
+    // flight was stopped.
+    let (status, answer) = server
+        .change(
+            session,
+            json!({ "interaxial": "0.4", "convergence": "0.001" }),
+        )
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST);
+    assert!(
+        answer["error"]
+            .as_str()
+            .unwrap()
+            .contains("more than the image is wide"),
+        "{answer}"
+    );
+    // The last view goes on to its anti-aliased pass.
+    let frames = frames_of(&mut socket, generation).await;
+    assert_eq!(frames.last().unwrap().header["sampling"], "final");
+}
