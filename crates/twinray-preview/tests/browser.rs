@@ -528,3 +528,51 @@ async fn the_page_in_chromium() {
     }
     stop.cancel();
 }
+
+/// The benchmark of `bench/preview-browser.sh`: 20 changes of interaxial
+/// in the page of a running `twinray preview` (TWINRAY_PREVIEW_URL), each
+/// made when the previous one's first frame is painted; prints the median
+/// and 90th percentile of change -> first frame painted, as the page times
+/// it (from sending the change to the animation frame after the image
+/// loaded).
+#[tokio::test]
+#[ignore = "a benchmark: bench/preview-browser.sh runs it"]
+async fn on_screen_latency() {
+    let url = std::env::var("TWINRAY_PREVIEW_URL").expect("TWINRAY_PREVIEW_URL");
+    let binary = chromium().expect("chromium");
+    let (_browser, mut dt) = open_page(&binary, &url).await;
+    dt.wait_for(FINAL_FRAME, "the first full-size frame").await;
+    let mut measured = dt
+        .eval("window.twinrayPreview.latencies.length")
+        .await
+        .as_u64()
+        .unwrap();
+    let first = dt.eval("window.twinrayPreview.latencies[0]").await;
+    for i in 0..20 {
+        let position = 200 + 20 * (i % 10);
+        dt.eval(&format!(
+            "(() => {{ const s = document.getElementById('interaxial'); s.value = {position}; \
+             s.dispatchEvent(new Event('input')); return true; }})()"
+        ))
+        .await;
+        dt.wait_for(
+            &format!("window.twinrayPreview.latencies.length > {measured}"),
+            "the change's first frame",
+        )
+        .await;
+        measured += 1;
+    }
+    let all = dt.eval("window.twinrayPreview.latencies").await;
+    let mut changes: Vec<f64> = all.as_array().unwrap()[1..]
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    changes.sort_by(f64::total_cmp);
+    println!(
+        "on-screen: first frame {:.0} ms after the page's first change; change -> first frame painted: median {:.0} ms, p90 {:.0} ms over {} changes",
+        first.as_f64().unwrap_or(f64::NAN),
+        changes[changes.len() / 2],
+        changes[changes.len() * 9 / 10],
+        changes.len()
+    );
+}
