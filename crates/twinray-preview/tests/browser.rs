@@ -137,6 +137,20 @@ impl DevTools {
         r["result"]["value"].clone()
     }
 
+    /// A click of the mouse in the middle of the element `id`.
+    async fn click(&mut self, id: &str) {
+        let centre = self
+            .eval(&format!("(() => {{ const r = document.getElementById('{id}').getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; }})()"))
+            .await;
+        for kind in ["mousePressed", "mouseReleased"] {
+            self.call(
+                "Input.dispatchMouseEvent",
+                json!({ "type": kind, "x": centre[0], "y": centre[1], "button": "left", "clickCount": 1 }),
+            )
+            .await;
+        }
+    }
+
     /// Waits until `expression` is true in the page (an exception, as
     /// before the page has loaded, counts as false).
     async fn wait_for(&mut self, expression: &str, what: &str) {
@@ -402,16 +416,7 @@ async fn the_page_in_chromium() {
     dt.wait_for(FINAL_FRAME, "the dollied frame").await;
 
     // Render full size: the button runs the job and offers the file.
-    let button = dt
-        .eval("(() => { const r = document.getElementById('render-full').getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; })()")
-        .await;
-    for kind in ["mousePressed", "mouseReleased"] {
-        dt.call(
-            "Input.dispatchMouseEvent",
-            json!({ "type": kind, "x": button[0], "y": button[1], "button": "left", "clickCount": 1 }),
-        )
-        .await;
-    }
+    dt.click("render-full").await;
     dt.wait_for(
         "document.querySelectorAll('#downloads a').length > 0",
         "the full-size render's file",
@@ -424,16 +429,7 @@ async fn the_page_in_chromium() {
     assert!(download[2].as_u64().unwrap() > 1000, "{download}");
 
     // The command, copied.
-    let copy = dt
-        .eval("(() => { const r = document.getElementById('copy').getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; })()")
-        .await;
-    for kind in ["mousePressed", "mouseReleased"] {
-        dt.call(
-            "Input.dispatchMouseEvent",
-            json!({ "type": kind, "x": copy[0], "y": copy[1], "button": "left", "clickCount": 1 }),
-        )
-        .await;
-    }
+    dt.click("copy").await;
     dt.wait_for(
         "document.getElementById('copy').textContent === 'Copied'",
         "the copy",
