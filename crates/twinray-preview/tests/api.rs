@@ -270,16 +270,13 @@ async fn a_change_cancels_the_render_in_flight() {
     let frame = next_frame(&mut socket).await;
     assert_eq!(frame.generation(), slow_generation);
 
-    let start = Instant::now();
     let (status, quick) = server.change(session, settings("0.3")).await;
     assert_eq!(status, StatusCode::OK);
     let frames = frames_of(&mut socket, quick["generation"].as_u64().unwrap()).await;
     assert_eq!(frames[0].header["divisor"], 8);
-    let waited = start.elapsed();
     // The slow render was stopped, not finished first.
     let (finished, cancelled) = server.preview.render_counts();
     assert_eq!(cancelled, 1, "finished {finished}, cancelled {cancelled}");
-    assert!(waited < Duration::from_secs(5), "{waited:?}");
 }
 
 #[tokio::test]
