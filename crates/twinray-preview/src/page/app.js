@@ -22,6 +22,9 @@ const el = {
 const preview = (window.twinrayPreview = {
   session: null, generation: 0, frames: 0, lastHeader: null, info: null,
   errors: [], changes: 0,
+  // Milliseconds from sending a change to its first frame painted (the
+  // benchmark reads them).
+  latencies: [], sentAt: 0, measured: 0,
 });
 
 let settings = null;       // what the server gets
@@ -237,6 +240,7 @@ async function send() {
   if (!preview.session || !settings) return;
   if (inFlight) { pending = true; return; }
   inFlight = true;
+  preview.sentAt = performance.now();
   const sent = JSON.stringify(settings);
   try {
     const r = await fetch(`/api/session/${preview.session}/view`, {
@@ -297,6 +301,14 @@ function onFrame(buffer) {
     return URL.createObjectURL(blob);
   });
   viewImages = urls;
+  if (header.generation > preview.measured) {
+    // The first frame of a change: timed when it is painted.
+    preview.measured = header.generation;
+    const sentAt = preview.sentAt;
+    el.frame.addEventListener("load", () => requestAnimationFrame(() => {
+      preview.latencies.push(performance.now() - sentAt);
+    }), { once: true });
+  }
   preview.frames += 1;
   preview.lastHeader = header;
   const what = header.sampling === "final" ? "anti-aliased" : `1/${header.divisor}`;
@@ -509,6 +521,13 @@ el.renderFull.addEventListener("click", async () => {
 
 // ---------------------------------------------------------------- start
 
+$("reload").addEventListener("click", async () => {
+  const r = await fetch("/api/reload", { method: "POST" });
+  const state = await r.json();
+  if (state.error) showError(state.error);
+  else location.reload();
+});
+
 async function start() {
   const r = await fetch("/api/state");
   const state = await r.json();
@@ -518,6 +537,7 @@ async function start() {
   if (state.error) {
     showError(state.error);
     setStatus("the scene could not be read");
+    $("reload").hidden = false;
     return;
   }
   if (state.preview_size) {
