@@ -33,6 +33,9 @@ pub struct RaySets {
     pub shadow: Vec<(Vec3, Vec3, f32)>,
     /// The mirror reflections of the eye rays at their hits.
     pub reflected: Vec<Ray>,
+    /// Shadow segments of the pairs whose two rays both hit: the twin
+    /// method's two-lane shadow packets.
+    pub shadow_pairs: Vec<[(Vec3, Vec3, f32); 2]>,
 }
 
 impl RaySets {
@@ -67,9 +70,10 @@ impl RaySets {
                 _ => None,
             })
             .unwrap_or(vp.from + up * 100.0);
-        let (mut shadow, mut reflected) = (Vec::new(), Vec::new());
+        let (mut shadow, mut reflected, mut shadow_pairs) = (Vec::new(), Vec::new(), Vec::new());
         let shapes = &world.scene.shapes;
-        for ray in &eye {
+        // The hit of `ray`: a shadow segment from it and its mirror reflection.
+        let spawn = |ray: &Ray| {
             let (prim, t) = closest(
                 &world.bvh,
                 &world,
@@ -78,7 +82,7 @@ impl RaySets {
                 &mut TraversalStats::default(),
             );
             if prim == u32::MAX {
-                continue;
+                return None;
             }
             let p = ray.at(t);
             let h = twinray::shapes::SurfaceHit { t, u: 0.0, v: 0.0 };
@@ -86,8 +90,20 @@ impl RaySets {
             let n = if n.dot(ray.dir) > 0.0 { -n } else { n };
             let o = p + n * 1e-3;
             let to = light - o;
-            shadow.push((o, to.normalize(), to.length()));
-            reflected.push(Ray::new(o, reflect(ray.dir, n)));
+            Some((
+                (o, to.normalize(), to.length()),
+                Ray::new(o, reflect(ray.dir, n)),
+            ))
+        };
+        for pair in &pairs {
+            let (a, b) = (spawn(&pair[0]), spawn(&pair[1]));
+            if let Some((s, r)) = a {
+                shadow.push(s);
+                reflected.push(r);
+            }
+            if let (Some((s0, _)), Some((s1, _))) = (a, b) {
+                shadow_pairs.push([s0, s1]);
+            }
         }
         Ok(RaySets {
             world,
@@ -95,6 +111,7 @@ impl RaySets {
             pairs,
             shadow,
             reflected,
+            shadow_pairs,
         })
     }
 }
@@ -214,4 +231,38 @@ pub fn work(sets: &RaySets, rays: &[Ray], tree: Tree) -> TraversalStats {
         closest(&sets.world.bvh, &sets.world, r, tree, &mut st);
     }
     st
+}
+
+/// Any-hit of the shadow segment pairs as two-lane packets, stopping each lane
+/// at its first blocker.
+pub fn shadow_pairs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
+    let w = &sets.world;
+    let shapes = &w.scene.shapes;
+    pass(&sets.shadow_pairs, threads, |segs| {
+        let p = SegmentPacket {
+            origins: segs.map(|s| s.0),
+            dirs: segs.map(|s| s.1),
+            t_max: segs.map(|s| s.2),
+            mask: 0b11,
+        };
+        let mut blocked = [0u64; 2];
+        let mut test = |prim: u32, l: usize| {
+            let (o, d, len) = segs[l];
+            if shapes[prim as usize]
+                .intersect(&Ray::new(o, d), 0.0, len)
+                .is_some()
+            {
+                blocked[l] = 1;
+                AnyHit::Stop
+            } else {
+                AnyHit::Continue
+            }
+        };
+        let mut st = TraversalStats::default();
+        match tree {
+            Tree::Binary => w.bvh.occlusion_binary(&p, &mut st, &mut test),
+            Tree::Wide => w.bvh.occlusion_wide(&p, &mut st, &mut test),
+        }
+        blocked[0] + 2 * blocked[1]
+    })
 }
