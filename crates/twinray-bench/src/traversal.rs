@@ -196,32 +196,39 @@ pub fn pairs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
 
 /// Any-hit of the shadow segments, one at a time, stopping at the first blocker.
 pub fn shadow_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
-    let w = &sets.world;
+    pass(&sets.shadow, threads, |s| any_hits(&sets.world, [*s], tree))
+}
+
+/// Whether each lane's segment `(origin, dir, length)`, traced as one packet,
+/// is blocked (bit `l` for lane `l`).
+#[inline(always)]
+fn any_hits<const K: usize>(w: &World, segs: [(Vec3, Vec3, f32); K], tree: Tree) -> u64 {
     let shapes = &w.scene.shapes;
-    pass(&sets.shadow, threads, |&(o, d, len)| {
-        let p = SegmentPacket {
-            origins: [o],
-            dirs: [d],
-            t_max: [len],
-            mask: 1,
-        };
-        let ray = Ray::new(o, d);
-        let mut blocked = 0u64;
-        let mut test = |prim: u32, _: usize| {
-            if shapes[prim as usize].intersect(&ray, 0.0, len).is_some() {
-                blocked = 1;
-                AnyHit::Stop
-            } else {
-                AnyHit::Continue
-            }
-        };
-        let mut st = TraversalStats::default();
-        match tree {
-            Tree::Binary => w.bvh.occlusion_binary(&p, &mut st, &mut test),
-            Tree::Wide => w.bvh.occlusion_wide(&p, &mut st, &mut test),
+    let p = SegmentPacket {
+        origins: segs.map(|s| s.0),
+        dirs: segs.map(|s| s.1),
+        t_max: segs.map(|s| s.2),
+        mask: (1 << K) - 1,
+    };
+    let mut blocked = 0u64;
+    let mut test = |prim: u32, l: usize| {
+        let (o, d, len) = segs[l];
+        if shapes[prim as usize]
+            .intersect(&Ray::new(o, d), 0.0, len)
+            .is_some()
+        {
+            blocked |= 1 << l;
+            AnyHit::Stop
+        } else {
+            AnyHit::Continue
         }
-        blocked
-    })
+    };
+    let mut st = TraversalStats::default();
+    match tree {
+        Tree::Binary => w.bvh.occlusion_binary(&p, &mut st, &mut test),
+        Tree::Wide => w.bvh.occlusion_wide(&p, &mut st, &mut test),
+    }
+    blocked
 }
 
 /// The work of tracing `rays` one at a time: nodes, box tests, primitive tests.
@@ -236,33 +243,7 @@ pub fn work(sets: &RaySets, rays: &[Ray], tree: Tree) -> TraversalStats {
 /// Any-hit of the shadow segment pairs as two-lane packets, stopping each lane
 /// at its first blocker.
 pub fn shadow_pairs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
-    let w = &sets.world;
-    let shapes = &w.scene.shapes;
     pass(&sets.shadow_pairs, threads, |segs| {
-        let p = SegmentPacket {
-            origins: segs.map(|s| s.0),
-            dirs: segs.map(|s| s.1),
-            t_max: segs.map(|s| s.2),
-            mask: 0b11,
-        };
-        let mut blocked = [0u64; 2];
-        let mut test = |prim: u32, l: usize| {
-            let (o, d, len) = segs[l];
-            if shapes[prim as usize]
-                .intersect(&Ray::new(o, d), 0.0, len)
-                .is_some()
-            {
-                blocked[l] = 1;
-                AnyHit::Stop
-            } else {
-                AnyHit::Continue
-            }
-        };
-        let mut st = TraversalStats::default();
-        match tree {
-            Tree::Binary => w.bvh.occlusion_binary(&p, &mut st, &mut test),
-            Tree::Wide => w.bvh.occlusion_wide(&p, &mut st, &mut test),
-        }
-        blocked[0] + 2 * blocked[1]
+        any_hits(&sets.world, *segs, tree)
     })
 }

@@ -12,7 +12,9 @@
 //! and a segment that `segment_enters` a primitive's box reaches the primitive
 //! (the shadow cache relies on it).
 
-use super::traverse::{fmin, LaneHit, SingleRay, CULL_SLACK, ROBUST, STACK};
+use super::traverse::{
+    fmin, occlusion_leaf, test_leaf, LaneHit, SingleRay, CULL_SLACK, ROBUST, STACK,
+};
 use super::{
     AnyHit, AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats,
 };
@@ -429,38 +431,14 @@ impl Bvh {
             stats.nodes += 1;
             if count > 0 {
                 let first = child as usize;
-                for &prim in &self.order[first..first + count as usize] {
-                    if K == 2 && mask == 0b11 {
-                        // Both rays of a stereo pair against one primitive at once.
-                        stats.prim_tests += 2;
-                        let found =
-                            test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
-                        for (l, h) in found.into_iter().enumerate() {
-                            if let Some(h) = h {
-                                if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
-                                    best[l] = h.t;
-                                    out.prim[l] = prim;
-                                    out.hit[l] = h;
-                                }
-                            }
-                        }
-                        continue;
-                    }
-                    let mut lanes = mask;
-                    while lanes != 0 {
-                        let l = lanes.trailing_zeros() as usize;
-                        lanes &= lanes - 1;
-                        stats.prim_tests += 1;
-                        // next_up lets an equal distance through, for the index tie-break.
-                        if let Some(h) = test.test(prim, l, best[l].next_up()) {
-                            if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
-                                best[l] = h.t;
-                                out.prim[l] = prim;
-                                out.hit[l] = h;
-                            }
-                        }
-                    }
-                }
+                test_leaf(
+                    &self.order[first..first + count as usize],
+                    mask,
+                    &mut best,
+                    &mut out,
+                    stats,
+                    &mut test,
+                );
                 continue;
             }
             let node = &self.wide[child as usize];
@@ -630,26 +608,14 @@ impl Bvh {
             stats.nodes += 1;
             if count > 0 {
                 let first = child as usize;
-                for &prim in &self.order[first..first + count as usize] {
-                    if K == 2 && live == 0b11 {
-                        stats.prim_tests += 2;
-                        for (l, a) in test.test_pair(prim).into_iter().enumerate() {
-                            if a == AnyHit::Stop {
-                                live &= !(1 << l);
-                            }
-                        }
-                        continue;
-                    }
-                    let mut lanes = mask & live;
-                    while lanes != 0 {
-                        let l = lanes.trailing_zeros() as usize;
-                        lanes &= lanes - 1;
-                        stats.prim_tests += 1;
-                        if test.test(prim, l) == AnyHit::Stop {
-                            live &= !(1 << l);
-                        }
-                    }
-                }
+                occlusion_leaf(
+                    &self.order[first..first + count as usize],
+                    K == 2,
+                    mask,
+                    &mut live,
+                    stats,
+                    test,
+                );
                 if live == 0 {
                     return;
                 }
