@@ -2,7 +2,7 @@
 //! tetra, sombrero from `../shared/scenes/spd`, skipped with a notice when
 //! absent), 256² rays of the file's viewpoint: eye rays alone, eye rays as
 //! stereo pairs (two-lane packets), shadow rays toward the first light (any
-//! hit), and the eye hits' mirror reflections; on 1 and 2 threads.
+//! hit; alone and as the pairs' two-lane packets), and the eye hits' mirror reflections; on 1 and 2 threads.
 //!
 //! Run: `cargo bench -p twinray-bench --bench traversal`. For figures under
 //! load, `cargo run --release -p twinray-bench --example wide_vs_binary`
@@ -12,7 +12,9 @@ use std::path::Path;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use twinray_bench::traversal::{pairs_pass, rays_pass, shadow_pass, RaySets, Tree};
+use twinray_bench::traversal::{
+    pairs_pass, rays_pass, shadow_pairs_pass, shadow_pass, RaySets, Tree,
+};
 
 const SCENES: [&str; 3] = ["teapot", "tetra", "sombrero"];
 
@@ -46,6 +48,10 @@ fn traversal(c: &mut Criterion) {
                 g.throughput(Throughput::Elements(sets.shadow.len() as u64));
                 g.bench_function(format!("shadow/{t}"), |b| {
                     b.iter(|| shadow_pass(&sets, tree, threads))
+                });
+                g.throughput(Throughput::Elements(2 * sets.shadow_pairs.len() as u64));
+                g.bench_function(format!("shadow_pair/{t}"), |b| {
+                    b.iter(|| shadow_pairs_pass(&sets, tree, threads))
                 });
                 g.throughput(Throughput::Elements(sets.reflected.len() as u64));
                 g.bench_function(format!("reflected/{t}"), |b| {

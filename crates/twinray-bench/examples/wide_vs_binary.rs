@@ -10,7 +10,9 @@
 use std::path::Path;
 use std::time::Instant;
 
-use twinray_bench::traversal::{pairs_pass, rays_pass, shadow_pass, work, RaySets, Tree};
+use twinray_bench::traversal::{
+    pairs_pass, rays_pass, shadow_pairs_pass, shadow_pass, work, RaySets, Tree,
+};
 
 /// This thread's time on a CPU, in seconds (Linux: /proc/thread-self/schedstat),
 /// so that one-thread runs are not charged for time other processes took; None
@@ -88,6 +90,19 @@ fn main() {
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
+        if let Ok(only) = std::env::var("WVB_PROFILE") {
+            // For a profiler: only eye rays on one tree, many passes.
+            let tree = if only == "wide" {
+                Tree::Wide
+            } else {
+                Tree::Binary
+            };
+            let sum = (0..30).fold(0u64, |a, _| {
+                a.wrapping_add(rays_pass(&sets, &sets.eye, tree, 1))
+            });
+            println!("{name} {only}: {sum}");
+            continue;
+        }
         for tree in [Tree::Binary, Tree::Wide] {
             let st = work(&sets, &sets.eye, tree);
             let n = sets.eye.len() as f64;
@@ -99,7 +114,7 @@ fn main() {
             );
         }
         type Run<'a> = Box<dyn Fn(Tree, usize) -> u64 + 'a>;
-        let kinds: [(&str, usize, Run); 4] = [
+        let kinds: [(&str, usize, Run); 5] = [
             (
                 "eye",
                 sets.eye.len(),
@@ -114,6 +129,11 @@ fn main() {
                 "shadow",
                 sets.shadow.len(),
                 Box::new(|t, n| shadow_pass(&sets, t, n)),
+            ),
+            (
+                "shad. pair",
+                2 * sets.shadow_pairs.len(),
+                Box::new(|t, n| shadow_pairs_pass(&sets, t, n)),
             ),
             (
                 "reflected",

@@ -33,6 +33,9 @@ pub struct RaySets {
     pub shadow: Vec<(Vec3, Vec3, f32)>,
     /// The mirror reflections of the eye rays at their hits.
     pub reflected: Vec<Ray>,
+    /// Shadow segments of the pairs whose two rays both hit: the twin
+    /// method's two-lane shadow packets.
+    pub shadow_pairs: Vec<[(Vec3, Vec3, f32); 2]>,
 }
 
 impl RaySets {
@@ -67,9 +70,10 @@ impl RaySets {
                 _ => None,
             })
             .unwrap_or(vp.from + up * 100.0);
-        let (mut shadow, mut reflected) = (Vec::new(), Vec::new());
+        let (mut shadow, mut reflected, mut shadow_pairs) = (Vec::new(), Vec::new(), Vec::new());
         let shapes = &world.scene.shapes;
-        for ray in &eye {
+        // The hit of `ray`: a shadow segment from it and its mirror reflection.
+        let spawn = |ray: &Ray| {
             let (prim, t) = closest(
                 &world.bvh,
                 &world,
@@ -78,7 +82,7 @@ impl RaySets {
                 &mut TraversalStats::default(),
             );
             if prim == u32::MAX {
-                continue;
+                return None;
             }
             let p = ray.at(t);
             let h = twinray::shapes::SurfaceHit { t, u: 0.0, v: 0.0 };
@@ -86,8 +90,20 @@ impl RaySets {
             let n = if n.dot(ray.dir) > 0.0 { -n } else { n };
             let o = p + n * 1e-3;
             let to = light - o;
-            shadow.push((o, to.normalize(), to.length()));
-            reflected.push(Ray::new(o, reflect(ray.dir, n)));
+            Some((
+                (o, to.normalize(), to.length()),
+                Ray::new(o, reflect(ray.dir, n)),
+            ))
+        };
+        for pair in &pairs {
+            let (a, b) = (spawn(&pair[0]), spawn(&pair[1]));
+            if let Some((s, r)) = a {
+                shadow.push(s);
+                reflected.push(r);
+            }
+            if let (Some((s0, _)), Some((s1, _))) = (a, b) {
+                shadow_pairs.push([s0, s1]);
+            }
         }
         Ok(RaySets {
             world,
@@ -95,6 +111,7 @@ impl RaySets {
             pairs,
             shadow,
             reflected,
+            shadow_pairs,
         })
     }
 }
@@ -179,32 +196,39 @@ pub fn pairs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
 
 /// Any-hit of the shadow segments, one at a time, stopping at the first blocker.
 pub fn shadow_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
-    let w = &sets.world;
+    pass(&sets.shadow, threads, |s| any_hits(&sets.world, [*s], tree))
+}
+
+/// Whether each lane's segment `(origin, dir, length)`, traced as one packet,
+/// is blocked (bit `l` for lane `l`).
+#[inline(always)]
+fn any_hits<const K: usize>(w: &World, segs: [(Vec3, Vec3, f32); K], tree: Tree) -> u64 {
     let shapes = &w.scene.shapes;
-    pass(&sets.shadow, threads, |&(o, d, len)| {
-        let p = SegmentPacket {
-            origins: [o],
-            dirs: [d],
-            t_max: [len],
-            mask: 1,
-        };
-        let ray = Ray::new(o, d);
-        let mut blocked = 0u64;
-        let mut test = |prim: u32, _: usize| {
-            if shapes[prim as usize].intersect(&ray, 0.0, len).is_some() {
-                blocked = 1;
-                AnyHit::Stop
-            } else {
-                AnyHit::Continue
-            }
-        };
-        let mut st = TraversalStats::default();
-        match tree {
-            Tree::Binary => w.bvh.occlusion_binary(&p, &mut st, &mut test),
-            Tree::Wide => w.bvh.occlusion_wide(&p, &mut st, &mut test),
+    let p = SegmentPacket {
+        origins: segs.map(|s| s.0),
+        dirs: segs.map(|s| s.1),
+        t_max: segs.map(|s| s.2),
+        mask: (1 << K) - 1,
+    };
+    let mut blocked = 0u64;
+    let mut test = |prim: u32, l: usize| {
+        let (o, d, len) = segs[l];
+        if shapes[prim as usize]
+            .intersect(&Ray::new(o, d), 0.0, len)
+            .is_some()
+        {
+            blocked |= 1 << l;
+            AnyHit::Stop
+        } else {
+            AnyHit::Continue
         }
-        blocked
-    })
+    };
+    let mut st = TraversalStats::default();
+    match tree {
+        Tree::Binary => w.bvh.occlusion_binary(&p, &mut st, &mut test),
+        Tree::Wide => w.bvh.occlusion_wide(&p, &mut st, &mut test),
+    }
+    blocked
 }
 
 /// The work of tracing `rays` one at a time: nodes, box tests, primitive tests.
@@ -214,4 +238,12 @@ pub fn work(sets: &RaySets, rays: &[Ray], tree: Tree) -> TraversalStats {
         closest(&sets.world.bvh, &sets.world, r, tree, &mut st);
     }
     st
+}
+
+/// Any-hit of the shadow segment pairs as two-lane packets, stopping each lane
+/// at its first blocker.
+pub fn shadow_pairs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
+    pass(&sets.shadow_pairs, threads, |segs| {
+        any_hits(&sets.world, *segs, tree)
+    })
 }

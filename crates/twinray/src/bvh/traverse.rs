@@ -459,9 +459,91 @@ impl<const K: usize> Lanes<K> {
     }
 }
 
+/// The lanes `mask` of a packet against a leaf's primitives `prims`, each
+/// lane's nearest hit improved in `best` and `out` (ties to the lower
+/// index): the leaf test of both the binary and the four-wide descent.
+#[inline(always)]
+pub(super) fn test_leaf<const K: usize, T: NearestTest>(
+    prims: &[u32],
+    mask: u32,
+    best: &mut [f32; K],
+    out: &mut PacketHits<K>,
+    stats: &mut TraversalStats,
+    test: &mut T,
+) {
+    for &prim in prims {
+        if K == 2 && mask == 0b11 {
+            // Both rays of a stereo pair against one primitive at once.
+            stats.prim_tests += 2;
+            let found = test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
+            for (l, h) in found.into_iter().enumerate() {
+                if let Some(h) = h {
+                    if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
+                        best[l] = h.t;
+                        out.prim[l] = prim;
+                        out.hit[l] = h;
+                    }
+                }
+            }
+            continue;
+        }
+        let mut lanes = mask;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            stats.prim_tests += 1;
+            // next_up lets an equal distance through, for the index tie-break.
+            if let Some(h) = test.test(prim, l, best[l].next_up()) {
+                if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
+                    best[l] = h.t;
+                    out.prim[l] = prim;
+                    out.hit[l] = h;
+                }
+            }
+        }
+    }
+}
+
+/// The lanes `mask` of a shadow packet (`pair`: of two lanes) against a
+/// leaf's primitives `prims`;
+/// a lane leaves `live` when `test` says stop for it: the leaf test of both
+/// the binary and the four-wide any-hit descent.
+#[inline(always)]
+pub(super) fn occlusion_leaf<T: AnyHitTest>(
+    prims: &[u32],
+    pair: bool,
+    mask: u32,
+    live: &mut u32,
+    stats: &mut TraversalStats,
+    test: &mut T,
+) {
+    for &prim in prims {
+        if pair && mask & *live == 0b11 {
+            // Both segments of a stereo pair against one primitive at once.
+            stats.prim_tests += 2;
+            for (l, a) in test.test_pair(prim).into_iter().enumerate() {
+                if a == AnyHit::Stop {
+                    *live &= !(1 << l);
+                }
+            }
+            continue;
+        }
+        let mut lanes = mask & *live;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            stats.prim_tests += 1;
+            if test.test(prim, l) == AnyHit::Stop {
+                *live &= !(1 << l);
+            }
+        }
+    }
+}
+
 impl Bvh {
-    /// Nearest hit per lane, on the binary tree. `test(prim, lane, t_max)` intersects one primitive with
-    /// one lane's ray and returns a hit with `t < t_max` or `None`.
+    /// Nearest hit per lane, on the binary tree. `test(prim, lane, t_max)`
+    /// intersects one primitive with one lane's ray and returns a hit with
+    /// `t < t_max` or `None`.
     #[inline]
     pub fn closest_binary<const K: usize>(
         &self,
@@ -543,38 +625,14 @@ impl Bvh {
             let node = &self.nodes[index as usize];
             if node.is_leaf() {
                 let first = node.first as usize;
-                for &prim in &self.order[first..first + node.count() as usize] {
-                    if K == 2 && mask == 0b11 {
-                        // Both rays of a stereo pair against one primitive at once.
-                        stats.prim_tests += 2;
-                        let found =
-                            test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
-                        for (l, h) in found.into_iter().enumerate() {
-                            if let Some(h) = h {
-                                if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
-                                    best[l] = h.t;
-                                    out.prim[l] = prim;
-                                    out.hit[l] = h;
-                                }
-                            }
-                        }
-                        continue;
-                    }
-                    let mut lanes = mask;
-                    while lanes != 0 {
-                        let l = lanes.trailing_zeros() as usize;
-                        lanes &= lanes - 1;
-                        stats.prim_tests += 1;
-                        // next_up lets an equal distance through, for the index tie-break.
-                        if let Some(h) = test.test(prim, l, best[l].next_up()) {
-                            if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
-                                best[l] = h.t;
-                                out.prim[l] = prim;
-                                out.hit[l] = h;
-                            }
-                        }
-                    }
-                }
+                test_leaf(
+                    &self.order[first..first + node.count() as usize],
+                    mask,
+                    &mut best,
+                    &mut out,
+                    stats,
+                    &mut test,
+                );
                 continue;
             }
             let (a, b) = (node.first as usize, node.first as usize + 1);
@@ -647,27 +705,14 @@ impl Bvh {
             let node = &self.nodes[index as usize];
             if node.is_leaf() {
                 let first = node.first as usize;
-                for &prim in &self.order[first..first + node.count() as usize] {
-                    if K == 2 && mask & live == 0b11 {
-                        stats.prim_tests += 2;
-                        let answers = test.test_pair(prim);
-                        for (l, a) in answers.into_iter().enumerate() {
-                            if a == AnyHit::Stop {
-                                live &= !(1 << l);
-                            }
-                        }
-                        continue;
-                    }
-                    let mut lanes = mask & live;
-                    while lanes != 0 {
-                        let l = lanes.trailing_zeros() as usize;
-                        lanes &= lanes - 1;
-                        stats.prim_tests += 1;
-                        if test.test(prim, l) == AnyHit::Stop {
-                            live &= !(1 << l);
-                        }
-                    }
-                }
+                occlusion_leaf(
+                    &self.order[first..first + node.count() as usize],
+                    K == 2,
+                    mask,
+                    &mut live,
+                    stats,
+                    test,
+                );
                 if live == 0 {
                     return;
                 }

@@ -12,7 +12,9 @@
 //! and a segment that `segment_enters` a primitive's box reaches the primitive
 //! (the shadow cache relies on it).
 
-use super::traverse::{fmin, LaneHit, SingleRay, CULL_SLACK, ROBUST, STACK};
+use super::traverse::{
+    fmin, occlusion_leaf, test_leaf, LaneHit, SingleRay, CULL_SLACK, ROBUST, STACK,
+};
 use super::{
     AnyHit, AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats,
 };
@@ -206,6 +208,24 @@ impl WidePair {
     /// the first ray's, 4-7 the second's; and the entry distances, alike.
     #[inline(always)]
     fn enter(&self, node: &Node4, best: [f32; 2]) -> (u32, [f32; 8]) {
+        let (tn, tf) = self.slabs(node);
+        let bound = halves([best[0] * CULL_SLACK; 4], [best[1] * CULL_SLACK; 4]);
+        let m = (tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask();
+        (m, tn.to_array())
+    }
+
+    /// The children each segment `0 < t < t_max` enters (bits as `enter`'s);
+    /// per lane `WideRay::enters`' arithmetic.
+    #[inline(always)]
+    fn enters(&self, node: &Node4, t_max: [f32; 2]) -> u32 {
+        let (tn, tf) = self.slabs(node);
+        tn.simd_le(tf.fast_min(halves([t_max[0]; 4], [t_max[1]; 4])))
+            .to_bitmask()
+    }
+
+    /// Entry and exit distances, as `WideRay::slabs` per lane.
+    #[inline(always)]
+    fn slabs(&self, node: &Node4) -> (f32x8, f32x8) {
         let plane = |side: &[[usize; 3]; 2], a: usize| {
             halves(node.bounds[side[0][a]], node.bounds[side[1][a]]) * self.inv[a] - self.org[a]
         };
@@ -221,9 +241,7 @@ impl WidePair {
         );
         let tn = nx.fast_max(ny).fast_max(nz.fast_max(self.t_min));
         let tf = fx.fast_min(fy).fast_min(fz) * f32x8::splat(ROBUST);
-        let bound = halves([best[0] * CULL_SLACK; 4], [best[1] * CULL_SLACK; 4]);
-        let m = (tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask();
-        (m, tn.to_array())
+        (tn, tf)
     }
 }
 
@@ -413,38 +431,14 @@ impl Bvh {
             stats.nodes += 1;
             if count > 0 {
                 let first = child as usize;
-                for &prim in &self.order[first..first + count as usize] {
-                    if K == 2 && mask == 0b11 {
-                        // Both rays of a stereo pair against one primitive at once.
-                        stats.prim_tests += 2;
-                        let found =
-                            test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
-                        for (l, h) in found.into_iter().enumerate() {
-                            if let Some(h) = h {
-                                if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
-                                    best[l] = h.t;
-                                    out.prim[l] = prim;
-                                    out.hit[l] = h;
-                                }
-                            }
-                        }
-                        continue;
-                    }
-                    let mut lanes = mask;
-                    while lanes != 0 {
-                        let l = lanes.trailing_zeros() as usize;
-                        lanes &= lanes - 1;
-                        stats.prim_tests += 1;
-                        // next_up lets an equal distance through, for the index tie-break.
-                        if let Some(h) = test.test(prim, l, best[l].next_up()) {
-                            if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
-                                best[l] = h.t;
-                                out.prim[l] = prim;
-                                out.hit[l] = h;
-                            }
-                        }
-                    }
-                }
+                test_leaf(
+                    &self.order[first..first + count as usize],
+                    mask,
+                    &mut best,
+                    &mut out,
+                    stats,
+                    &mut test,
+                );
                 continue;
             }
             let node = &self.wide[child as usize];
@@ -593,6 +587,7 @@ impl Bvh {
             return;
         }
         let wide_rays: [WideRay; K] = std::array::from_fn(|l| WideRay::new(&rays[l]));
+        let pair = (K == 2).then(|| WidePair::new([&wide_rays[0], &wide_rays[1 % K]]));
         let mut live = packet.mask;
         let mut stack = ArrayVec::<(u32, u32, u32), STACK>::new();
         stack.push((0, 0, live));
@@ -613,26 +608,14 @@ impl Bvh {
             stats.nodes += 1;
             if count > 0 {
                 let first = child as usize;
-                for &prim in &self.order[first..first + count as usize] {
-                    if K == 2 && live == 0b11 {
-                        stats.prim_tests += 2;
-                        for (l, a) in test.test_pair(prim).into_iter().enumerate() {
-                            if a == AnyHit::Stop {
-                                live &= !(1 << l);
-                            }
-                        }
-                        continue;
-                    }
-                    let mut lanes = mask & live;
-                    while lanes != 0 {
-                        let l = lanes.trailing_zeros() as usize;
-                        lanes &= lanes - 1;
-                        stats.prim_tests += 1;
-                        if test.test(prim, l) == AnyHit::Stop {
-                            live &= !(1 << l);
-                        }
-                    }
-                }
+                occlusion_leaf(
+                    &self.order[first..first + count as usize],
+                    K == 2,
+                    mask,
+                    &mut live,
+                    stats,
+                    test,
+                );
                 if live == 0 {
                     return;
                 }
@@ -641,6 +624,15 @@ impl Bvh {
             let node = &self.wide[child as usize];
             let mut lanes_in = [0u32; WIDTH];
             let mut lanes = mask;
+            if let Some(pair) = &pair {
+                // A stereo pair (both lanes live here): one eight-wide test.
+                stats.box_tests += 2 * WIDTH as u64;
+                let m = pair.enters(node, [t_max[0], t_max[1 % K]]);
+                for (c, lc) in lanes_in.iter_mut().enumerate() {
+                    *lc = (m >> c) & 1 | ((m >> (c + WIDTH)) & 1) << 1;
+                }
+                lanes = 0;
+            }
             while lanes != 0 {
                 let l = lanes.trailing_zeros() as usize;
                 lanes &= lanes - 1;
