@@ -5,7 +5,7 @@
 //! hit; alone and as the pairs' two-lane packets), and the eye hits' mirror reflections; on 1 and 2 threads.
 //!
 //! Run: `cargo bench -p twinray-bench --bench traversal`. For figures under
-//! load, `cargo run --release -p twinray-bench --example wide_vs_binary`
+//! load, `cargo bench -p twinray-bench --bench wide_vs_binary`
 //! prints the two side by side (docs/benchmarks.md).
 
 use std::path::Path;

@@ -1,7 +1,7 @@
 //! Side-by-side rays/s of the four-wide and the binary traversal, in one
 //! process, rounds interleaved so that the machine's load hits both alike:
 //!
-//! `cargo run --release -p twinray-bench --example wide_vs_binary -- [--size N] [--rounds R] SCENE.nff ...`
+//! `cargo bench -p twinray-bench --bench wide_vs_binary -- [--size N] [--rounds R] SCENE.nff ...`
 //!
 //! Prints per scene and ray kind the median Mrays/s of each over the rounds and
 //! the ratio wide / binary, on 1 thread (per second of this thread's CPU time,
@@ -39,7 +39,11 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
-    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    // `cargo bench` adds `--bench`; the rest are this program's flags and scenes.
+    let mut args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
     let mut take = |flag: &str, default: usize| -> usize {
         match args.iter().position(|a| a == flag) {
             Some(i) if i + 1 < args.len() => {
