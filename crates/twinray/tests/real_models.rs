@@ -33,7 +33,9 @@ fn blender_torus_obj_loads_with_its_texture() {
     assert_eq!(s.textures.len(), 1, "map_Kd ../cube.png");
     assert_eq!((s.textures[0].width, s.textures[0].height), (256, 256));
     let m = &s.materials[0];
-    assert_eq!((m.texture, m.kd, m.ks), (Some(0), 0.8, 0.8));
+    // Blender wrote `Ks 0.8` with `Ns 0`: a fully rough surface, no
+    // highlight (as a Phong exponent of 0, it whitened the whole torus).
+    assert_eq!((m.texture, m.kd, m.ks, m.mirror), (Some(0), 0.8, 0.0, 0.0));
     assert!(
         !s.corners.is_empty()
             && s.corners
