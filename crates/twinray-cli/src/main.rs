@@ -256,14 +256,14 @@ fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
     Ok(spec)
 }
 
-/// Prints a stage's messages: warnings and notes always, details with -v.
-fn print_messages(messages: &[Message], verbose: bool) {
+/// Prints a stage's messages: warnings always, notes unless -q, details with -v.
+fn print_messages(messages: &[Message], args: &RenderArgs) {
     for m in messages {
         match m.level {
             Level::Warning => eprintln!("twinray: warning: {}", m.text),
-            Level::Note => eprintln!("twinray: note: {}", m.text),
-            Level::Info if verbose => eprintln!("{}", m.text),
-            Level::Info => {}
+            Level::Note if !args.quiet => eprintln!("twinray: note: {}", m.text),
+            Level::Info if args.verbose => eprintln!("{}", m.text),
+            Level::Note | Level::Info => {}
         }
     }
 }
@@ -275,11 +275,11 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
         return Ok(Vec::new());
     }
     let job = Job::check(spec)?;
-    print_messages(job.messages(), args.verbose);
+    print_messages(job.messages(), args);
     let loaded = job.load()?;
-    print_messages(&loaded.messages, args.verbose);
+    print_messages(&loaded.messages, args);
     let plan = job.plan(&loaded)?;
-    print_messages(&plan.messages, args.verbose);
+    print_messages(&plan.messages, args);
 
     let bar = if args.quiet || !std::io::stderr().is_terminal() {
         ProgressBar::hidden()
@@ -306,6 +306,6 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
         interrupted();
     }
     let rendered = rendered?;
-    print_messages(&rendered.messages, args.verbose);
+    print_messages(&rendered.messages, args);
     Ok(job.write(&loaded, &plan, &rendered)?)
 }

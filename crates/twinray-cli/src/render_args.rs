@@ -91,7 +91,7 @@ pub struct RenderArgs {
     /// Write statistics (ray counts, times, hierarchy) as JSON.
     #[arg(long)]
     pub stats: Option<PathBuf>,
-    /// No progress bar.
+    /// No progress bar, no notes (warnings and errors only).
     #[arg(short, long)]
     pub quiet: bool,
     /// Print scene facts, the rig and timings on stderr (the files written are listed

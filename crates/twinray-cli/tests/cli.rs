@@ -1138,22 +1138,153 @@ fn model(name: &str) -> PathBuf {
 }
 
 #[test]
-fn obj_and_glb_render_framed_with_a_headlight_and_a_warning() {
+fn obj_and_glb_render_framed_and_lit_saying_so_in_one_verbose_line() {
     let dir = tmp();
     for name in ["pybullet/torus/torus_textured.obj", "gltf/torus.glb"] {
         let out = dir.path().join("m.png");
-        let run = render(&model(name), &out, &["--size", SIZE]);
+        // The defaults at work are nothing to warn about: silence.
+        let run = twinray(&["render", s(&model(name)), "-o", s(&out), "--size", SIZE]);
         run.ok();
         assert_eq!(png_size(&out), (W, H));
+        assert!(!run.stderr.contains("no camera"), "{}", run.stderr);
+        assert!(!run.stderr.contains("warning"), "{}", run.stderr);
+        // -v says what the job supplied, in one line.
+        let run = render(&model(name), &out, &["--size", SIZE, "-v"]);
+        run.ok();
+        let lines: Vec<&str> = run
+            .stderr
+            .lines()
+            .filter(|l| l.contains("no camera") || l.contains("no lights"))
+            .collect();
+        assert_eq!(lines.len(), 1, "{}", run.stderr);
         assert!(
-            run.stderr
-                .contains("has no lights: added a white point light"),
+            lines[0].contains("no camera") && lines[0].contains("no lights: added"),
             "{}",
-            run.stderr
+            lines[0]
         );
-        assert!(run.stderr.contains("has no camera"), "{}", run.stderr);
         std::fs::remove_file(&out).unwrap();
     }
+}
+
+#[test]
+fn quiet_silences_notes_not_warnings() {
+    let dir = tmp();
+    let example = scene("example.nff");
+    let (png, exr) = (dir.path().join("n.png"), dir.path().join("n.exr"));
+    let run = twinray(&[
+        "render",
+        s(&example),
+        "-o",
+        s(&png),
+        "--size",
+        "8x6",
+        "--srgb",
+    ]);
+    run.ok();
+    assert!(
+        run.stderr.contains("note: --srgb is the default"),
+        "{}",
+        run.stderr
+    );
+    let run = twinray(&[
+        "render",
+        s(&example),
+        "-o",
+        s(&png),
+        "--size",
+        "8x6",
+        "--srgb",
+        "-q",
+    ]);
+    run.ok();
+    assert!(!run.stderr.contains("note:"), "{}", run.stderr);
+    // Warnings stay.
+    let run = twinray(&[
+        "render",
+        s(&example),
+        "-o",
+        s(&exr),
+        "--size",
+        "8x6",
+        "-q",
+        "--exposure",
+        "1",
+    ]);
+    run.ok();
+    assert!(run.stderr.contains("warning: --exposure"), "{}", run.stderr);
+}
+
+#[test]
+fn repeated_warnings_are_counted_and_opaque_ior_0_is_not_one() {
+    let dir = tmp();
+    // Ten uses of a glass material of index 0 (warned: once, with a count),
+    // and an opaque material of index 0 (the SPD write it: not warned).
+    let mut nff = String::from(HEADER);
+    for i in 0..10 {
+        nff += &format!("f 1 1 1 0.5 0 0 0.5 0\ns {i} 0 0 0.3\n");
+    }
+    nff += "f 1 1 1 1 0 0 0 0\ns 0 0 2 0.3\n";
+    let scene = write_scene(dir.path(), "glass.nff", nff.as_bytes());
+    let out = dir.path().join("g.png");
+    let run = render(&scene, &out, &[]);
+    run.ok();
+    let warnings: Vec<&str> = run
+        .stderr
+        .lines()
+        .filter(|l| l.contains("warning"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{}", run.stderr);
+    assert!(
+        warnings[0].contains("glass.nff:9: material index of refraction 0 replaced by 1")
+            && warnings[0].contains("(and 9 more lines like it)"),
+        "{}",
+        warnings[0]
+    );
+}
+
+#[test]
+fn quilt_defaults_do_not_warn_about_their_own_rig() {
+    let dir = tmp();
+    let out = dir.path().join("q.png");
+    let run = twinray(&[
+        "render",
+        s(&scene("example.nff")),
+        "-o",
+        s(&out),
+        "--layout",
+        "quilt",
+        "--quilt",
+        "4x2",
+        "--size",
+        "24x32",
+        "--samples",
+        "1",
+    ]);
+    run.ok();
+    assert!(!run.stderr.contains("depth budget"), "{}", run.stderr);
+    // Asked for, the budget is checked and its excess warned about.
+    let run = render(
+        &scene("example.nff"),
+        &out,
+        &[
+            "--layout",
+            "quilt",
+            "--quilt",
+            "4x2",
+            "--size",
+            "24x32",
+            "--samples",
+            "1",
+            "--view-cone",
+            "35",
+        ],
+    );
+    run.ok();
+    assert!(
+        run.stderr.contains("exceed the depth budget"),
+        "{}",
+        run.stderr
+    );
 }
 
 #[test]

@@ -69,7 +69,11 @@ impl Material {
             }
         }
         if self.ior <= 0.0 {
-            changed.push(format!("index of refraction {} replaced by 1", self.ior));
+            // Only a transmitting material refracts: an opaque one's index
+            // means nothing (the SPD write 0 there), so no warning.
+            if self.t > 0.0 {
+                changed.push(format!("index of refraction {} replaced by 1", self.ior));
+            }
             self.ior = 1.0;
         }
         (self, changed)

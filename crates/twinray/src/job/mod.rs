@@ -23,6 +23,7 @@
 
 mod outputs;
 pub mod preflight;
+mod repeats;
 pub mod spec;
 
 pub use outputs::numbered;
@@ -236,26 +237,26 @@ impl Job {
     /// it): its warnings become messages; a mesh file without lights gets a
     /// headlight at the camera the spec asks for.
     pub fn prepare(&self, mut scene: Scene) -> Result<Loaded> {
-        let mut messages: Vec<Message> = scene
-            .warnings
+        let mut messages: Vec<Message> = repeats::fold_repeated(&scene.warnings)
             .iter()
             .chain(&lights_warning(scene.lights.len()))
             .map(|w| Message::warning(w.clone()))
             .collect();
         let (viewpoint, given) = view::resolve(&scene, &self.view_overrides())?;
         let path = self.spec.scene.display();
+        // What the file leaves out and the job supplies: one line for -v.
+        let mut supplied = Vec::new();
         if !given && self.spec.camera.from.is_none() {
-            messages.push(Message::note(format!(
-                "{path} has no camera: looking at the whole scene from the front (set one with --from, --at, --up, --fov)"
-            )));
+            supplied.push("no camera: framed the whole scene from the front (--from, --at, --up, --fov set one)");
         }
         if scene.format != SceneFormat::Nff && scene.lights.is_empty() {
             let file_viewpoint = std::mem::replace(&mut scene.viewpoint, viewpoint);
             scene.add_headlight_if_dark();
             scene.viewpoint = file_viewpoint;
-            messages.push(Message::warning(format!(
-                "{path} has no lights: added a white point light at the camera"
-            )));
+            supplied.push("no lights: added a white point light at the camera");
+        }
+        if !supplied.is_empty() {
+            messages.push(Message::info(format!("{path}: {}", supplied.join("; "))));
         }
         Ok(Loaded {
             scene: Arc::new(scene),
@@ -354,7 +355,12 @@ impl Job {
             build_seconds,
             messages: Vec::new(),
         };
-        plan.messages = plan_messages(&plan);
+        let rig = &self.spec.rig;
+        let rig_by_default = self.quilt.is_some()
+            && rig.interaxial.is_none()
+            && rig.view_cone.is_none()
+            && rig.depth_budget.is_none();
+        plan.messages = plan_messages(&plan, rig_by_default);
         Ok(plan)
     }
 
@@ -620,7 +626,7 @@ impl Job {
 
 /// The verbose account of a plan: scene, rig, the rig's choice and report,
 /// the cut; and the report's warnings.
-fn plan_messages(plan: &Plan) -> Vec<Message> {
+fn plan_messages(plan: &Plan, rig_by_default: bool) -> Vec<Message> {
     let world = &plan.world;
     let mut m = vec![Message::info(format!(
         "scene: {} primitives, {} lights, hierarchy {} nodes (depth {}), built in {:.3} s",
@@ -666,7 +672,15 @@ fn plan_messages(plan: &Plan) -> Vec<Message> {
         )));
     }
     if let Some(s) = &plan.settled {
-        m.extend(s.report.warnings().into_iter().map(Message::warning));
+        // The defaults' own choice (a quilt's 35° view cone) is not warned
+        // about: the user asked for nothing the budget could contradict.
+        let budget = if rig_by_default {
+            Message::info
+        } else {
+            Message::warning
+        };
+        m.extend(s.report.budget_warning().map(budget));
+        m.extend(s.report.divergence_warning().map(Message::warning));
     }
     m
 }
