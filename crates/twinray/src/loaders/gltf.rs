@@ -160,9 +160,38 @@ pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene
 /// The crate's schema validation, after a check it lacks: gltf-json 1.4.1's
 /// validation indexes the accessors with a primitive's POSITION index
 /// unchecked, and panics when it is out of range.
+/// Compressed-geometry extensions twinray cannot decode (no maintained
+/// pure-Rust Draco decoder; meshopt is not read yet), and what undoes them.
+const COMPRESSED_GEOMETRY: [&str; 3] = [
+    "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+];
+
+/// A file whose meshes need a compression extension is refused in one line
+/// that names it and the command that decompresses it (without this, the
+/// accessors with no data of their own fail validation by the dozen).
+fn refuse_compressed(root: &gltf::json::Root, file: &Path) -> Result<()> {
+    let needs = |ext: &str| {
+        root.extensions_required.iter().any(|e| e == ext)
+            || (root.extensions_used.iter().any(|e| e == ext)
+                && root.accessors.iter().any(|a| a.buffer_view.is_none()))
+    };
+    match COMPRESSED_GEOMETRY.into_iter().find(|ext| needs(ext)) {
+        Some(ext) => Err(Error::Invalid(format!(
+            "{}: meshes compressed with {ext}, which twinray does not decode; decompress them first: \
+             npx @gltf-transform/cli copy {} uncompressed.glb",
+            file.display(),
+            file.display()
+        ))),
+        None => Ok(()),
+    }
+}
+
 fn validate(gltf: &gltf::Gltf, file: &Path) -> Result<()> {
     use gltf::json::validation::{Checked, Validate};
     let root = gltf.document.as_json();
+    refuse_compressed(root, file)?;
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
             let position = prim
