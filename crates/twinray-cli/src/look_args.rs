@@ -1,7 +1,27 @@
-//! How a render looks: the colour of 8-bit outputs.
+//! How a render looks: the colour of 8-bit outputs, and what surrounds a model.
 
 use clap::ValueEnum;
-use twinray::job::TonemapSpec;
+use twinray::job::{StudioSpec, TonemapSpec};
+use twinray::math::Vec3;
+
+use crate::render_args::parse_vec3;
+
+/// What surrounds the scene.
+#[derive(clap::Args, Clone, Debug, Default)]
+#[command(next_help_heading = "Surroundings")]
+pub struct StudioArgs {
+    /// Background colour R,G,B, linear (default: the file's; black for OBJ and glTF).
+    #[arg(long, value_name = "R,G,B", value_parser = parse_vec3)]
+    pub background: Option<Vec3>,
+}
+
+impl StudioArgs {
+    pub fn spec(&self) -> StudioSpec {
+        StudioSpec {
+            background: self.background.map(|v| v.to_array()),
+        }
+    }
+}
 
 /// Colour of 8-bit outputs (PNG, JPEG, MPO, anaglyphs, quilts).
 #[derive(clap::Args, Clone, Debug, Default)]

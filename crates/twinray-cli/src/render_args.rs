@@ -15,7 +15,7 @@ use twinray::rig::budget::DepthBudget;
 use twinray::rig::choice::Interaxial;
 use twinray::rig::report as disparity;
 
-use crate::look_args::ColourArgs;
+use crate::look_args::{ColourArgs, StudioArgs};
 use crate::sampling::SamplingArgs;
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -173,6 +173,9 @@ pub struct RenderArgs {
 
     #[command(flatten)]
     pub colour: ColourArgs,
+
+    #[command(flatten)]
+    pub studio: StudioArgs,
 }
 
 /// The paper's approximations (sections 2.3–2.5): faster stereo, not exact.
@@ -335,6 +338,7 @@ impl RenderArgs {
                 max_vertices: self.max_vertices,
                 max_triangles: self.max_triangles,
             },
+            studio: self.studio.spec(),
         }
     }
 }

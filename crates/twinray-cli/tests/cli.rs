@@ -1167,6 +1167,23 @@ fn obj_and_glb_render_framed_and_lit_saying_so_in_one_verbose_line() {
 }
 
 #[test]
+fn background_replaces_the_files() {
+    let dir = tmp();
+    let out = dir.path().join("bg.png");
+    let model = model("gltf/torus.glb");
+    render(
+        &model,
+        &out,
+        &["--size", "16x12", "--background", "0.5,0.5,0.5"],
+    )
+    .ok();
+    // The corner is background: linear 0.5, sRGB-encoded (read back as byte / 255).
+    let corner = twinray::output::read_image(&out).unwrap().get(0, 0) * 255.0;
+    assert_eq!(corner.round().to_array(), [188.0; 3]);
+    render(&model, &out, &["--background", "1,-1,0"]).one_line_error();
+}
+
+#[test]
 fn quiet_silences_notes_not_warnings() {
     let dir = tmp();
     let example = scene("example.nff");

@@ -33,8 +33,8 @@ pub use preflight::{
 };
 pub use spec::{
     AnaglyphSpec, ApproximationSpec, CameraSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec,
-    LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, TonemapSpec,
-    TraceSpec,
+    LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, StudioSpec,
+    TonemapSpec, TraceSpec,
 };
 
 pub use crate::render::CancelToken;
@@ -54,6 +54,7 @@ use crate::rig::budget::DepthBudget;
 use crate::rig::camera_overrides::{self as view, CameraOverrides};
 use crate::rig::choice::RigRequest;
 use crate::rig::choice::{self as rig_choice, Interaxial, RigFlags};
+use crate::rig::framing;
 use crate::rig::report::{self as rig_report, Settled};
 use crate::rig::Camera;
 use crate::rig::Rig;
@@ -179,6 +180,13 @@ impl Job {
             .build()
             .map_err(|e| Error::Invalid(format!("cannot start worker threads: {e}")))?;
         let messages = outputs::check_display(&spec.output)?;
+        if let Some(bg) = spec.studio.background {
+            if !bg.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                return Err(invalid(format!(
+                    "--background takes three finite values >= 0 (linear RGB), got {bg:?}"
+                )));
+            }
+        }
         Ok(Job {
             spec,
             views: checked.views,
@@ -258,6 +266,9 @@ impl Job {
         if !supplied.is_empty() {
             messages.push(Message::info(format!("{path}: {}", supplied.join("; "))));
         }
+        if let Some(rgb) = self.spec.studio.background {
+            scene.background = Vec3::from(rgb);
+        }
         Ok(Loaded {
             scene: Arc::new(scene),
             world: OnceLock::new(),
@@ -298,8 +309,16 @@ impl Job {
 
     /// Decides everything before rendering: size, camera, rig, cut, files.
     pub fn plan(&self, loaded: &Loaded) -> Result<Plan> {
-        let (viewpoint, _) = view::resolve(&loaded.scene, &self.view_overrides())?;
+        let (viewpoint, given) = view::resolve(&loaded.scene, &self.view_overrides())?;
         let (width, height) = self.size(&viewpoint)?;
+        // A scene without a camera: its bounds fill 80 % of this image.
+        let camera_spec = &self.spec.camera;
+        let viewpoint = if given || camera_spec.from.is_some() || camera_spec.at.is_some() {
+            viewpoint
+        } else {
+            let boxes = loaded.scene.shapes.iter().map(|s| s.bounds());
+            framing::fit_bounds(&viewpoint, boxes, width, height, framing::FILL)
+        };
         let camera = Camera::new(&viewpoint, width, height);
         let at_distance = f64::from((viewpoint.at - viewpoint.from).length());
         let request = self.rig_request(at_distance)?;

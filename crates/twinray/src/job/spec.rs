@@ -28,6 +28,17 @@ pub struct JobSpec {
     pub trace: TraceSpec,
     pub output: OutputSpec,
     pub limits: LimitSpec,
+    /// What surrounds a model: the background.
+    #[serde(default)]
+    pub studio: StudioSpec,
+}
+
+/// What surrounds the scene, replacing the file's where given.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StudioSpec {
+    /// Background colour, linear RGB (default: the file's; black for OBJ and glTF).
+    pub background: Option<[f32; 3]>,
 }
 
 /// The viewpoint and the image size; `None` keeps the file's.

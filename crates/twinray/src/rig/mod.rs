@@ -11,6 +11,7 @@ pub mod camera;
 pub mod camera_overrides;
 pub mod choice;
 pub mod depth_pass;
+pub mod framing;
 pub mod report;
 pub mod window;
 

@@ -1,0 +1,47 @@
+//! A model without a camera is framed so that it fills about 80 % of the
+//! image, whatever the image's shape.
+
+use twinray::job::{CancelToken, Job, JobSpec};
+
+/// A unit cube centred off the origin, as an OBJ file.
+const CUBE: &str = "v 2 0 0\nv 3 0 0\nv 3 1 0\nv 2 1 0\nv 2 0 1\nv 3 0 1\nv 3 1 1\nv 2 1 1\n\
+f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+/// The share of the width and of the height that the model's pixels span.
+fn fill(width: u32, height: u32) -> (f32, f32) {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("cube.obj");
+    std::fs::write(&obj, CUBE).unwrap();
+    let mut spec = JobSpec::new(&obj, dir.path().join("cube.exr"));
+    spec.camera.size = Some([width, height]);
+    spec.sampling.samples = Some(1);
+    let job = Job::check(spec).unwrap();
+    let loaded = job.load().unwrap();
+    let plan = job.plan(&loaded).unwrap();
+    let out = job.render(&plan, &|_, _| {}, &CancelToken::new()).unwrap();
+    let img = &out.output.images[0];
+    let (mut x0, mut x1, mut y0, mut y1) = (u32::MAX, 0, u32::MAX, 0);
+    for y in 0..height {
+        for x in 0..width {
+            if img.get(x, y).max_element() > 0.0 {
+                (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+            }
+        }
+    }
+    assert!(x1 >= x0, "the cube is not in view");
+    // Nothing touches the edges.
+    assert!(x0 > 0 && y0 > 0 && x1 < width - 1 && y1 < height - 1);
+    (
+        (x1 - x0 + 1) as f32 / width as f32,
+        (y1 - y0 + 1) as f32 / height as f32,
+    )
+}
+
+#[test]
+fn a_model_without_camera_fills_eighty_percent_of_the_frame() {
+    for (w, h) in [(160, 120), (120, 160), (100, 100)] {
+        let (fw, fh) = fill(w, h);
+        let tight = fw.max(fh);
+        assert!((0.77..=0.83).contains(&tight), "{w}x{h}: {fw:.3} x {fh:.3}");
+    }
+}
