@@ -236,3 +236,30 @@ fn obj_ns_sets_a_highlight_that_narrows_as_ns_grows() {
     // Blender: roughness 1 − √(Ns/1000).
     assert!((s.ks - 0.5 * 0.1f32.sqrt()).abs() < 1e-6, "{}", s.ks);
 }
+
+#[test]
+fn metallic_roughness_texture_scales_the_factors_by_its_mean() {
+    let dir = tempfile::tempdir().unwrap();
+    // Blue (metallic) 0, green (roughness) 0.5: a smooth-ish dielectric,
+    // whatever the factors of 1 say alone (a fully rough metal).
+    png(
+        &dir.path().join("mr.png"),
+        2,
+        1,
+        &[[0, 128, 0], [0, 128, 0]],
+    );
+    let file = gltf_quad(
+        dir.path(),
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1],
+               "metallicFactor": 1.0, "roughnessFactor": 1.0,
+               "metallicRoughnessTexture": {"index": 0}}}),
+        &["mr.png"],
+    );
+    let m = &load(&file).materials[0];
+    assert_eq!(
+        m.specular_color,
+        Color::ONE,
+        "a dielectric's highlight is white"
+    );
+    assert!(m.ks > 0.0 && m.kd > 0.9, "{m:?}");
+}

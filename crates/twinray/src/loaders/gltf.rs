@@ -83,6 +83,13 @@ pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene
             ),
             emission: texture(m.emissive_texture().map(|i| i.texture()), false),
             occlusion: texture(m.occlusion_texture().map(|o| o.texture()), true),
+            metal_rough_mean: texture(
+                m.pbr_metallic_roughness()
+                    .metallic_roughness_texture()
+                    .map(|i| i.texture()),
+                true,
+            )
+            .map(|t| mean_texel(&scene.textures[t as usize])),
         };
         scene.add_material(material_from_pbr(&m, maps));
     }
@@ -710,6 +717,16 @@ pub struct MaterialTextures {
     pub base: Option<u32>,
     pub emission: Option<u32>,
     pub occlusion: Option<u32>,
+    /// The mean texel of `metallicRoughnessTexture` (green: roughness,
+    /// blue: metallic), which scales the factors: the texture is not
+    /// sampled per hit, and its factors are usually 1 (the texture decides).
+    pub metal_rough_mean: Option<Color>,
+}
+
+/// The mean of a texture's texels.
+fn mean_texel(t: &Texture) -> Color {
+    let sum: Color = t.texels.iter().copied().sum();
+    sum / t.texels.len().max(1) as f32
 }
 
 /// How a metallic-roughness material maps to twinray's Whitted material
@@ -732,8 +749,9 @@ pub fn material_from_pbr(m: &gltf::Material, maps: MaterialTextures) -> Material
         }
     };
     let [r, g, b, _alpha] = pbr.base_color_factor().map(unit);
-    let metal = unit(pbr.metallic_factor());
-    let rough = unit(pbr.roughness_factor());
+    let mean = maps.metal_rough_mean.unwrap_or(Color::ONE);
+    let metal = unit(pbr.metallic_factor() * mean.z);
+    let rough = unit(pbr.roughness_factor() * mean.y);
     let transmission = unit(m.transmission().map_or(0.0, |t| t.transmission_factor()));
     let ior = m
         .ior()
