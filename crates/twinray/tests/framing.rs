@@ -45,3 +45,38 @@ fn a_model_without_camera_fills_eighty_percent_of_the_frame() {
         assert!((0.77..=0.83).contains(&tight), "{w}x{h}: {fw:.3} x {fh:.3}");
     }
 }
+
+#[test]
+fn a_model_without_lights_gets_a_key_a_fill_and_a_rim_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("cube.obj");
+    std::fs::write(&obj, CUBE).unwrap();
+    let job = Job::check(JobSpec::new(&obj, dir.path().join("cube.png"))).unwrap();
+    let loaded = job.load().unwrap();
+    let lights = &loaded.scene.lights;
+    assert_eq!(lights.len(), 3);
+    let vp = &loaded.scene.viewpoint;
+    let back = (vp.from - vp.at).normalize();
+    let right = vp.up.cross(back).normalize();
+    let toward = |i: usize| match lights[i].kind {
+        twinray::scene::LightKind::Directional { direction } => -direction,
+        _ => panic!("directional"),
+    };
+    // Key: above left, in front; fill: right, in front; rim: behind.
+    assert!(toward(0).dot(right) < 0.0 && toward(0).dot(back) > 0.0);
+    assert!(toward(1).dot(right) > 0.0 && toward(1).dot(back) > 0.0);
+    assert!(toward(2).dot(back) < 0.0);
+    // The cube's three visible faces are lit differently: the shape reads.
+    let plan = job.plan(&loaded).unwrap();
+    let out = job.render(&plan, &|_, _| {}, &CancelToken::new()).unwrap();
+    let img = &out.output.images[0];
+    let mut shades: Vec<u32> = img
+        .pixels
+        .iter()
+        .filter(|c| c.max_element() > 0.0)
+        .map(|c| (c.x * 64.0) as u32)
+        .collect();
+    shades.sort_unstable();
+    shades.dedup();
+    assert!(shades.len() >= 3, "{shades:?}");
+}

@@ -258,10 +258,9 @@ impl Job {
             supplied.push("no camera: framed the whole scene from the front (--from, --at, --up, --fov set one)");
         }
         if scene.format != SceneFormat::Nff && scene.lights.is_empty() {
-            let file_viewpoint = std::mem::replace(&mut scene.viewpoint, viewpoint);
-            scene.add_headlight_if_dark();
-            scene.viewpoint = file_viewpoint;
-            supplied.push("no lights: added a white point light at the camera");
+            scene.lights =
+                crate::lights::three_point_rig(viewpoint.from, viewpoint.at, viewpoint.up);
+            supplied.push("no lights: added a key, a fill and a rim light around the camera");
         }
         if !supplied.is_empty() {
             messages.push(Message::info(format!("{path}: {}", supplied.join("; "))));
