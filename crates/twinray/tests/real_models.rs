@@ -79,3 +79,35 @@ fn the_texture_shows_in_the_render() {
         "{differing} of {torus} pixels change"
     );
 }
+
+#[test]
+fn webxr_hand_renders_with_shading_that_reads() {
+    use twinray::job::{CancelToken, Job, JobSpec};
+    let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/models/webxr/generic-hand-left.glb");
+    let dir = tempfile::tempdir().unwrap();
+    let mut spec = JobSpec::new(&path, dir.path().join("hand.png"));
+    spec.camera.size = Some([64, 48]);
+    spec.sampling.samples = Some(1);
+    let job = Job::check(spec).unwrap();
+    let loaded = job.load().unwrap();
+    assert!(
+        loaded.scene.warnings.is_empty(),
+        "{:?}",
+        loaded.scene.warnings
+    );
+    assert!(loaded.scene.shapes.len() > 1000);
+    let plan = job.plan(&loaded).unwrap();
+    let out = job.render(&plan, &|_, _| {}, &CancelToken::new()).unwrap();
+    // The hand's pixels: many, and not one flat shade (std of luma > 0.02).
+    let luma: Vec<f32> = out.output.images[0]
+        .pixels
+        .iter()
+        .filter(|c| c.max_element() > 0.0)
+        .map(|c| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z)
+        .collect();
+    assert!(luma.len() > 200, "{} pixels", luma.len());
+    let mean = luma.iter().sum::<f32>() / luma.len() as f32;
+    let var = luma.iter().map(|l| (l - mean).powi(2)).sum::<f32>() / luma.len() as f32;
+    assert!(var.sqrt() > 0.02, "flat: mean {mean}, std {}", var.sqrt());
+}
