@@ -1,7 +1,7 @@
 //! A model without a camera is framed so that it fills about 80 % of the
 //! image, whatever the image's shape.
 
-use twinray::job::{CancelToken, Job, JobSpec};
+use twinray::job::{CancelToken, Job, JobSpec, UpAxisSpec};
 
 /// A unit cube centred off the origin, as an OBJ file.
 const CUBE: &str = "v 2 0 0\nv 3 0 0\nv 3 1 0\nv 2 1 0\nv 2 0 1\nv 3 0 1\nv 3 1 1\nv 2 1 1\n\
@@ -9,11 +9,17 @@ f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
 
 /// The share of the width and of the height that the model's pixels span.
 fn fill(width: u32, height: u32) -> (f32, f32) {
+    fill_of(CUBE, width, height, UpAxisSpec::Y)
+}
+
+/// `fill` of the OBJ text `obj` with an up axis.
+fn fill_of(obj_text: &str, width: u32, height: u32, up: UpAxisSpec) -> (f32, f32) {
     let dir = tempfile::tempdir().unwrap();
     let obj = dir.path().join("cube.obj");
-    std::fs::write(&obj, CUBE).unwrap();
+    std::fs::write(&obj, obj_text).unwrap();
     let mut spec = JobSpec::new(&obj, dir.path().join("cube.exr"));
     spec.camera.size = Some([width, height]);
+    spec.studio.up_axis = up;
     spec.sampling.samples = Some(1);
     let job = Job::check(spec).unwrap();
     let loaded = job.load().unwrap();
@@ -79,4 +85,17 @@ fn a_model_without_lights_gets_a_key_a_fill_and_a_rim_light() {
     shades.sort_unstable();
     shades.dedup();
     assert!(shades.len() >= 3, "{shades:?}");
+}
+
+#[test]
+fn up_axis_z_stands_a_z_up_model_upright() {
+    // A post 4 units tall along z, 0.5 wide.
+    let post =
+        "v 0 0 0\nv 0.5 0 0\nv 0.5 0.5 0\nv 0 0.5 0\nv 0 0 4\nv 0.5 0 4\nv 0.5 0.5 4\nv 0 0.5 4\n\
+f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    let (w, h) = fill_of(post, 100, 100, UpAxisSpec::Z);
+    assert!(h > 2.0 * w, "z up: {w:.2} wide, {h:.2} tall");
+    // Read as y-up, the post lies along the line of sight's depth axis, not upright.
+    let (w, h) = fill_of(post, 100, 100, UpAxisSpec::Y);
+    assert!(h < 2.0 * w, "y up: {w:.2} wide, {h:.2} tall");
 }

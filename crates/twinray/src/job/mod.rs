@@ -34,7 +34,7 @@ pub use preflight::{
 pub use spec::{
     AnaglyphSpec, ApproximationSpec, CameraSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec,
     LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, StudioSpec,
-    TonemapSpec, TraceSpec,
+    TonemapSpec, TraceSpec, UpAxisSpec,
 };
 
 pub use crate::render::CancelToken;
@@ -257,6 +257,11 @@ impl Job {
         if !given && self.spec.camera.from.is_none() {
             supplied.push("no camera: framed the whole scene from the front (--from, --at, --up, --fov set one)");
         }
+        let viewpoint = if given {
+            viewpoint
+        } else {
+            self.up_axis(viewpoint)
+        };
         if scene.format != SceneFormat::Nff && scene.lights.is_empty() {
             scene.lights =
                 crate::lights::three_point_rig(viewpoint.from, viewpoint.at, viewpoint.up);
@@ -274,6 +279,27 @@ impl Job {
             load_seconds: 0.0,
             messages,
         })
+    }
+
+    /// The framing of a file without a camera turned for `--up-axis z`: the
+    /// loader frames y-up models, so (x, y, z) becomes (x, −z, y) about the
+    /// target, and z is up (unless `--up` says otherwise).
+    fn up_axis(&self, vp: Viewpoint) -> Viewpoint {
+        if self.spec.studio.up_axis == UpAxisSpec::Y {
+            return vp;
+        }
+        let turn = |v: Vec3| Vec3::new(v.x, -v.z, v.y);
+        let from = if self.spec.camera.from.is_some() {
+            vp.from
+        } else {
+            vp.at + turn(vp.from - vp.at)
+        };
+        let up = if self.spec.camera.up.is_some() {
+            vp.up
+        } else {
+            Vec3::Z
+        };
+        Viewpoint { from, up, ..vp }
     }
 
     fn view_overrides(&self) -> CameraOverrides {
@@ -312,6 +338,11 @@ impl Job {
         let (width, height) = self.size(&viewpoint)?;
         // A scene without a camera: its bounds fill 80 % of this image.
         let camera_spec = &self.spec.camera;
+        let viewpoint = if given {
+            viewpoint
+        } else {
+            self.up_axis(viewpoint)
+        };
         let viewpoint = if given || camera_spec.from.is_some() || camera_spec.at.is_some() {
             viewpoint
         } else {
