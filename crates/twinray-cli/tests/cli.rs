@@ -1187,48 +1187,22 @@ fn background_replaces_the_files() {
 fn quiet_silences_notes_not_warnings() {
     let dir = tmp();
     let example = scene("example.nff");
+    // `render` adds --quiet itself: these runs spell out what they pass.
+    let run = |out: &Path, extra: &[&str]| {
+        let mut args = vec!["render", s(&example), "-o", s(out), "--size", "8x6"];
+        args.extend_from_slice(extra);
+        let run = twinray(&args);
+        run.ok();
+        run.stderr.clone()
+    };
     let (png, exr) = (dir.path().join("n.png"), dir.path().join("n.exr"));
-    let run = twinray(&[
-        "render",
-        s(&example),
-        "-o",
-        s(&png),
-        "--size",
-        "8x6",
-        "--srgb",
-    ]);
-    run.ok();
-    assert!(
-        run.stderr.contains("note: --srgb is the default"),
-        "{}",
-        run.stderr
-    );
-    let run = twinray(&[
-        "render",
-        s(&example),
-        "-o",
-        s(&png),
-        "--size",
-        "8x6",
-        "--srgb",
-        "-q",
-    ]);
-    run.ok();
-    assert!(!run.stderr.contains("note:"), "{}", run.stderr);
+    let stderr = run(&png, &["--srgb"]);
+    assert!(stderr.contains("note: --srgb is the default"), "{stderr}");
+    let stderr = run(&png, &["--srgb", "-q"]);
+    assert!(!stderr.contains("note:"), "{stderr}");
     // Warnings stay.
-    let run = twinray(&[
-        "render",
-        s(&example),
-        "-o",
-        s(&exr),
-        "--size",
-        "8x6",
-        "-q",
-        "--exposure",
-        "1",
-    ]);
-    run.ok();
-    assert!(run.stderr.contains("warning: --exposure"), "{}", run.stderr);
+    let stderr = run(&exr, &["-q", "--exposure", "1"]);
+    assert!(stderr.contains("warning: --exposure"), "{stderr}");
 }
 
 #[test]
@@ -1263,45 +1237,22 @@ fn repeated_warnings_are_counted_and_opaque_ior_0_is_not_one() {
 fn quilt_defaults_do_not_warn_about_their_own_rig() {
     let dir = tmp();
     let out = dir.path().join("q.png");
-    let run = twinray(&[
-        "render",
-        s(&scene("example.nff")),
-        "-o",
-        s(&out),
-        "--layout",
-        "quilt",
-        "--quilt",
-        "4x2",
-        "--size",
-        "24x32",
-        "--samples",
-        "1",
-    ]);
-    run.ok();
-    assert!(!run.stderr.contains("depth budget"), "{}", run.stderr);
+    let quilt = |extra: &[&str]| {
+        let mut args = vec![
+            "render", "--layout", "quilt", "--quilt", "4x2", "--size", "24x32",
+        ];
+        let example = scene("example.nff");
+        args.extend_from_slice(&[s(&example), "-o", s(&out), "--samples", "1"]);
+        args.extend_from_slice(extra);
+        let run = twinray(&args);
+        run.ok();
+        run.stderr.clone()
+    };
+    let stderr = quilt(&[]);
+    assert!(!stderr.contains("depth budget"), "{stderr}");
     // Asked for, the budget is checked and its excess warned about.
-    let run = render(
-        &scene("example.nff"),
-        &out,
-        &[
-            "--layout",
-            "quilt",
-            "--quilt",
-            "4x2",
-            "--size",
-            "24x32",
-            "--samples",
-            "1",
-            "--view-cone",
-            "35",
-        ],
-    );
-    run.ok();
-    assert!(
-        run.stderr.contains("exceed the depth budget"),
-        "{}",
-        run.stderr
-    );
+    let stderr = quilt(&["--view-cone", "35"]);
+    assert!(stderr.contains("exceed the depth budget"), "{stderr}");
 }
 
 #[test]
