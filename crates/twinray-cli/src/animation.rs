@@ -18,9 +18,9 @@ const STEPS: u64 = 1000;
 
 pub fn run(spec: JobSpec, args: &RenderArgs) -> Result<Vec<PathBuf>> {
     let animation = Animation::check(spec)?;
-    print_messages(animation.messages(), args.verbose);
+    print_messages(animation.messages(), args);
     let loaded = animation.load()?;
-    print_messages(&loaded.messages, args.verbose);
+    print_messages(&loaded.messages, args);
     let count = u64::from(animation.frames().count());
     let bar = progress_bar(
         args,
@@ -40,7 +40,7 @@ pub fn run(spec: JobSpec, args: &RenderArgs) -> Result<Vec<PathBuf>> {
             .filter(|m| m.level == Level::Info || told.insert(m.text.clone()))
             .collect();
         bar.suspend(|| {
-            print_messages(&fresh, args.verbose);
+            print_messages(&fresh, args);
             if args.quiet {
                 return;
             }
@@ -62,7 +62,7 @@ pub fn run(spec: JobSpec, args: &RenderArgs) -> Result<Vec<PathBuf>> {
         interrupted();
     }
     let (written, messages) = result?;
-    print_messages(&messages, args.verbose);
+    print_messages(&messages, args);
     // The frames' files were listed as they were written; a video is left.
     Ok(written
         .into_iter()

@@ -1,7 +1,42 @@
-//! How a render looks: the colour of 8-bit outputs.
+//! How a render looks: the colour of 8-bit outputs, and what surrounds a model.
 
 use clap::ValueEnum;
-use twinray::job::TonemapSpec;
+use twinray::job::{StudioSpec, TonemapSpec, UpAxisSpec};
+use twinray::math::Vec3;
+
+use crate::render_args::parse_vec3;
+
+/// What surrounds the scene.
+#[derive(clap::Args, Clone, Debug, Default)]
+#[command(next_help_heading = "Surroundings")]
+pub struct StudioArgs {
+    /// Background colour R,G,B, linear (default: the file's; black for OBJ and glTF).
+    #[arg(long, value_name = "R,G,B", value_parser = parse_vec3)]
+    pub background: Option<Vec3>,
+    /// Which axis is up in a file without a camera: y (glTF's, the default) or z
+    /// (CAD and robotics models: pybullet's, STL files).
+    #[arg(long, value_enum, default_value_t = UpAxisArg::Y)]
+    pub up_axis: UpAxisArg,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum UpAxisArg {
+    #[default]
+    Y,
+    Z,
+}
+
+impl StudioArgs {
+    pub fn spec(&self) -> StudioSpec {
+        StudioSpec {
+            background: self.background.map(|v| v.to_array()),
+            up_axis: match self.up_axis {
+                UpAxisArg::Y => UpAxisSpec::Y,
+                UpAxisArg::Z => UpAxisSpec::Z,
+            },
+        }
+    }
+}
 
 /// Colour of 8-bit outputs (PNG, JPEG, MPO, anaglyphs, quilts).
 #[derive(clap::Args, Clone, Debug, Default)]

@@ -279,14 +279,14 @@ pub(crate) fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
     Ok(spec)
 }
 
-/// Prints a stage's messages: warnings and notes always, details with -v.
-pub(crate) fn print_messages(messages: &[Message], verbose: bool) {
+/// Prints a stage's messages: warnings always, notes unless -q, details with -v.
+pub(crate) fn print_messages(messages: &[Message], args: &RenderArgs) {
     for m in messages {
         match m.level {
             Level::Warning => eprintln!("twinray: warning: {}", m.text),
-            Level::Note => eprintln!("twinray: note: {}", m.text),
-            Level::Info if verbose => eprintln!("{}", m.text),
-            Level::Info => {}
+            Level::Note if !args.quiet => eprintln!("twinray: note: {}", m.text),
+            Level::Info if args.verbose => eprintln!("{}", m.text),
+            Level::Note | Level::Info => {}
         }
     }
 }
@@ -312,7 +312,7 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
                 Some(l) => l,
                 None => {
                     let l = job.load()?;
-                    print_messages(&l.messages, args.verbose);
+                    print_messages(&l.messages, args);
                     loaded.insert(l)
                 }
             };
@@ -322,7 +322,7 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     }
     let job = Job::check(spec)?;
     let loaded = job.load()?;
-    print_messages(&loaded.messages, args.verbose);
+    print_messages(&loaded.messages, args);
     render_still(&job, &loaded, args)
 }
 
@@ -346,9 +346,9 @@ fn render_still(
     loaded: &twinray::job::Loaded,
     args: &RenderArgs,
 ) -> Result<Vec<PathBuf>> {
-    print_messages(job.messages(), args.verbose);
+    print_messages(job.messages(), args);
     let plan = job.plan(loaded)?;
-    print_messages(&plan.messages, args.verbose);
+    print_messages(&plan.messages, args);
 
     let bar = progress_bar(
         args,
@@ -366,6 +366,6 @@ fn render_still(
         interrupted();
     }
     let rendered = rendered?;
-    print_messages(&rendered.messages, args.verbose);
+    print_messages(&rendered.messages, args);
     Ok(job.write(loaded, &plan, &rendered)?)
 }

@@ -39,7 +39,7 @@ pub fn run(args: &PreviewArgs) -> Result<()> {
         );
     }
     let preview = twinray_preview::Preview::new(spec, args.preview_width)?;
-    crate::print_messages(&preview.load_messages(), args.render.verbose);
+    crate::print_messages(&preview.load_messages(), &args.render);
     if let Some(error) = preview.load_error() {
         // The page shows it too; the server runs so that the file can be
         // fixed and reloaded from the page.

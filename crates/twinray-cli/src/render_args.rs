@@ -16,7 +16,7 @@ use twinray::rig::budget::DepthBudget;
 use twinray::rig::choice::Interaxial;
 use twinray::rig::report as disparity;
 
-use crate::look_args::ColourArgs;
+use crate::look_args::{ColourArgs, StudioArgs};
 use crate::sampling::SamplingArgs;
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -92,7 +92,7 @@ pub struct RenderArgs {
     /// Write statistics (ray counts, times, hierarchy) as JSON.
     #[arg(long)]
     pub stats: Option<PathBuf>,
-    /// No progress bar.
+    /// No progress bar, no notes (warnings and errors only).
     #[arg(short, long)]
     pub quiet: bool,
     /// Print scene facts, the rig and timings on stderr (the files written are listed
@@ -177,6 +177,9 @@ pub struct RenderArgs {
 
     #[command(flatten)]
     pub animation: AnimationArgs,
+
+    #[command(flatten)]
+    pub studio: StudioArgs,
 }
 
 /// Frames, camera motion and video; tiles of a still.
@@ -421,6 +424,7 @@ impl RenderArgs {
                 max_vertices: self.max_vertices,
                 max_triangles: self.max_triangles,
             },
+            studio: self.studio.spec(),
         }
     }
 }

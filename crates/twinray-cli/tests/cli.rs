@@ -1138,22 +1138,121 @@ fn model(name: &str) -> PathBuf {
 }
 
 #[test]
-fn obj_and_glb_render_framed_with_a_headlight_and_a_warning() {
+fn obj_and_glb_render_framed_and_lit_saying_so_in_one_verbose_line() {
     let dir = tmp();
     for name in ["pybullet/torus/torus_textured.obj", "gltf/torus.glb"] {
         let out = dir.path().join("m.png");
-        let run = render(&model(name), &out, &["--size", SIZE]);
+        // The defaults at work are nothing to warn about: silence.
+        let run = twinray(&["render", s(&model(name)), "-o", s(&out), "--size", SIZE]);
         run.ok();
         assert_eq!(png_size(&out), (W, H));
+        assert!(!run.stderr.contains("no camera"), "{}", run.stderr);
+        assert!(!run.stderr.contains("warning"), "{}", run.stderr);
+        // -v says what the job supplied, in one line.
+        let run = render(&model(name), &out, &["--size", SIZE, "-v"]);
+        run.ok();
+        let lines: Vec<&str> = run
+            .stderr
+            .lines()
+            .filter(|l| l.contains("no camera") || l.contains("no lights"))
+            .collect();
+        assert_eq!(lines.len(), 1, "{}", run.stderr);
         assert!(
-            run.stderr
-                .contains("has no lights: added a white point light"),
+            lines[0].contains("no camera") && lines[0].contains("no lights: added"),
             "{}",
-            run.stderr
+            lines[0]
         );
-        assert!(run.stderr.contains("has no camera"), "{}", run.stderr);
         std::fs::remove_file(&out).unwrap();
     }
+}
+
+#[test]
+fn background_replaces_the_files() {
+    let dir = tmp();
+    let out = dir.path().join("bg.png");
+    let model = model("gltf/torus.glb");
+    render(
+        &model,
+        &out,
+        &["--size", "16x12", "--background", "0.5,0.5,0.5"],
+    )
+    .ok();
+    // The corner is background: linear 0.5, sRGB-encoded (read back as byte / 255).
+    let corner = twinray::output::read_image(&out).unwrap().get(0, 0) * 255.0;
+    assert_eq!(corner.round().to_array(), [188.0; 3]);
+    render(&model, &out, &["--background", "1,-1,0"]).one_line_error();
+}
+
+#[test]
+fn quiet_silences_notes_not_warnings() {
+    let dir = tmp();
+    let example = scene("example.nff");
+    // `render` adds --quiet itself: these runs spell out what they pass.
+    let run = |out: &Path, extra: &[&str]| {
+        let mut args = vec!["render", s(&example), "-o", s(out), "--size", "8x6"];
+        args.extend_from_slice(extra);
+        let run = twinray(&args);
+        run.ok();
+        run.stderr.clone()
+    };
+    let (png, exr) = (dir.path().join("n.png"), dir.path().join("n.exr"));
+    let stderr = run(&png, &["--srgb"]);
+    assert!(stderr.contains("note: --srgb is the default"), "{stderr}");
+    let stderr = run(&png, &["--srgb", "-q"]);
+    assert!(!stderr.contains("note:"), "{stderr}");
+    // Warnings stay.
+    let stderr = run(&exr, &["-q", "--exposure", "1"]);
+    assert!(stderr.contains("warning: --exposure"), "{stderr}");
+}
+
+#[test]
+fn repeated_warnings_are_counted_and_opaque_ior_0_is_not_one() {
+    let dir = tmp();
+    // Ten uses of a glass material of index 0 (warned: once, with a count),
+    // and an opaque material of index 0 (the SPD write it: not warned).
+    let mut nff = String::from(HEADER);
+    for i in 0..10 {
+        nff += &format!("f 1 1 1 0.5 0 0 0.5 0\ns {i} 0 0 0.3\n");
+    }
+    nff += "f 1 1 1 1 0 0 0 0\ns 0 0 2 0.3\n";
+    let scene = write_scene(dir.path(), "glass.nff", nff.as_bytes());
+    let out = dir.path().join("g.png");
+    let run = render(&scene, &out, &[]);
+    run.ok();
+    let warnings: Vec<&str> = run
+        .stderr
+        .lines()
+        .filter(|l| l.contains("warning"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{}", run.stderr);
+    assert!(
+        warnings[0].contains("glass.nff:9: material index of refraction 0 replaced by 1")
+            && warnings[0].contains("(and 9 more lines like it)"),
+        "{}",
+        warnings[0]
+    );
+}
+
+#[test]
+fn quilt_defaults_do_not_warn_about_their_own_rig() {
+    let dir = tmp();
+    let out = dir.path().join("q.png");
+    let quilt = |extra: &[&str]| {
+        let mut args = vec![
+            "render", "--layout", "quilt", "--quilt", "4x2", "--size", "24x32",
+        ];
+        let example = scene("example.nff");
+        args.extend_from_slice(&[s(&example), "-o", s(&out), "--samples", "1"]);
+        args.extend_from_slice(extra);
+        let run = twinray(&args);
+        run.ok();
+        run.stderr.clone()
+    };
+    let stderr = quilt(&[]);
+    assert!(!stderr.contains("depth budget"), "{stderr}");
+    // Asked for, the budget is checked and its excess warned about.
+    let stderr = quilt(&["--view-cone", "35"]);
+    assert!(stderr.contains("exceed the depth budget"), "{stderr}");
 }
 
 #[test]

@@ -122,6 +122,33 @@ fn falloff(dist: f32, range: Option<f32>) -> Option<f32> {
     (f > 0.0 && f.is_finite()).then_some(f)
 }
 
+/// The lights twinray adds to a model file without any: a key light above
+/// and to the left of the camera, a dimmer fill from the right and a rim
+/// light from behind and above, all directional and white, placed in the
+/// frame of the viewpoint looking from `from` to `at` with `up`, so that
+/// shapes read (the sides differ) and shadows fall beside the model rather
+/// than behind it, as a headlight's do.
+pub fn three_point_rig(from: Vec3, at: Vec3, up: Vec3) -> Vec<Light> {
+    let back = (from - at).normalize_or(Vec3::Z);
+    let right = up.cross(back).normalize_or(back.any_orthonormal_vector());
+    let up = back.cross(right);
+    // (toward the light in the camera's frame: right, up, back), brightness.
+    let rig = [
+        ((-0.55, 0.65, 0.55), 0.8),
+        ((0.75, 0.1, 0.65), 0.35),
+        ((0.25, 0.6, -0.75), 0.5),
+    ];
+    rig.iter()
+        .map(|&((r, u, b), brightness)| {
+            let toward = (right * r + up * u + back * b).normalize();
+            Light {
+                kind: LightKind::Directional { direction: -toward },
+                color: Some(Color::splat(brightness)),
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

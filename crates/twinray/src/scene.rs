@@ -33,6 +33,15 @@ pub struct Material {
     /// Index into `Scene::textures`: multiplies `color` where a triangle has
     /// texture coordinates.
     pub texture: Option<u32>,
+    /// Colour of the Phong highlight (white; a metal's base colour).
+    pub specular_color: Color,
+    /// Multiplies `emission` where a triangle has texture coordinates (glTF
+    /// `emissiveTexture`).
+    pub emission_texture: Option<u32>,
+    /// Scales the ambient term by its red channel (glTF `occlusionTexture`,
+    /// non-colour data), blended by `occlusion_strength`.
+    pub occlusion_texture: Option<u32>,
+    pub occlusion_strength: f32,
 }
 
 impl Material {
@@ -60,7 +69,11 @@ impl Material {
             }
         }
         if self.ior <= 0.0 {
-            changed.push(format!("index of refraction {} replaced by 1", self.ior));
+            // Only a transmitting material refracts: an opaque one's index
+            // means nothing (the SPD write 0 there), so no warning.
+            if self.t > 0.0 {
+                changed.push(format!("index of refraction {} replaced by 1", self.ior));
+            }
             self.ior = 1.0;
         }
         (self, changed)
@@ -85,6 +98,10 @@ impl Default for Material {
             mirror: 0.0,
             emission: Color::ZERO,
             texture: None,
+            specular_color: Color::ONE,
+            emission_texture: None,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
         }
     }
 }
@@ -178,6 +195,24 @@ pub struct SurfaceSample<'a> {
     pub normal: Vec3,
     pub color: Color,
     pub material: &'a Material,
+    /// Light emitted here: the material's, times its emission texture.
+    pub emission: Color,
+    /// Ambient occlusion here, 1 = none.
+    pub occlusion: f32,
+}
+
+impl SurfaceSample<'_> {
+    /// The ambient term here, with the light emitted: Whitted's ambient
+    /// (colour × the material's ambient coefficient) darkened by the
+    /// occlusion texture.
+    pub fn ambient(&self) -> Color {
+        let a = self.color * (self.material.ambient() * self.occlusion);
+        if self.emission == Color::ZERO {
+            a
+        } else {
+            a + self.emission
+        }
+    }
 }
 
 /// A triangle of a mesh as the OBJ and glTF loaders hand it over.
@@ -234,20 +269,41 @@ impl Scene {
         let shape = &self.shapes[prim];
         let material = &self.materials[self.shape_material[prim] as usize];
         let normal = shape.normal(point, hit, &self.corners);
-        let mut color = material.color;
-        if let (Some(tex), Shape::Triangle(t)) = (material.texture, shape) {
-            if let TriangleNormals::Patch(i) = t.normals {
-                if let Some([a, b, c]) = self.corners[i as usize].uv {
-                    let uv = a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v;
-                    color *= self.textures[tex as usize].sample(uv.x, uv.y);
-                }
-            }
-        }
-        SurfaceSample {
+        let mut sample = SurfaceSample {
             normal,
-            color,
+            color: material.color,
             material,
+            emission: material.emission,
+            occlusion: 1.0,
+        };
+        let textured = material.texture.is_some()
+            || material.emission_texture.is_some()
+            || material.occlusion_texture.is_some();
+        if !textured {
+            return sample;
         }
+        let Shape::Triangle(t) = shape else {
+            return sample;
+        };
+        let TriangleNormals::Patch(i) = t.normals else {
+            return sample;
+        };
+        let Some([a, b, c]) = self.corners[i as usize].uv else {
+            return sample;
+        };
+        let uv = a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v;
+        let texel = |tex: u32| self.textures[tex as usize].sample(uv.x, uv.y);
+        if let Some(tex) = material.texture {
+            sample.color *= texel(tex);
+        }
+        if let Some(tex) = material.emission_texture {
+            sample.emission *= texel(tex);
+        }
+        if let Some(tex) = material.occlusion_texture {
+            // glTF: occlusion = 1 + strength × (texel.r − 1).
+            sample.occlusion = 1.0 + material.occlusion_strength * (texel(tex).x - 1.0);
+        }
+        sample
     }
 
     /// Bounds of every shape (empty for an empty scene).

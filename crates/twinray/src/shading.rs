@@ -219,7 +219,7 @@ pub fn light_contribution(
         let r = crate::math::reflect(-l, sp.normal);
         let r_dot_v = r.dot(-view_dir);
         if r_dot_v > 0.0 {
-            c += Color::splat(m.ks * r_dot_v.powf(m.shine));
+            c += m.specular_color * (m.ks * r_dot_v.powf(m.shine));
         }
     }
     c * light * through

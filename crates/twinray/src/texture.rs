@@ -49,24 +49,28 @@ impl Texture {
         }
     }
 
-    /// Decodes a PNG or JPEG image held in memory. `what` names it in errors.
+    /// Decodes a PNG or JPEG colour image held in memory (sRGB-encoded).
+    /// `what` names it in errors.
     pub fn decode(bytes: &[u8], what: &str) -> Result<Texture, String> {
-        let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
-            .with_guessed_format()
-            .map_err(|e| format!("{what}: {e}"))?;
-        let (w, h) = reader
-            .into_dimensions()
-            .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?;
-        if w == 0 || h == 0 || w as u64 * h as u64 > MAX_TEXELS {
-            return Err(format!(
-                "{what}: image of {w}x{h} pixels refused (at most {MAX_TEXELS} pixels)"
-            ));
-        }
-        let img = image::load_from_memory(bytes)
-            .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?
-            .into_rgb8();
-        let rgb: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
-        Ok(Texture::from_srgb8(img.width(), img.height(), &rgb))
+        let (w, h, rgb) = decode_rgb8(bytes, what)?;
+        Ok(Texture::from_srgb8(w, h, &rgb))
+    }
+
+    /// Decodes a PNG or JPEG image of non-colour data (occlusion): texels
+    /// are `byte / 255`, not sRGB-decoded.
+    pub fn decode_data(bytes: &[u8], what: &str) -> Result<Texture, String> {
+        let (width, height, rgb) = decode_rgb8(bytes, what)?;
+        let v = |b: u8| f32::from(b) / 255.0;
+        Ok(Texture {
+            width,
+            height,
+            texels: rgb
+                .iter()
+                .map(|p| Color::new(v(p[0]), v(p[1]), v(p[2])))
+                .collect(),
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+        })
     }
 
     /// Reads and decodes an image file.
@@ -103,6 +107,27 @@ impl Texture {
     pub fn memory_bytes(&self) -> usize {
         self.texels.len() * std::mem::size_of::<Color>()
     }
+}
+
+/// A PNG or JPEG image's size and 8-bit RGB pixels; too large an image is
+/// refused before it is decoded.
+fn decode_rgb8(bytes: &[u8], what: &str) -> Result<(u32, u32, Vec<[u8; 3]>), String> {
+    let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| format!("{what}: {e}"))?;
+    let (w, h) = reader
+        .into_dimensions()
+        .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?;
+    if w == 0 || h == 0 || w as u64 * h as u64 > MAX_TEXELS {
+        return Err(format!(
+            "{what}: image of {w}x{h} pixels refused (at most {MAX_TEXELS} pixels)"
+        ));
+    }
+    let img = image::load_from_memory(bytes)
+        .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?
+        .into_rgb8();
+    let rgb: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    Ok((img.width(), img.height(), rgb))
 }
 
 /// Texel index of integer coordinate `i` on an axis of `n` texels.

@@ -246,16 +246,17 @@ fn matte_model_as_nff_obj_and_gltf_renders_the_same() {
 fn mirror_and_glass_as_nff_and_obj_render_the_same() {
     let m = model();
     // Kd 0.5 splits into colour (1, 0.5, 0.25) and kd 0.5; Ks 0.3 with illum 7
-    // is highlight and mirror; d 0.75 is T 0.25.
+    // is highlight and mirror, at their full weight and the largest exponent
+    // for Ns 1000 (roughness 0 as Blender reads Ns); d 0.75 is T 0.25.
     let nff_text = as_nff(
         &m,
-        ["1 0.5 0.25 0.5 0.3 20 0.25 1.5", "0.25 0.5 1 1 0 0 0 1"],
+        ["1 0.5 0.25 0.5 0.3 10000 0.25 1.5", "0.25 0.5 1 1 0 0 0 1"],
     );
     let nff = parse_nff(&nff_text, Path::new("m.nff"), &LoadOptions::default()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(
         dir.path().join("m.mtl"),
-        "newmtl m0\nKd 0.5 0.25 0.125\nKs 0.3 0.3 0.3\nNs 20\nd 0.75\nNi 1.5\nillum 7\n\
+        "newmtl m0\nKd 0.5 0.25 0.125\nKs 0.3 0.3 0.3\nNs 1000\nd 0.75\nNi 1.5\nillum 7\n\
          newmtl m1\nKd 0.25 0.5 1\nillum 1\n",
     )
     .unwrap();

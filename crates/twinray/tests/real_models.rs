@@ -33,7 +33,9 @@ fn blender_torus_obj_loads_with_its_texture() {
     assert_eq!(s.textures.len(), 1, "map_Kd ../cube.png");
     assert_eq!((s.textures[0].width, s.textures[0].height), (256, 256));
     let m = &s.materials[0];
-    assert_eq!((m.texture, m.kd, m.ks), (Some(0), 0.8, 0.8));
+    // Blender wrote `Ks 0.8` with `Ns 0`: a fully rough surface, no
+    // highlight (as a Phong exponent of 0, it whitened the whole torus).
+    assert_eq!((m.texture, m.kd, m.ks, m.mirror), (Some(0), 0.8, 0.0, 0.0));
     assert!(
         !s.corners.is_empty()
             && s.corners
@@ -76,4 +78,36 @@ fn the_texture_shows_in_the_render() {
         differing > torus / 2,
         "{differing} of {torus} pixels change"
     );
+}
+
+#[test]
+fn webxr_hand_renders_with_shading_that_reads() {
+    use twinray::job::{CancelToken, Job, JobSpec};
+    let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/models/webxr/generic-hand-left.glb");
+    let dir = tempfile::tempdir().unwrap();
+    let mut spec = JobSpec::new(&path, dir.path().join("hand.png"));
+    spec.camera.size = Some([64, 48]);
+    spec.sampling.samples = Some(1);
+    let job = Job::check(spec).unwrap();
+    let loaded = job.load().unwrap();
+    assert!(
+        loaded.scene.warnings.is_empty(),
+        "{:?}",
+        loaded.scene.warnings
+    );
+    assert!(loaded.scene.shapes.len() > 1000);
+    let plan = job.plan(&loaded).unwrap();
+    let out = job.render(&plan, &|_, _| {}, &CancelToken::new()).unwrap();
+    // The hand's pixels: many, and not one flat shade (std of luma > 0.02).
+    let luma: Vec<f32> = out.output.images[0]
+        .pixels
+        .iter()
+        .filter(|c| c.max_element() > 0.0)
+        .map(|c| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z)
+        .collect();
+    assert!(luma.len() > 200, "{} pixels", luma.len());
+    let mean = luma.iter().sum::<f32>() / luma.len() as f32;
+    let var = luma.iter().map(|l| (l - mean).powi(2)).sum::<f32>() / luma.len() as f32;
+    assert!(var.sqrt() > 0.02, "flat: mean {mean}, std {}", var.sqrt());
 }

@@ -25,6 +25,7 @@ mod command;
 mod outputs;
 pub mod preflight;
 mod preview;
+mod repeats;
 pub mod spec;
 pub mod tiles;
 
@@ -36,8 +37,8 @@ pub use preflight::{
 pub use preview::Pass;
 pub use spec::{
     AnaglyphSpec, ApproximationSpec, CameraSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec,
-    LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, TonemapSpec,
-    TraceSpec,
+    LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, StudioSpec,
+    TonemapSpec, TraceSpec, UpAxisSpec,
 };
 pub use spec::{AnimationSpec, ShotRigSpec, TileSpec};
 
@@ -58,6 +59,7 @@ use crate::rig::budget::DepthBudget;
 use crate::rig::camera_overrides::{self as view, CameraOverrides};
 use crate::rig::choice::RigRequest;
 use crate::rig::choice::{self as rig_choice, Interaxial, RigFlags};
+use crate::rig::framing;
 use crate::rig::report::{self as rig_report, Settled};
 use crate::rig::Camera;
 use crate::rig::Rig;
@@ -202,6 +204,13 @@ impl Job {
             None => Arc::new(worker_pool(spec.trace.threads)?),
         };
         let messages = outputs::check_display(&spec.output)?;
+        if let Some(bg) = spec.studio.background {
+            if !bg.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                return Err(invalid(format!(
+                    "--background takes three finite values >= 0 (linear RGB), got {bg:?}"
+                )));
+            }
+        }
         Ok(Job {
             spec,
             views: checked.views,
@@ -260,26 +269,33 @@ impl Job {
     /// it): its warnings become messages; a mesh file without lights gets a
     /// headlight at the camera the spec asks for.
     pub fn prepare(&self, mut scene: Scene) -> Result<Loaded> {
-        let mut messages: Vec<Message> = scene
-            .warnings
+        let mut messages: Vec<Message> = repeats::fold_repeated(&scene.warnings)
             .iter()
             .chain(&lights_warning(scene.lights.len()))
             .map(|w| Message::warning(w.clone()))
             .collect();
         let (viewpoint, given) = view::resolve(&scene, &self.view_overrides())?;
         let path = self.spec.scene.display();
+        // What the file leaves out and the job supplies: one line for -v.
+        let mut supplied = Vec::new();
         if !given && self.spec.camera.from.is_none() {
-            messages.push(Message::note(format!(
-                "{path} has no camera: looking at the whole scene from the front (set one with --from, --at, --up, --fov)"
-            )));
+            supplied.push("no camera: framed the whole scene from the front (--from, --at, --up, --fov set one)");
         }
+        let viewpoint = if given {
+            viewpoint
+        } else {
+            self.up_axis(viewpoint)
+        };
         if scene.format != SceneFormat::Nff && scene.lights.is_empty() {
-            let file_viewpoint = std::mem::replace(&mut scene.viewpoint, viewpoint);
-            scene.add_headlight_if_dark();
-            scene.viewpoint = file_viewpoint;
-            messages.push(Message::warning(format!(
-                "{path} has no lights: added a white point light at the camera"
-            )));
+            scene.lights =
+                crate::lights::three_point_rig(viewpoint.from, viewpoint.at, viewpoint.up);
+            supplied.push("no lights: added a key, a fill and a rim light around the camera");
+        }
+        if !supplied.is_empty() {
+            messages.push(Message::info(format!("{path}: {}", supplied.join("; "))));
+        }
+        if let Some(rgb) = self.spec.studio.background {
+            scene.background = Vec3::from(rgb);
         }
         Ok(Loaded {
             scene: Arc::new(scene),
@@ -287,6 +303,27 @@ impl Job {
             load_seconds: 0.0,
             messages,
         })
+    }
+
+    /// The framing of a file without a camera turned for `--up-axis z`: the
+    /// loader frames y-up models, so (x, y, z) becomes (x, −z, y) about the
+    /// target, and z is up (unless `--up` says otherwise).
+    fn up_axis(&self, vp: Viewpoint) -> Viewpoint {
+        if self.spec.studio.up_axis == UpAxisSpec::Y {
+            return vp;
+        }
+        let turn = |v: Vec3| Vec3::new(v.x, -v.z, v.y);
+        let from = if self.spec.camera.from.is_some() {
+            vp.from
+        } else {
+            vp.at + turn(vp.from - vp.at)
+        };
+        let up = if self.spec.camera.up.is_some() {
+            vp.up
+        } else {
+            Vec3::Z
+        };
+        Viewpoint { from, up, ..vp }
     }
 
     pub(crate) fn view_overrides(&self) -> CameraOverrides {
@@ -321,8 +358,21 @@ impl Job {
 
     /// Decides everything before rendering: size, camera, rig, cut, files.
     pub fn plan(&self, loaded: &Loaded) -> Result<Plan> {
-        let (viewpoint, _) = view::resolve(&loaded.scene, &self.view_overrides())?;
+        let (viewpoint, given) = view::resolve(&loaded.scene, &self.view_overrides())?;
         let (width, height) = self.size(&viewpoint)?;
+        // A scene without a camera: its bounds fill 80 % of this image.
+        let camera_spec = &self.spec.camera;
+        let viewpoint = if given {
+            viewpoint
+        } else {
+            self.up_axis(viewpoint)
+        };
+        let viewpoint = if given || camera_spec.from.is_some() || camera_spec.at.is_some() {
+            viewpoint
+        } else {
+            let boxes = loaded.scene.shapes.iter().map(|s| s.bounds());
+            framing::fit_bounds(&viewpoint, boxes, width, height, framing::FILL)
+        };
         let camera = Camera::new(&viewpoint, width, height);
         let at_distance = f64::from((viewpoint.at - viewpoint.from).length());
         let request = self.rig_request(at_distance)?;
@@ -384,7 +434,12 @@ impl Job {
             messages: Vec::new(),
             rows,
         };
-        plan.messages = plan_messages(&plan);
+        let rig = &self.spec.rig;
+        let rig_by_default = self.quilt.is_some()
+            && rig.interaxial.is_none()
+            && rig.view_cone.is_none()
+            && rig.depth_budget.is_none();
+        plan.messages = plan_messages(&plan, rig_by_default);
         Ok(plan)
     }
 
@@ -690,7 +745,7 @@ fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
 
 /// The verbose account of a plan: scene, rig, the rig's choice and report,
 /// the cut; and the report's warnings.
-fn plan_messages(plan: &Plan) -> Vec<Message> {
+fn plan_messages(plan: &Plan, rig_by_default: bool) -> Vec<Message> {
     let world = &plan.world;
     let mut m = vec![Message::info(format!(
         "scene: {} primitives, {} lights, hierarchy {} nodes (depth {}), built in {:.3} s",
@@ -736,7 +791,15 @@ fn plan_messages(plan: &Plan) -> Vec<Message> {
         )));
     }
     if let Some(s) = &plan.settled {
-        m.extend(s.report.warnings().into_iter().map(Message::warning));
+        // The defaults' own choice (a quilt's 35° view cone) is not warned
+        // about: the user asked for nothing the budget could contradict.
+        let budget = if rig_by_default {
+            Message::info
+        } else {
+            Message::warning
+        };
+        m.extend(s.report.budget_warning().map(budget));
+        m.extend(s.report.divergence_warning().map(Message::warning));
     }
     m
 }

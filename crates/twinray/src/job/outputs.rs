@@ -62,6 +62,11 @@ pub(super) fn check_display(o: &OutputSpec) -> Result<Vec<Message>> {
         )));
     }
     let mut messages = Vec::new();
+    if o.srgb {
+        messages.push(Message::note(
+            "--srgb is the default of 8-bit outputs now and changes nothing (--linear turns it off)",
+        ));
+    }
     if is_float_output(&o.path) && (o.exposure != 0.0 || o.tonemap != TonemapSpec::Clamp) {
         messages.push(Message::warning(
             "--exposure and --tonemap apply to 8-bit outputs; float files keep the rendered values",

@@ -34,6 +34,28 @@ pub struct JobSpec {
     /// One band of the image (none: the whole image).
     #[serde(default)]
     pub tile: Option<TileSpec>,
+    /// What surrounds a model: the background.
+    #[serde(default)]
+    pub studio: StudioSpec,
+}
+
+/// What surrounds the scene, replacing the file's where given.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StudioSpec {
+    /// Background colour, linear RGB (default: the file's; black for OBJ and glTF).
+    pub background: Option<[f32; 3]>,
+    /// Which axis is up in a file without a camera (default y, glTF's).
+    pub up_axis: UpAxisSpec,
+}
+
+/// The up axis of a model file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum UpAxisSpec {
+    #[default]
+    Y,
+    Z,
 }
 
 /// The viewpoint and the image size; `None` keeps the file's.

@@ -7,8 +7,10 @@
 //! * Primitives of mode TRIANGLES, indexed or not: positions, `NORMAL` (smooth
 //!   shading), the texture coordinates the base-colour texture names.
 //! * Metallic-roughness materials with `baseColorTexture`,
-//!   `KHR_materials_transmission`, `KHR_materials_ior` and `emissiveFactor` map
-//!   to twinray's Whitted material as docs/formats.md explains.
+//!   `KHR_materials_transmission`, `KHR_materials_ior`, `emissiveFactor`,
+//!   `emissiveTexture`, `KHR_materials_emissive_strength` and
+//!   `occlusionTexture` map to twinray's Whitted material as docs/formats.md
+//!   explains.
 //! * `KHR_lights_punctual` point, spot and directional lights; perspective
 //!   cameras (`Scene::cameras`, the first one in use).
 //!
@@ -25,6 +27,7 @@ use glam::{Mat3, Mat4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::khr_lights_punctual::Kind as LightType;
 
+use super::material_model::phong_from_roughness;
 use super::{fold_warnings, read_file, reserve_triangles, LoadOptions};
 use crate::error::{Error, Result};
 use crate::lights::{Light, LightKind};
@@ -68,11 +71,27 @@ pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene
     scene.viewpoint.height = 480;
     let mut textures = HashMap::new();
     for m in doc.materials() {
-        let texture = m
-            .pbr_metallic_roughness()
-            .base_color_texture()
-            .and_then(|info| loader.texture(&mut scene, &mut textures, &info, &buffers));
-        scene.add_material(material_from_pbr(&m, texture));
+        let mut texture = |t: Option<gltf::Texture>, data: bool| {
+            t.and_then(|t| loader.texture(&mut scene, &mut textures, &t, data, &buffers))
+        };
+        let maps = MaterialTextures {
+            base: texture(
+                m.pbr_metallic_roughness()
+                    .base_color_texture()
+                    .map(|i| i.texture()),
+                false,
+            ),
+            emission: texture(m.emissive_texture().map(|i| i.texture()), false),
+            occlusion: texture(m.occlusion_texture().map(|o| o.texture()), true),
+            metal_rough_mean: texture(
+                m.pbr_metallic_roughness()
+                    .metallic_roughness_texture()
+                    .map(|i| i.texture()),
+                true,
+            )
+            .map(|t| mean_texel(&scene.textures[t as usize])),
+        };
+        scene.add_material(material_from_pbr(&m, maps));
     }
     let default_material = scene.add_material(Material {
         kd: 0.8,
@@ -148,9 +167,38 @@ pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene
 /// The crate's schema validation, after a check it lacks: gltf-json 1.4.1's
 /// validation indexes the accessors with a primitive's POSITION index
 /// unchecked, and panics when it is out of range.
+/// Compressed-geometry extensions twinray cannot decode (no maintained
+/// pure-Rust Draco decoder; meshopt is not read yet), and what undoes them.
+const COMPRESSED_GEOMETRY: [&str; 3] = [
+    "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+];
+
+/// A file whose meshes need a compression extension is refused in one line
+/// that names it and the command that decompresses it (without this, the
+/// accessors with no data of their own fail validation by the dozen).
+fn refuse_compressed(root: &gltf::json::Root, file: &Path) -> Result<()> {
+    let needs = |ext: &str| {
+        root.extensions_required.iter().any(|e| e == ext)
+            || (root.extensions_used.iter().any(|e| e == ext)
+                && root.accessors.iter().any(|a| a.buffer_view.is_none()))
+    };
+    match COMPRESSED_GEOMETRY.into_iter().find(|ext| needs(ext)) {
+        Some(ext) => Err(Error::Invalid(format!(
+            "{}: meshes compressed with {ext}, which twinray does not decode; decompress them first: \
+             npx @gltf-transform/cli copy {} uncompressed.glb",
+            file.display(),
+            file.display()
+        ))),
+        None => Ok(()),
+    }
+}
+
 fn validate(gltf: &gltf::Gltf, file: &Path) -> Result<()> {
     use gltf::json::validation::{Checked, Validate};
     let root = gltf.document.as_json();
+    refuse_compressed(root, file)?;
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
             let position = prim
@@ -516,22 +564,24 @@ impl Loader<'_> {
         Ok(())
     }
 
-    /// The base-colour texture of a material: decoded once per image and
-    /// sampler; `None`, with a warning, when its image cannot be had.
+    /// A texture of a material: decoded once per image, sampler and
+    /// encoding (`data`: non-colour values such as occlusion, not
+    /// sRGB-decoded); `None`, with a warning, when its image cannot be had.
     fn texture(
         &self,
         scene: &mut Scene,
-        cache: &mut HashMap<(usize, Wrap, Wrap), Option<u32>>,
-        info: &gltf::texture::Info,
+        cache: &mut HashMap<(usize, Wrap, Wrap, bool), Option<u32>>,
+        texture: &gltf::Texture,
+        data: bool,
         buffers: &[Vec<u8>],
     ) -> Option<u32> {
-        let texture = info.texture();
         let image = texture.source();
         let sampler = texture.sampler();
         let key = (
             image.index(),
             wrap(sampler.wrap_s()),
             wrap(sampler.wrap_t()),
+            data,
         );
         if let Some(&t) = cache.get(&key) {
             return t;
@@ -553,7 +603,13 @@ impl Loader<'_> {
             (None, Some(uri)) => self.uri_bytes(uri, &what).map_err(|e| e.to_string()),
             (None, None) => Err(format!("{what} has neither a uri nor a bufferView")),
         };
-        let decoded = bytes.and_then(|b| Texture::decode(&b, &what));
+        let decoded = bytes.and_then(|b| {
+            if data {
+                Texture::decode_data(&b, &what)
+            } else {
+                Texture::decode(&b, &what)
+            }
+        });
         let index = match decoded {
             Ok(mut tex) => {
                 (tex.wrap_s, tex.wrap_t) = (key.1, key.2);
@@ -563,7 +619,7 @@ impl Loader<'_> {
             Err(e) => {
                 self.warn(
                     scene,
-                    format!("{what}: {e}; the material's base colour is used"),
+                    format!("{what}: {e}; the material's factors are used"),
                 );
                 None
             }
@@ -655,15 +711,35 @@ fn percent_decode(uri: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
+/// The textures of a material, as indices into `Scene::textures`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MaterialTextures {
+    pub base: Option<u32>,
+    pub emission: Option<u32>,
+    pub occlusion: Option<u32>,
+    /// The mean texel of `metallicRoughnessTexture` (green: roughness,
+    /// blue: metallic), which scales the factors: the texture is not
+    /// sampled per hit, and its factors are usually 1 (the texture decides).
+    pub metal_rough_mean: Option<Color>,
+}
+
+/// The mean of a texture's texels.
+fn mean_texel(t: &Texture) -> Color {
+    let sum: Color = t.texels.iter().copied().sum();
+    sum / t.texels.len().max(1) as f32
+}
+
 /// How a metallic-roughness material maps to twinray's Whitted material
 /// (docs/formats.md): the base colour is the colour; the diffuse weight is
 /// what metal and transmission leave, plus a rough metal's scattered share
 /// (metal × roughness: a very rough metal looks like a coloured matte
-/// surface); the Phong highlight and the mirror carry
-/// the specular reflectance at normal incidence (0.04 for dielectrics, 1 for
-/// metals), the highlight fading as roughness grows and the mirror with its
-/// square; roughness sets the Phong exponent (α = roughness², shine = 2/α² − 2).
-pub fn material_from_pbr(m: &gltf::Material, texture: Option<u32>) -> Material {
+/// surface); the Phong highlight and the mirror carry the specular
+/// reflectance at normal incidence (0.04 for dielectrics, 1 for metals) as
+/// [`phong_from_roughness`] spreads it, and a metal's highlight takes its
+/// base colour. Emission is `emissiveFactor` × `emissiveTexture` ×
+/// `KHR_materials_emissive_strength`; the occlusion texture darkens the
+/// ambient term.
+pub fn material_from_pbr(m: &gltf::Material, maps: MaterialTextures) -> Material {
     let pbr = m.pbr_metallic_roughness();
     let unit = |x: f32| {
         if x.is_finite() {
@@ -673,28 +749,37 @@ pub fn material_from_pbr(m: &gltf::Material, texture: Option<u32>) -> Material {
         }
     };
     let [r, g, b, _alpha] = pbr.base_color_factor().map(unit);
-    let metal = unit(pbr.metallic_factor());
-    let rough = unit(pbr.roughness_factor());
+    let mean = maps.metal_rough_mean.unwrap_or(Color::ONE);
+    let metal = unit(pbr.metallic_factor() * mean.z);
+    let rough = unit(pbr.roughness_factor() * mean.y);
     let transmission = unit(m.transmission().map_or(0.0, |t| t.transmission_factor()));
     let ior = m
         .ior()
         .filter(|n| n.is_finite() && *n >= 1.0)
         .unwrap_or(1.5);
-    let specular = 0.04 + 0.96 * metal;
-    let alpha = (rough * rough).max(1e-3);
+    let phong = phong_from_roughness(0.04 + 0.96 * metal, rough);
+    let strength = m
+        .emissive_strength()
+        .filter(|s| s.is_finite() && *s >= 0.0)
+        .unwrap_or(1.0);
     let emissive = m
         .emissive_factor()
         .map(|x| if x.is_finite() { x.max(0.0) } else { 0.0 });
+    let color = Color::new(r, g, b);
     Material {
-        color: Color::new(r, g, b),
+        color,
         kd: (1.0 - metal) * (1.0 - transmission) + metal * rough,
-        ks: specular * (1.0 - rough),
-        shine: (2.0 / (alpha * alpha) - 2.0).clamp(1.0, 10_000.0),
+        ks: phong.ks,
+        shine: phong.shine,
         t: (1.0 - metal) * transmission,
         ior,
-        mirror: specular * (1.0 - rough) * (1.0 - rough),
-        emission: Color::from(emissive),
-        texture,
+        mirror: phong.mirror,
+        emission: Color::from(emissive) * strength,
+        texture: maps.base,
+        specular_color: Color::ONE.lerp(color, metal),
+        emission_texture: maps.emission,
+        occlusion_texture: maps.occlusion,
+        occlusion_strength: m.occlusion_texture().map_or(1.0, |o| unit(o.strength())),
     }
 }
 

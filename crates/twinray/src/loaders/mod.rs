@@ -10,6 +10,7 @@ use crate::error::{Error, Result};
 use crate::scene::Scene;
 
 pub mod gltf;
+pub mod material_model;
 pub mod nff;
 pub mod obj;
 

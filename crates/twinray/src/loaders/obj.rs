@@ -16,6 +16,7 @@ use std::collections::HashMap;
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
+use super::material_model::{phong_from_roughness, roughness_from_ns};
 use super::{fold_warnings, read_file, reserve_triangles, LoadOptions};
 use crate::error::{Error, Result};
 use crate::math::{Color, Vec3};
@@ -408,9 +409,11 @@ fn vec3_at(values: &[f32], i: u32) -> Option<Vec3> {
 
 /// How an MTL material maps to twinray's Whitted material (docs/formats.md):
 /// `Kd` splits into a colour and a diffuse weight (its largest component);
-/// `Ks`'s largest component is the Phong highlight from `illum` 2 on and also
-/// the mirror weight from `illum` 3 on; `1 - d` (or `Tr`) is the transmission,
-/// `Ni` its index of refraction; `Ke` is emitted light.
+/// `Ks`'s largest component is the specular reflectance, `Ns` a roughness
+/// (`1 − √(Ns/1000)`, as Blender's importer reads it), and the two give the
+/// Phong highlight from `illum` 2 on and the mirror weight from `illum` 3 on
+/// ([`phong_from_roughness`]); `1 - d` (or `Tr`) is the transmission, `Ni`
+/// its index of refraction; `Ke` is emitted light.
 pub fn material_from_mtl(m: &tobj::Material, texture: Option<u32>) -> Material {
     let finite = |x: f32| if x.is_finite() { x.max(0.0) } else { 0.0 };
     let kd_rgb = m.diffuse.unwrap_or([0.8; 3]).map(finite);
@@ -439,16 +442,19 @@ pub fn material_from_mtl(m: &tobj::Material, texture: Option<u32>) -> Material {
         .map(finite)
         .filter(|&n| n > 0.0)
         .unwrap_or(1.0);
+    // Blender's importer: Ns is a roughness; absent, it is 0 (fully rough).
+    let phong = phong_from_roughness(ks_max, roughness_from_ns(m.shininess.unwrap_or(0.0)));
     Material {
         color,
         kd,
-        ks: if illum >= 2 { ks_max } else { 0.0 },
-        shine: finite(m.shininess.unwrap_or(0.0)),
+        ks: if illum >= 2 { phong.ks } else { 0.0 },
+        shine: phong.shine,
         t,
         ior,
-        mirror: if illum >= 3 { ks_max } else { 0.0 },
+        mirror: if illum >= 3 { phong.mirror } else { 0.0 },
         emission: Color::from(m.emissive.unwrap_or([0.0; 3]).map(finite)),
         texture,
+        ..Material::default()
     }
 }
 
@@ -535,7 +541,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(
             dir.path().join("m.mtl"),
-            "newmtl red\nKd 0.8 0 0\nKs 0.5 0.5 0.5\nNs 20\nillum 3\nd 0.75\nNi 1.3\n\
+            "newmtl red\nKd 0.8 0 0\nKs 0.5 0.5 0.5\nNs 1000\nillum 3\nd 0.75\nNi 1.3\n\
              newmtl tex\nKd 1 1 1\nillum 1\nmap_Kd -clamp on missing.png\n",
         )
         .unwrap();
@@ -554,7 +560,8 @@ mod tests {
         let red = &s.materials[0];
         assert_eq!(red.color, Color::new(1.0, 0.0, 0.0));
         assert!((red.kd - 0.8).abs() < 1e-6);
-        assert_eq!((red.ks, red.mirror, red.shine), (0.5, 0.5, 20.0));
+        // Ns 1000: roughness 0 (Blender's reading), full highlight and mirror.
+        assert_eq!((red.ks, red.mirror, red.shine), (0.5, 0.5, 10_000.0));
         assert!((red.t - 0.25).abs() < 1e-6 && red.ior == 1.3);
         // `usemtl` holds across objects, as in every OBJ reader.
         assert_eq!(s.shape_material, vec![0, 0, 1, 1]);

@@ -14,7 +14,7 @@ use crate::bvh::{
 };
 use crate::math::{reflect, refract, Color, Ray, Vec3};
 use crate::shading::{
-    ambient, blocks, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint,
+    blocks, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint,
 };
 use crate::shapes::{Shape, SurfaceHit};
 use crate::stats::TraceCounts;
@@ -387,7 +387,7 @@ impl<'a> Tracer<'a> {
                 material,
                 color: surface.color,
             };
-            s.ambient[l] = ambient(&sp);
+            s.ambient[l] = surface.ambient();
             s.prims[l] = prim as u32;
             s.points[l] = Some(sp);
             if material.kd > 0.0 || material.ks > 0.0 {

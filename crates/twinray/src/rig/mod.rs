@@ -12,6 +12,7 @@ pub mod camera;
 pub mod camera_overrides;
 pub mod choice;
 pub mod depth_pass;
+pub mod framing;
 pub mod histogram;
 pub mod report;
 pub mod window;

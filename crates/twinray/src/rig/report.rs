@@ -217,23 +217,35 @@ impl DisparityReport {
 
     /// Warnings: the budget exceeded, far points diverging.
     pub fn warnings(&self) -> Vec<String> {
-        let mut out = Vec::new();
-        if let (Some(pct), Some(d), false) = (self.adjacent_percent, self.depth, self.within_budget)
-        {
-            out.push(format!(
-                "the rig's disparities {:+.2}% to {:+.2}% of the width exceed the depth budget {} \
-                 (visible depths {:.4} to {:.4}); --interaxial auto fits them",
-                pct.near, pct.far, self.budget, d.nearest, d.farthest
-            ));
-        }
-        if let (Some(mm), true) = (self.far_on_screen_mm, self.diverges) {
-            out.push(format!(
-                "far points diverge: {mm:.0} mm apart on a {} m screen, more than the eyes' 65 mm \
-                 (a smaller interaxial or a nearer convergence helps; --screen-width sets the screen)",
-                self.screen_width_m
-            ));
-        }
-        out
+        self.budget_warning()
+            .into_iter()
+            .chain(self.divergence_warning())
+            .collect()
+    }
+
+    /// The disparities beyond the depth budget, if they are.
+    pub fn budget_warning(&self) -> Option<String> {
+        let (Some(pct), Some(d), false) = (self.adjacent_percent, self.depth, self.within_budget)
+        else {
+            return None;
+        };
+        Some(format!(
+            "the rig's disparities {:+.2}% to {:+.2}% of the width exceed the depth budget {} \
+             (visible depths {:.4} to {:.4}); --interaxial auto fits them",
+            pct.near, pct.far, self.budget, d.nearest, d.farthest
+        ))
+    }
+
+    /// Far points that make the eyes diverge, if any.
+    pub fn divergence_warning(&self) -> Option<String> {
+        let (Some(mm), true) = (self.far_on_screen_mm, self.diverges) else {
+            return None;
+        };
+        Some(format!(
+            "far points diverge: {mm:.0} mm apart on a {} m screen, more than the eyes' 65 mm \
+             (a smaller interaxial or a nearer convergence helps; --screen-width sets the screen)",
+            self.screen_width_m
+        ))
     }
 }
 /// The rig to render and its disparity report.
