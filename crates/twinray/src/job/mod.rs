@@ -240,6 +240,11 @@ impl Job {
 
     /// Reads the scene file.
     pub fn load(&self) -> Result<Loaded> {
+        self.load_at(None)
+    }
+
+    /// Reads the scene file with a glTF file's animations at `time` seconds.
+    pub fn load_at(&self, time: Option<f32>) -> Result<Loaded> {
         let start = Instant::now();
         let limits = &self.spec.limits;
         let scene = load_scene(
@@ -248,6 +253,7 @@ impl Job {
                 max_resolution: limits.max_resolution,
                 max_vertices: limits.max_vertices,
                 max_triangles: limits.max_triangles,
+                animation_time: time,
             },
         )?;
         let load_seconds = start.elapsed().as_secs_f64();
