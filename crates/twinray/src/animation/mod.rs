@@ -295,7 +295,10 @@ impl Animation {
         }
         let own = self.loaded_at(self.frames.first)?;
         let at_first = own.as_ref().unwrap_or(loaded);
-        let first = Job::check(self.frame_spec(at_first, self.frames.first, None)?)?;
+        let first = Job::check_sharing_threads(
+            self.frame_spec(at_first, self.frames.first, None)?,
+            &self.base,
+        )?;
         let vp = view::resolve(&at_first.scene, &first.view_overrides())?.0;
         let Some(request) = first.rig_request(f64::from((vp.at - vp.from).length()))? else {
             return Ok(None);
@@ -315,7 +318,7 @@ impl Animation {
         for &f in &sampled {
             let own = self.loaded_at(f)?;
             let loaded = own.as_ref().unwrap_or(loaded);
-            let job = Job::check(self.frame_spec(loaded, f, None)?)?;
+            let job = Job::check_sharing_threads(self.frame_spec(loaded, f, None)?, &self.base)?;
             let plan = job.plan(loaded)?;
             let fitted = plan.settled.as_ref().and_then(|s| s.choice.fitted_to);
             if let Some(r) = fitted {
@@ -379,7 +382,10 @@ impl Animation {
             }
             let own = self.loaded_at(frame)?;
             let loaded = own.as_ref().unwrap_or(loaded);
-            let job = Job::check(self.frame_spec(loaded, frame, shot.as_ref())?)?;
+            let job = Job::check_sharing_threads(
+                self.frame_spec(loaded, frame, shot.as_ref())?,
+                &self.base,
+            )?;
             let plan = job.plan(loaded)?;
             if self.skip_existing && plan.files.iter().all(|f| f.exists()) {
                 on_frame(FrameReport {

@@ -170,7 +170,17 @@ pub struct Rendered {
 impl Job {
     /// Checks the spec: every value and combination that can be refused
     /// before the scene is read, and the worker threads.
-    pub fn check(mut spec: JobSpec) -> Result<Job> {
+    pub fn check(spec: JobSpec) -> Result<Job> {
+        Job::checked(spec, None)
+    }
+
+    /// [`Job::check`] with the worker threads of `other` (the frames of an
+    /// animation share one pool instead of starting threads per frame).
+    pub fn check_sharing_threads(spec: JobSpec, other: &Job) -> Result<Job> {
+        Job::checked(spec, Some(other.pool.clone()))
+    }
+
+    fn checked(mut spec: JobSpec, shared: Option<Arc<rayon::ThreadPool>>) -> Result<Job> {
         if spec.animation.frames.is_some() {
             return Err(invalid(
                 "a spec with frames is an animation: run it with twinray::animation::Animation",
@@ -182,14 +192,20 @@ impl Job {
             spec.output.path = tiles::tile_path(&spec.output.path, tile);
         }
         let checked = Checked::of(&spec)?;
-        let mut pool = rayon::ThreadPoolBuilder::new().stack_size(8 << 20);
-        // Worker stacks of 8 MiB (reserved, not used): room beyond the depth cap.
-        if let Some(n) = spec.trace.threads {
-            pool = pool.num_threads(n);
-        }
-        let pool = pool
-            .build()
-            .map_err(|e| Error::Invalid(format!("cannot start worker threads: {e}")))?;
+        let pool = match shared {
+            Some(pool) => pool,
+            None => {
+                let mut pool = rayon::ThreadPoolBuilder::new().stack_size(8 << 20);
+                // Worker stacks of 8 MiB (reserved, not used): room beyond the depth cap.
+                if let Some(n) = spec.trace.threads {
+                    pool = pool.num_threads(n);
+                }
+                Arc::new(
+                    pool.build()
+                        .map_err(|e| Error::Invalid(format!("cannot start worker threads: {e}")))?,
+                )
+            }
+        };
         let mut messages = Vec::new();
         let ext = spec
             .output
@@ -209,7 +225,7 @@ impl Job {
             budget: checked.budget,
             interaxial: checked.interaxial,
             options: checked.options,
-            pool: Arc::new(pool),
+            pool,
             messages,
         })
     }
