@@ -24,7 +24,7 @@ import subprocess
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import ray
 
@@ -166,6 +166,32 @@ def _gather(
     return results, failures
 
 
+def _run_shares(
+    twinray: str,
+    shares: List[Tuple[str, int, List[str]]],
+    max_retries: int,
+    cpus_per_task: float,
+    journal: Optional[str],
+    progress: bool,
+    unit: str,
+) -> List[dict]:
+    """One Ray task a share `(label, units, twinray args)`, each tried
+    `max_retries + 1` times; raises RenderFailed with twinray's errors."""
+    fault = os.environ.get(FAULT_ENV)
+    options = dict(num_cpus=cpus_per_task, max_retries=max_retries, retry_exceptions=[TwinrayError])
+    tasks = {}
+    for label, units, args in shares:
+        args = [*args, *_threads(args, cpus_per_task)]
+        ref = render_share.options(**options).remote(twinray, args, journal, fault)
+        tasks[ref] = (label, units)
+    results, failures = _gather(tasks, sum(u for _, u, _ in shares), progress, unit)
+    if failures:
+        raise RenderFailed(
+            f"{len(failures)} share(s) failed {max_retries + 1} times: " + "; ".join(failures)
+        )
+    return results
+
+
 def run_frames(
     twinray: str,
     scene: str,
@@ -181,25 +207,12 @@ def run_frames(
     """Renders frames `frames` (A..B) of `scene` to `output` in chunks, one
     Ray task a chunk, each tried `max_retries + 1` times."""
     first, last = parse_range(frames, "--frames")
-    fault = os.environ.get(FAULT_ENV)
     base = ["render", scene, "-o", output, "--frames", f"{first}..{last}", "--skip-existing"]
-    base += [*extra, *_threads(extra, cpus_per_task)]
-    options = dict(
-        num_cpus=cpus_per_task,
-        max_retries=max_retries,
-        retry_exceptions=[TwinrayError],
-    )
-    tasks = {}
-    for a, b in chunks(first, last, chunk):
-        ref = render_share.options(**options).remote(
-            twinray, [*base, "--only", f"{a}..{b}"], journal, fault
-        )
-        tasks[ref] = (f"frames {a}..{b}", b - a + 1)
-    results, failures = _gather(tasks, last - first + 1, progress, "frame")
-    if failures:
-        raise RenderFailed(
-            f"{len(failures)} share(s) failed {max_retries + 1} times: " + "; ".join(failures)
-        )
+    shares = [
+        (f"frames {a}..{b}", b - a + 1, [*base, *extra, "--only", f"{a}..{b}"])
+        for a, b in chunks(first, last, chunk)
+    ]
+    results = _run_shares(twinray, shares, max_retries, cpus_per_task, journal, progress, "frame")
     summary = Summary()
     for r in results:
         summary.written += r["wrote"]
@@ -232,31 +245,16 @@ def run_tiles(
     cpus_per_task: float = 1,
     journal: Optional[str] = None,
     progress: bool = True,
-    merge: Callable[[List[str], str], None] = None,
 ) -> Summary:
     """Renders `scene` as `count` tiles, one Ray task a tile not yet on disk,
     then merges them (per eye where the views are separate files)."""
     if count < 1:
         raise RenderFailed("--tiles must be at least 1")
-    fault = os.environ.get(FAULT_ENV)
     have = tile_files(output, count)
     done = set.intersection(*(set(v) for v in have.values())) if have else set()
-    base = ["render", scene, "-o", output, "--tiles", str(count)]
-    base += [*extra, *_threads(extra, cpus_per_task)]
-    options = dict(num_cpus=cpus_per_task, max_retries=max_retries, retry_exceptions=[TwinrayError])
-    tasks = {}
-    for k in range(count):
-        if k in done:
-            continue
-        ref = render_share.options(**options).remote(
-            twinray, [*base, "--tile", str(k)], journal, fault
-        )
-        tasks[ref] = (f"tile {k}", 1)
-    results, failures = _gather(tasks, len(tasks), progress, "tile")
-    if failures:
-        raise RenderFailed(
-            f"{len(failures)} tile(s) failed {max_retries + 1} times: " + "; ".join(failures)
-        )
+    base = ["render", scene, "-o", output, "--tiles", str(count), *extra]
+    shares = [(f"tile {k}", 1, [*base, "--tile", str(k)]) for k in range(count) if k not in done]
+    results = _run_shares(twinray, shares, max_retries, cpus_per_task, journal, progress, "tile")
     summary = Summary(skipped=sorted(done))
     for r in results:
         summary.written += r["wrote"]
@@ -266,13 +264,10 @@ def run_tiles(
             raise RenderFailed(f"tiles of '{suffix or out.name}' missing after the run: have {sorted(tiles)}")
         target = str(out.with_name(out.stem + suffix + out.suffix))
         inputs = [tiles[k] for k in range(count)]
-        if merge is None:
-            result = subprocess.run(
-                [twinray, "merge", "-o", target, *inputs], capture_output=True, text=True
-            )
-            if result.returncode != 0:
-                raise RenderFailed(f"twinray merge: {result.stderr.strip()}")
-        else:
-            merge(inputs, target)
+        result = subprocess.run(
+            [twinray, "merge", "-o", target, *inputs], capture_output=True, text=True
+        )
+        if result.returncode != 0:
+            raise RenderFailed(f"twinray merge: {result.stderr.strip()}")
         summary.merged.append(target)
     return summary

@@ -31,6 +31,13 @@ fn twinray(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// Runs the binary and checks that it fails saying `says`.
+fn assert_refused(args: &[&str], says: &str) {
+    let r = run(args);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(!r.status.success() && err.contains(says), "{args:?}: {err}");
+}
+
 fn bytes(p: &Path) -> Vec<u8> {
     std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
@@ -188,12 +195,7 @@ fn frame_flags_are_checked() {
     ] {
         let mut args = vec!["render", s(&scene), "-o", s(&out), "-q"];
         args.extend(extra.iter().copied());
-        let r = run(&args);
-        let err = String::from_utf8_lossy(&r.stderr);
-        assert!(
-            !r.status.success() && err.contains(says),
-            "{extra:?}: {err}"
-        );
+        assert_refused(&args, says);
     }
 }
 
@@ -299,12 +301,7 @@ fn one_tile_alone_and_tile_errors() {
     ] {
         let mut args = vec!["render", s(&scene), "-o", s(&out), "-q", "--size", "40x40"];
         args.extend(extra.iter().copied());
-        let r = run(&args);
-        let err = String::from_utf8_lossy(&r.stderr);
-        assert!(
-            !r.status.success() && err.contains(says),
-            "{extra:?}: {err}"
-        );
+        assert_refused(&args, says);
     }
 }
 

@@ -62,6 +62,9 @@ pub struct Animation {
     skip_existing: bool,
     /// The frames rendered (all, or a machine's share).
     only: FrameRange,
+    /// A glTF file with animations: read again for every frame, its nodes
+    /// at the frame's time (frame / fps seconds).
+    animated: bool,
     output: FrameOutput,
     messages: Vec<Message>,
 }
@@ -198,6 +201,7 @@ impl Animation {
             rig: a.rig,
             skip_existing: a.skip_existing,
             only,
+            animated: is_animated(&spec.scene),
             output,
             messages,
         };
@@ -239,6 +243,16 @@ impl Animation {
         self.base.load()
     }
 
+    /// The scene of `frame`: `None` where the shared one serves (the file is
+    /// not animated), else the file read with its nodes at the frame's time.
+    pub fn loaded_at(&self, frame: u32) -> Result<Option<Loaded>> {
+        if !self.animated {
+            return Ok(None);
+        }
+        let time = (f64::from(frame) / self.fps) as f32;
+        self.base.load_at(Some(time)).map(Some)
+    }
+
     /// The scene's viewpoint with the spec's camera flags: what the motion
     /// moves.
     pub fn base_viewpoint(&self, loaded: &Loaded) -> Result<Viewpoint> {
@@ -278,8 +292,13 @@ impl Animation {
         if self.rig == ShotRigSpec::PerFrame || self.frames.count() < 2 || self.base.views() < 2 {
             return Ok(None);
         }
-        let first = Job::check(self.frame_spec(loaded, self.frames.first, None)?)?;
-        let vp = view::resolve(&loaded.scene, &first.view_overrides())?.0;
+        let own = self.loaded_at(self.frames.first)?;
+        let at_first = own.as_ref().unwrap_or(loaded);
+        let first = Job::check_sharing_threads(
+            self.frame_spec(at_first, self.frames.first, None)?,
+            &self.base,
+        )?;
+        let vp = view::resolve(&at_first.scene, &first.view_overrides())?.0;
         let Some(request) = first.rig_request(f64::from((vp.at - vp.from).length()))? else {
             return Ok(None);
         };
@@ -296,7 +315,9 @@ impl Animation {
         let mut range: Option<DepthRange> = None;
         let mut camera = None;
         for &f in &sampled {
-            let job = Job::check(self.frame_spec(loaded, f, None)?)?;
+            let own = self.loaded_at(f)?;
+            let loaded = own.as_ref().unwrap_or(loaded);
+            let job = Job::check_sharing_threads(self.frame_spec(loaded, f, None)?, &self.base)?;
             let plan = job.plan(loaded)?;
             let fitted = plan.settled.as_ref().and_then(|s| s.choice.fitted_to);
             if let Some(r) = fitted {
@@ -358,7 +379,12 @@ impl Animation {
             if !(self.only.first..=self.only.last).contains(&frame) {
                 continue;
             }
-            let job = Job::check(self.frame_spec(loaded, frame, shot.as_ref())?)?;
+            let own = self.loaded_at(frame)?;
+            let loaded = own.as_ref().unwrap_or(loaded);
+            let job = Job::check_sharing_threads(
+                self.frame_spec(loaded, frame, shot.as_ref())?,
+                &self.base,
+            )?;
             let plan = job.plan(loaded)?;
             if self.skip_existing && plan.files.iter().all(|f| f.exists()) {
                 on_frame(FrameReport {
@@ -449,4 +475,13 @@ fn frame_still(
         s.rig.view_cone = None;
     }
     s
+}
+
+/// Whether `scene` is a glTF file with animations.
+fn is_animated(scene: &std::path::Path) -> bool {
+    let ext = scene
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    matches!(ext.as_deref(), Some("gltf" | "glb"))
+        && std::fs::read(scene).is_ok_and(|b| crate::loaders::gltf::animation::has_animations(&b))
 }

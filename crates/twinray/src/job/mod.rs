@@ -187,6 +187,12 @@ impl Job {
         Job::checked(spec, Some(pool))
     }
 
+    /// [`Job::check`] with the worker threads of `other` (the frames of an
+    /// animation share one pool instead of starting threads per frame).
+    pub fn check_sharing_threads(spec: JobSpec, other: &Job) -> Result<Job> {
+        Job::checked(spec, Some(Arc::clone(&other.pool)))
+    }
+
     fn checked(mut spec: JobSpec, pool: Option<Arc<rayon::ThreadPool>>) -> Result<Job> {
         if spec.animation.frames.is_some() {
             return Err(invalid(
@@ -249,6 +255,11 @@ impl Job {
 
     /// Reads the scene file.
     pub fn load(&self) -> Result<Loaded> {
+        self.load_at(None)
+    }
+
+    /// Reads the scene file with a glTF file's animations at `time` seconds.
+    pub fn load_at(&self, time: Option<f32>) -> Result<Loaded> {
         let start = Instant::now();
         let limits = &self.spec.limits;
         let scene = load_scene(
@@ -257,6 +268,7 @@ impl Job {
                 max_resolution: limits.max_resolution,
                 max_vertices: limits.max_vertices,
                 max_triangles: limits.max_triangles,
+                animation_time: time,
             },
         )?;
         let load_seconds = start.elapsed().as_secs_f64();

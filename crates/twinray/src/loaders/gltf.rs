@@ -43,6 +43,8 @@ const MAX_DEPTH: usize = 256;
 const MAX_NODE_VISITS: usize = 1 << 20;
 
 /// Read and parse a `.gltf` or `.glb` file.
+pub mod animation;
+
 pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     let bytes = read_file(path)?;
     parse_gltf(&bytes, path, opts)
@@ -98,7 +100,11 @@ pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene
         ..Material::default()
     });
 
-    let instances = loader.node_instances(doc)?;
+    let animated = match opts.animation_time {
+        Some(t) => loader.animated_locals(doc, &buffers, t)?,
+        None => HashMap::new(),
+    };
+    let instances = loader.node_instances(doc, &animated)?;
     let triangles = instances
         .iter()
         .filter_map(|(node, _)| node.mesh())
@@ -414,8 +420,13 @@ impl Loader<'_> {
     }
 
     /// Every node of the default scene (or the first, or else every root
-    /// node) with its world transform, parents before children.
-    fn node_instances<'d>(&self, doc: &'d gltf::Document) -> Result<Vec<(gltf::Node<'d>, Mat4)>> {
+    /// node) with its world transform, parents before children; `animated`
+    /// replaces the local transforms of the nodes it holds.
+    fn node_instances<'d>(
+        &self,
+        doc: &'d gltf::Document,
+        animated: &HashMap<usize, Mat4>,
+    ) -> Result<Vec<(gltf::Node<'d>, Mat4)>> {
         let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
             Some(s) => s.nodes().collect(),
             None => {
@@ -441,7 +452,11 @@ impl Loader<'_> {
                     node.index()
                 )));
             }
-            let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+            let local = match animated.get(&node.index()) {
+                Some(m) => *m,
+                None => Mat4::from_cols_array_2d(&node.transform().matrix()),
+            };
+            let world = parent * local;
             let children: Vec<gltf::Node> = node.children().collect();
             for child in children.into_iter().rev() {
                 stack.push((child, world, depth + 1));

@@ -17,7 +17,7 @@ pub mod obj;
 const SUPPORTED: &str = ".nff, .obj, .gltf, .glb";
 
 /// Limits on what a scene may ask for (absurd resolutions are refused unless raised).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct LoadOptions {
     /// Largest accepted image width and height, in pixels.
     pub max_resolution: u32,
@@ -26,6 +26,9 @@ pub struct LoadOptions {
     /// Largest accepted number of triangles of a mesh file (OBJ, glTF):
     /// refused before the memory for them is taken.
     pub max_triangles: u64,
+    /// glTF: the animations' node transforms at this time in seconds
+    /// (`None`: the nodes' own transforms).
+    pub animation_time: Option<f32>,
 }
 
 impl Default for LoadOptions {
@@ -34,6 +37,7 @@ impl Default for LoadOptions {
             max_resolution: 16384,
             max_vertices: 1_000_000,
             max_triangles: 100_000_000,
+            animation_time: None,
         }
     }
 }
