@@ -159,6 +159,8 @@ pub enum SceneFormat {
     Nff,
     Obj,
     Gltf,
+    Stl,
+    Ply,
 }
 
 #[derive(Clone, Debug, Default)]

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct JobSpec {
-    /// Scene file: .nff, .obj (with its .mtl), .gltf or .glb.
+    /// Scene file: .nff, .obj (with its .mtl), .gltf, .glb, .stl or .ply.
     pub scene: PathBuf,
     pub camera: CameraSpec,
     pub rig: RigSpec,

@@ -2,19 +2,23 @@
 //!
 //! NFF (Eric Haines' Neutral File Format, the format of the Standard
 //! Procedural Databases), Wavefront OBJ with its MTL materials, and glTF 2.0
-//! (`.gltf`, `.glb`); [`load_scene`] picks the loader by extension.
+//! (`.gltf`, `.glb`), STL (`.stl`, binary or ASCII) and PLY (`.ply`);
+//! [`load_scene`] picks the loader by extension.
 
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::scene::Scene;
+use crate::math::Color;
+use crate::scene::{Material, Scene};
 
 pub mod gltf;
 pub mod material_model;
 pub mod nff;
 pub mod obj;
+pub mod ply;
+pub mod stl;
 
-const SUPPORTED: &str = ".nff, .obj, .gltf, .glb";
+const SUPPORTED: &str = ".nff, .obj, .gltf, .glb, .stl, .ply";
 
 /// Limits on what a scene may ask for (absurd resolutions are refused unless raised).
 #[derive(Clone, Debug, PartialEq)]
@@ -51,6 +55,8 @@ pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
         Some("nff") => nff::load_nff(path, opts),
         Some("obj") => obj::load_obj(path, opts),
         Some("gltf") | Some("glb") => gltf::load_gltf(path, opts),
+        Some("stl") => stl::load_stl(path, opts),
+        Some("ply") => ply::load_ply(path, opts),
         Some(other) => Err(Error::Invalid(format!(
             "{}: unknown scene format '.{other}' (supported: {SUPPORTED})",
             path.display()
@@ -68,6 +74,15 @@ fn read_file(path: &Path) -> Result<Vec<u8>> {
         path: path.to_path_buf(),
         source,
     })
+}
+
+/// The grey material of mesh faces that name none (OBJ faces without
+/// `usemtl`, STL, PLY without vertex colours).
+fn default_mesh_material() -> Material {
+    Material {
+        color: Color::splat(0.8),
+        ..Material::default()
+    }
 }
 
 /// Refuses a mesh file of more than `opts.max_triangles` triangles, before
@@ -112,12 +127,12 @@ mod tests {
 
     #[test]
     fn unknown_extension_is_invalid() {
-        let e = load_scene(Path::new("scene.ply"), &LoadOptions::default()).unwrap_err();
+        let e = load_scene(Path::new("scene.3ds"), &LoadOptions::default()).unwrap_err();
         let Error::Invalid(msg) = &e else {
             panic!("{e:?}")
         };
-        assert!(msg.contains("unknown scene format '.ply'"), "{msg}");
-        assert!(msg.contains(".nff, .obj, .gltf, .glb"), "{msg}");
+        assert!(msg.contains("unknown scene format '.3ds'"), "{msg}");
+        assert!(msg.contains(".nff, .obj, .gltf, .glb, .stl, .ply"), "{msg}");
         let e = load_scene(Path::new("scene"), &LoadOptions::default()).unwrap_err();
         assert!(matches!(e, Error::Invalid(_)), "{e:?}");
     }

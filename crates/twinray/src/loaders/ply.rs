@@ -1,0 +1,239 @@
+//! PLY (ASCII and binary, either byte order), read with `ply-rs-bw`.
+//!
+//! The `vertex` element's `x`, `y`, `z` and the `face` element's
+//! `vertex_indices` (or `vertex_index`) list are read; faces of more than three
+//! vertices are cut into triangles as OBJ's are. Like STL, PLY carries no
+//! materials, camera or lights: the job frames and lights it as an OBJ.
+//!
+//! Vertex colours (`red`, `green`, `blue`: 0–255 integers, or 0–1 floats)
+//! are taken as sRGB, as scanners and Meshlab write them. The scene model has
+//! no per-corner colour, so each face gets the average of its vertices'
+//! colours (averaged in the file's encoding, rounded to 8 bits, then made
+//! linear) as its own material, one material per distinct colour.
+//! Without colours, faces get the same grey default material as OBJ faces
+//! without `usemtl`.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use ply_rs_bw::parser::Parser;
+use ply_rs_bw::ply::{DefaultElement, Property};
+
+use super::{read_file, reserve_triangles, LoadOptions};
+use crate::error::{Error, Result};
+use crate::math::{Color, Vec3};
+use crate::scene::{Material, MeshPolygon, Scene, SceneFormat};
+
+/// Read and parse a PLY file.
+pub fn load_ply(path: &Path, opts: &LoadOptions) -> Result<Scene> {
+    let bytes = read_file(path)?;
+    parse_ply(&bytes, path, opts)
+}
+
+/// Parse PLY bytes; `file` names it in messages.
+pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {
+    let invalid =
+        |what: String| Error::Invalid(format!("{}: not a valid PLY file: {what}", file.display()));
+    let ply = Parser::<DefaultElement>::new()
+        .read_ply(&mut &bytes[..])
+        .map_err(|e| invalid(e.to_string()))?;
+    let vertices = ply
+        .payload
+        .get("vertex")
+        .ok_or_else(|| invalid("no 'vertex' element".into()))?;
+    let faces = ply.payload.get("face").map_or(&[][..], |f| &f[..]);
+    if faces.is_empty() {
+        return Err(invalid(
+            "no faces (a point cloud has no surface to render)".into(),
+        ));
+    }
+
+    let mut positions = Vec::with_capacity(vertices.len());
+    let mut colors = Vec::new();
+    let has_color = vertices
+        .first()
+        .is_some_and(|v| ["red", "green", "blue"].iter().all(|k| v.contains_key(*k)));
+    for (i, v) in vertices.iter().enumerate() {
+        let coord = |k: &str| {
+            v.get(k)
+                .and_then(scalar)
+                .map(|x| x as f32)
+                .ok_or_else(|| invalid(format!("vertex {i}: no number '{k}'")))
+        };
+        positions.push(Vec3::new(coord("x")?, coord("y")?, coord("z")?));
+        if has_color {
+            let channel = |k: &str| v.get(k).and_then(color_channel).unwrap_or(0.0);
+            colors.push([channel("red"), channel("green"), channel("blue")]);
+        }
+    }
+
+    let mut scene = Scene::new();
+    scene.format = SceneFormat::Ply;
+    let group = scene.new_group();
+    let default_material = scene.add_material(super::default_mesh_material());
+    let mut color_materials: HashMap<[u8; 3], u32> = HashMap::new();
+    let first_warning = scene.warnings.len();
+    let mut polygon = Vec::new();
+    for (f, face) in faces.iter().enumerate() {
+        let indices = face
+            .get("vertex_indices")
+            .or_else(|| face.get("vertex_index"))
+            .and_then(index_list)
+            .ok_or_else(|| invalid(format!("face {f}: no integer list 'vertex_indices'")))?;
+        polygon.clear();
+        for &i in &indices {
+            let p = positions.get(i).ok_or_else(|| {
+                invalid(format!(
+                    "face {f} refers to vertex {i}, but there are {} vertices",
+                    positions.len()
+                ))
+            })?;
+            polygon.push(*p);
+        }
+        if polygon.len() < 3 {
+            scene.warnings.push(format!(
+                "{}: face {f} of fewer than 3 vertices skipped",
+                file.display()
+            ));
+            continue;
+        }
+        if f == 0 {
+            let triangles = faces.len() as u64 * (polygon.len() as u64 - 2);
+            reserve_triangles(&mut scene, triangles, false, file, opts)?;
+        } else if scene.shapes.len() as u64 >= opts.max_triangles {
+            return Err(Error::Invalid(format!(
+                "{}: more than {} triangles",
+                file.display(),
+                opts.max_triangles
+            )));
+        }
+        let material = if has_color {
+            let key = average_color(indices.iter().map(|&i| colors[i]));
+            *color_materials.entry(key).or_insert_with(|| {
+                scene.add_material(Material {
+                    color: Color::from(key.map(srgb_to_linear)),
+                    ..super::default_mesh_material()
+                })
+            })
+        } else {
+            default_material
+        };
+        scene.add_mesh_polygon(
+            &MeshPolygon {
+                vertices: &polygon,
+                normals: None,
+                uv: None,
+                material,
+                group,
+            },
+            &|| format!("{}: face {f}", file.display()),
+        );
+    }
+    super::fold_warnings(&mut scene, first_warning, 10);
+    scene.frame_bounds();
+    Ok(scene)
+}
+
+/// A scalar property as a number.
+fn scalar(p: &Property) -> Option<f64> {
+    Some(match *p {
+        Property::Char(x) => x.into(),
+        Property::UChar(x) => x.into(),
+        Property::Short(x) => x.into(),
+        Property::UShort(x) => x.into(),
+        Property::Int(x) => x.into(),
+        Property::UInt(x) => x.into(),
+        Property::Float(x) => x.into(),
+        Property::Double(x) => x,
+        _ => return None,
+    })
+}
+
+/// A colour channel in 0–1: integers are 8-bit, floats already 0–1.
+fn color_channel(p: &Property) -> Option<f32> {
+    let v = match *p {
+        Property::Float(x) => x,
+        Property::Double(x) => x as f32,
+        Property::UShort(x) => f32::from(x) / 65535.0,
+        ref other => scalar(other)? as f32 / 255.0,
+    };
+    Some(v.clamp(0.0, 1.0))
+}
+
+/// A list property as vertex indices (negative ones refused).
+fn index_list(p: &Property) -> Option<Vec<usize>> {
+    fn all<T: Copy>(v: &[T], f: impl Fn(T) -> Option<usize>) -> Option<Vec<usize>> {
+        v.iter().map(|&x| f(x)).collect()
+    }
+    match p {
+        Property::ListChar(v) => all(v, |x| usize::try_from(x).ok()),
+        Property::ListUChar(v) => all(v, |x| Some(x.into())),
+        Property::ListShort(v) => all(v, |x| usize::try_from(x).ok()),
+        Property::ListUShort(v) => all(v, |x| Some(x.into())),
+        Property::ListInt(v) => all(v, |x| usize::try_from(x).ok()),
+        Property::ListUInt(v) => all(v, |x| usize::try_from(x).ok()),
+        _ => None,
+    }
+}
+
+/// The mean of sRGB colours in 0–1, rounded to 8 bits a channel (so that
+/// faces of one colour share one material).
+fn average_color(colors: impl Iterator<Item = [f32; 3]>) -> [u8; 3] {
+    let (mut sum, mut n) = ([0.0f32; 3], 0.0f32);
+    for c in colors {
+        for k in 0..3 {
+            sum[k] += c[k];
+        }
+        n += 1.0;
+    }
+    sum.map(|s| (s / n.max(1.0) * 255.0).round().clamp(0.0, 255.0) as u8)
+}
+
+/// The sRGB transfer function undone: an 8-bit code to a linear value.
+fn srgb_to_linear(code: u8) -> f32 {
+    let c = f32::from(code) / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const QUAD: &str = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n\
+        property float y\nproperty float z\nproperty uchar red\nproperty uchar green\n\
+        property uchar blue\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+        0 0 0 255 0 0\n1 0 0 255 0 0\n1 1 0 255 0 0\n0 1 0 255 0 0\n4 0 1 2 3\n";
+
+    #[test]
+    fn a_coloured_quad_is_two_red_triangles() {
+        let scene =
+            parse_ply(QUAD.as_bytes(), Path::new("q.ply"), &LoadOptions::default()).unwrap();
+        assert_eq!(scene.shapes.len(), 2);
+        let m = &scene.materials[scene.shape_material[0] as usize];
+        assert_eq!(m.color, Color::new(1.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn a_face_past_the_vertices_is_an_error_naming_the_file() {
+        let bad = QUAD.replace("4 0 1 2 3", "4 0 1 2 7");
+        let e = parse_ply(
+            bad.as_bytes(),
+            Path::new("bad.ply"),
+            &LoadOptions::default(),
+        )
+        .unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("bad.ply") && msg.contains("vertex 7"), "{msg}");
+    }
+
+    #[test]
+    fn srgb_decoding_matches_the_standard() {
+        assert_eq!(srgb_to_linear(0), 0.0);
+        assert_eq!(srgb_to_linear(255), 1.0);
+        assert!((srgb_to_linear(188) - 0.5029).abs() < 1e-3);
+    }
+}
