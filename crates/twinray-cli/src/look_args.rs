@@ -1,7 +1,7 @@
 //! How a render looks: the colour of 8-bit outputs, and what surrounds a model.
 
 use clap::ValueEnum;
-use twinray::job::{StudioSpec, TonemapSpec, UpAxisSpec};
+use twinray::job::{LightSpec, StudioSpec, TonemapSpec, UpAxisSpec};
 use twinray::math::Vec3;
 
 use crate::render_args::parse_vec3;
@@ -17,6 +17,32 @@ pub struct StudioArgs {
     /// (CAD and robotics models: pybullet's, STL files).
     #[arg(long, value_enum, default_value_t = UpAxisArg::Y)]
     pub up_axis: UpAxisArg,
+    /// A point light at X,Y,Z (scene units), white or of colour R,G,B (linear),
+    /// without falloff; repeat for more. For a file without lights they
+    /// replace the default key, fill and rim lights.
+    #[arg(long = "light", value_name = "X,Y,Z[:R,G,B]", value_parser = parse_light)]
+    pub lights: Vec<LightSpec>,
+    /// A diffuse grey floor just below the model (along --up-axis), so that
+    /// its shadows show. Framing still fits the model alone.
+    #[arg(long)]
+    pub ground: bool,
+}
+
+/// `X,Y,Z` or `X,Y,Z:R,G,B`.
+fn parse_light(s: &str) -> Result<LightSpec, String> {
+    let (position, color) = match s.split_once(':') {
+        Some((p, c)) => (p, Some(c)),
+        None => (s, None),
+    };
+    let bad = |_| {
+        format!("'{s}' is not X,Y,Z[:R,G,B] (three finite numbers, then optionally three more)")
+    };
+    let position = parse_vec3(position).map_err(bad)?.to_array();
+    let color = match color {
+        Some(c) => parse_vec3(c).map_err(bad)?.to_array(),
+        None => [1.0; 3],
+    };
+    Ok(LightSpec { position, color })
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -34,6 +60,8 @@ impl StudioArgs {
                 UpAxisArg::Y => UpAxisSpec::Y,
                 UpAxisArg::Z => UpAxisSpec::Z,
             },
+            lights: self.lights.clone(),
+            ground: self.ground,
         }
     }
 }

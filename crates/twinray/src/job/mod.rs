@@ -27,6 +27,7 @@ pub mod preflight;
 mod preview;
 mod repeats;
 pub mod spec;
+mod studio;
 pub mod tiles;
 
 pub use outputs::numbered;
@@ -37,8 +38,8 @@ pub use preflight::{
 pub use preview::Pass;
 pub use spec::{
     AnaglyphSpec, ApproximationSpec, CameraSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec,
-    LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec, StudioSpec,
-    TonemapSpec, TraceSpec, UpAxisSpec,
+    LightSpec, LimitSpec, MethodSpec, OutputSpec, ReprojectModeSpec, RigSpec, SamplingSpec,
+    StudioSpec, TonemapSpec, TraceSpec, UpAxisSpec,
 };
 pub use spec::{AnimationSpec, ShotRigSpec, TileSpec};
 
@@ -132,6 +133,9 @@ pub struct Loaded {
     world: OnceLock<Arc<World>>,
     pub load_seconds: f64,
     pub messages: Vec<Message>,
+    /// How many of the scene's shapes are the model's: those after them are
+    /// the `--ground` floor, which framing leaves out.
+    model_shapes: usize,
 }
 
 impl Loaded {
@@ -217,6 +221,7 @@ impl Job {
                 )));
             }
         }
+        studio::check_lights(&spec.studio.lights)?;
         Ok(Job {
             spec,
             views: checked.views,
@@ -298,10 +303,17 @@ impl Job {
         } else {
             self.up_axis(viewpoint)
         };
-        if scene.format != SceneFormat::Nff && scene.lights.is_empty() {
+        let given_lights = &self.spec.studio.lights;
+        if scene.format != SceneFormat::Nff && scene.lights.is_empty() && given_lights.is_empty() {
             scene.lights =
                 crate::lights::three_point_rig(viewpoint.from, viewpoint.at, viewpoint.up);
             supplied.push("no lights: added a key, a fill and a rim light around the camera");
+        }
+        scene.lights.extend(studio::point_lights(given_lights));
+        let model_shapes = scene.shapes.len();
+        if self.spec.studio.ground {
+            let model = scene.bounds();
+            studio::add_ground(&mut scene, model, self.spec.studio.up_axis);
         }
         if !supplied.is_empty() {
             messages.push(Message::info(format!("{path}: {}", supplied.join("; "))));
@@ -314,6 +326,7 @@ impl Job {
             world: OnceLock::new(),
             load_seconds: 0.0,
             messages,
+            model_shapes,
         })
     }
 
@@ -382,7 +395,8 @@ impl Job {
         let viewpoint = if given || camera_spec.from.is_some() || camera_spec.at.is_some() {
             viewpoint
         } else {
-            let boxes = loaded.scene.shapes.iter().map(|s| s.bounds());
+            let model = &loaded.scene.shapes[..loaded.model_shapes];
+            let boxes = model.iter().map(|s| s.bounds());
             framing::fit_bounds(&viewpoint, boxes, width, height, framing::FILL)
         };
         let camera = Camera::new(&viewpoint, width, height);

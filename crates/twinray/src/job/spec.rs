@@ -47,6 +47,27 @@ pub struct StudioSpec {
     pub background: Option<[f32; 3]>,
     /// Which axis is up in a file without a camera (default y, glTF's).
     pub up_axis: UpAxisSpec,
+    /// Point lights added to the scene (`--light`); for a model file without
+    /// lights they replace the default key/fill/rim rig.
+    #[serde(default)]
+    pub lights: Vec<LightSpec>,
+    /// A diffuse grey floor under the model (`--ground`), so that its shadows show.
+    #[serde(default)]
+    pub ground: bool,
+}
+
+/// A point light of the command line, in scene units; no falloff with distance.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSpec {
+    pub position: [f32; 3],
+    /// Linear RGB (default white, 1,1,1).
+    #[serde(default = "white")]
+    pub color: [f32; 3],
+}
+
+fn white() -> [f32; 3] {
+    [1.0; 3]
 }
 
 /// The up axis of a model file.
