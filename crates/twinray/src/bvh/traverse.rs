@@ -47,8 +47,23 @@ pub struct PacketHits<const K: usize> {
     pub hit: [SurfaceHit; K],
 }
 
+/// A lane's hit before it meets any primitive: infinitely far.
+pub(crate) const NO_SURFACE: SurfaceHit = SurfaceHit {
+    t: f32::INFINITY,
+    u: 0.0,
+    v: 0.0,
+};
+
 impl<const K: usize> PacketHits<K> {
     pub const NO_HIT: u32 = u32::MAX;
+
+    /// No lane has a hit yet: where both nearest-hit traversals start.
+    pub(crate) fn none() -> PacketHits<K> {
+        PacketHits {
+            prim: [Self::NO_HIT; K],
+            hit: [NO_SURFACE; K],
+        }
+    }
 
     #[inline]
     pub fn has_hit(&self, lane: usize) -> bool {
@@ -551,15 +566,7 @@ impl Bvh {
         stats: &mut TraversalStats,
         mut test: impl NearestTest,
     ) -> PacketHits<K> {
-        let none = SurfaceHit {
-            t: f32::INFINITY,
-            u: 0.0,
-            v: 0.0,
-        };
-        let mut out = PacketHits {
-            prim: [PacketHits::<K>::NO_HIT; K],
-            hit: [none; K],
-        };
+        let mut out = PacketHits::<K>::none();
         if self.nodes.is_empty() || packet.mask == 0 {
             return out;
         }
@@ -575,7 +582,7 @@ impl Bvh {
             let mut state = LaneHit {
                 best: packet.t_max[l],
                 prim: PacketHits::<K>::NO_HIT,
-                hit: none,
+                hit: NO_SURFACE,
             };
             self.descend_single(None, &ray, &mut state, stats, |p, t| test.test(p, l, t));
             out.prim[l] = state.prim;

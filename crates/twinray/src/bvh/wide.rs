@@ -13,7 +13,7 @@
 //! (the shadow cache relies on it).
 
 use super::traverse::{
-    fmin, occlusion_leaf, test_leaf, LaneHit, SingleRay, CULL_SLACK, ROBUST, STACK,
+    fmin, occlusion_leaf, test_leaf, LaneHit, SingleRay, CULL_SLACK, NO_SURFACE, ROBUST, STACK,
 };
 use super::{
     AnyHit, AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats,
@@ -348,15 +348,7 @@ impl Bvh {
         stats: &mut TraversalStats,
         mut test: impl NearestTest,
     ) -> PacketHits<K> {
-        let none = SurfaceHit {
-            t: f32::INFINITY,
-            u: 0.0,
-            v: 0.0,
-        };
-        let mut out = PacketHits {
-            prim: [PacketHits::<K>::NO_HIT; K],
-            hit: [none; K],
-        };
+        let mut out = PacketHits::<K>::none();
         if self.wide.is_empty() || packet.mask == 0 {
             return out;
         }
@@ -372,7 +364,7 @@ impl Bvh {
             let mut state = LaneHit {
                 best: packet.t_max[l],
                 prim: PacketHits::<K>::NO_HIT,
-                hit: none,
+                hit: NO_SURFACE,
             };
             let root = Entry {
                 child: 0,
