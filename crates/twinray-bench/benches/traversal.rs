@@ -35,7 +35,9 @@ fn traversal(c: &mut Criterion) {
             g.sample_size(10)
                 .warm_up_time(Duration::from_millis(300))
                 .measurement_time(Duration::from_secs(2));
-            for tree in [Tree::Binary, Tree::Wide] {
+            // Binary and Wide test leaves of triangles four at a time (as the
+            // renderer does); BinaryScalar one by one.
+            for tree in [Tree::BinaryScalar, Tree::Binary, Tree::Wide] {
                 let t = format!("{tree:?}").to_lowercase();
                 g.throughput(Throughput::Elements(sets.eye.len() as u64));
                 g.bench_function(format!("eye/{t}"), |b| {

@@ -1,11 +1,13 @@
 //! Side-by-side rays/s of the four-wide and the binary traversal, in one
 //! process, rounds interleaved so that the machine's load hits both alike:
 //!
-//! `cargo bench -p twinray-bench --bench wide_vs_binary -- [--size N] [--rounds R] SCENE.nff ...`
+//! `cargo bench -p twinray-bench --bench wide_vs_binary -- [--size N] [--rounds R] [--leaves] SCENE.nff ...`
 //!
 //! Prints per scene and ray kind the median Mrays/s of each over the rounds and
 //! the ratio wide / binary, on 1 thread (per second of this thread's CPU time,
 //! which other processes' load does not inflate) and 2 threads (wall time).
+//! With `--leaves`: leaves of triangles tested four at a time against one by
+//! one (block / scalar), on each tree.
 
 use std::path::Path;
 use std::time::Instant;
@@ -56,9 +58,24 @@ fn main() {
     };
     let size = take("--size", 512);
     let rounds = take("--rounds", 5);
+    let leaves = match args.iter().position(|a| a == "--leaves") {
+        Some(i) => {
+            args.remove(i);
+            true
+        }
+        None => false,
+    };
+    let compared: &[(Tree, Tree)] = if leaves {
+        &[
+            (Tree::BinaryScalar, Tree::Binary),
+            (Tree::WideScalar, Tree::Wide),
+        ]
+    } else {
+        &[(Tree::Binary, Tree::Wide)]
+    };
     println!(
         "{:<10} {:<10} {:>3} {:>11} {:>11} {:>6} agree",
-        "scene", "rays", "thr", "binary_Mr/s", "wide_Mr/s", "ratio"
+        "scene", "rays", "thr", "first_Mr/s", "second_Mr/s", "ratio"
     );
     // The build over 1M triangles (a 1000 x 500-cell terrain, as benches/bvh.rs),
     // and how much of it the four-wide collapse takes.
@@ -145,22 +162,29 @@ fn main() {
                 Box::new(|t, n| rays_pass(&sets, &sets.reflected, t, n)),
             ),
         ];
-        for threads in [1, 2] {
-            for (kind, count, run) in &kinds {
-                let (mut b, mut w) = (Vec::new(), Vec::new());
-                let mut agree = true;
-                for _ in 0..rounds {
-                    let (sb, cb) = timed(threads, || run(Tree::Binary, threads));
-                    b.push(*count as f64 / sb / 1e6);
-                    let (sw, cw) = timed(threads, || run(Tree::Wide, threads));
-                    w.push(*count as f64 / sw / 1e6);
-                    agree &= cb == cw;
+        for &(first, second) in compared {
+            println!("{name}: {first:?} (first) against {second:?} (second)");
+            for threads in [1, 2] {
+                for (kind, count, run) in &kinds {
+                    if leaves && kind.starts_with("sha") {
+                        // Any-hit leaves are tested one by one either way.
+                        continue;
+                    }
+                    let (mut b, mut w) = (Vec::new(), Vec::new());
+                    let mut agree = true;
+                    for _ in 0..rounds {
+                        let (sb, cb) = timed(threads, || run(first, threads));
+                        b.push(*count as f64 / sb / 1e6);
+                        let (sw, cw) = timed(threads, || run(second, threads));
+                        w.push(*count as f64 / sw / 1e6);
+                        agree &= cb == cw;
+                    }
+                    let (mb, mw) = (median(b), median(w));
+                    println!(
+                        "{name:<10} {kind:<10} {threads:>3} {mb:>11.2} {mw:>11.2} {:>6.2} {agree}",
+                        mw / mb
+                    );
                 }
-                let (mb, mw) = (median(b), median(w));
-                println!(
-                    "{name:<10} {kind:<10} {threads:>3} {mb:>11.2} {mw:>11.2} {:>6.2} {agree}",
-                    mw / mb
-                );
             }
         }
     }

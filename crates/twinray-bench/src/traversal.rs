@@ -4,13 +4,18 @@
 //! the shadow and reflected rays of their hits. Each pass returns a checksum of
 //! the hits so that both traversals can be seen to agree and nothing is
 //! optimised away.
+//!
+//! Nearest hits test leaves of triangles four at a time, as the renderer
+//! does (`LeafTriangles`); the `*Scalar` trees test every primitive one by
+//! one, for comparison.
 
 use std::path::Path;
 
 use rayon::prelude::*;
-use twinray::bvh::{AnyHit, Bvh, Packet, SegmentPacket, TraversalStats};
+use twinray::bvh::{AnyHit, Bvh, NearestTest, Packet, SegmentPacket, TraversalStats};
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::math::{reflect, Ray, Vec3};
+use twinray::shapes::{BlockHits, LeafTriangles, Shape, SurfaceHit};
 use twinray::World;
 
 /// Which traversal a pass uses.
@@ -18,6 +23,81 @@ use twinray::World;
 pub enum Tree {
     Binary,
     Wide,
+    /// The binary tree with every leaf primitive tested one by one.
+    BinaryScalar,
+    /// The four-wide tree with every leaf primitive tested one by one.
+    WideScalar,
+}
+
+impl Tree {
+    fn wide(self) -> bool {
+        matches!(self, Tree::Wide | Tree::WideScalar)
+    }
+
+    fn blocks(self) -> bool {
+        matches!(self, Tree::Binary | Tree::Wide)
+    }
+}
+
+/// The renderer's nearest test for rays `rays` (one per lane): leaves held as
+/// blocks four at a time when `blocks` is given.
+struct Nearest<'a, const K: usize> {
+    shapes: &'a [Shape],
+    blocks: Option<&'a LeafTriangles>,
+    rays: &'a [Ray; K],
+}
+
+impl<const K: usize> NearestTest for Nearest<'_, K> {
+    #[inline(always)]
+    fn test(&mut self, prim: u32, lane: usize, t_max: f32) -> Option<SurfaceHit> {
+        self.shapes[prim as usize].intersect(&self.rays[lane], 0.0, t_max)
+    }
+
+    #[inline(always)]
+    fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
+        let rays = [self.rays[0], self.rays[1 % K]];
+        self.shapes[prim as usize].intersect_pair(&rays, 0.0, t_max)
+    }
+
+    #[inline(always)]
+    fn test_block(&mut self, prims: &[u32], lane: usize, t_max: f32) -> Option<BlockHits> {
+        let block = self.blocks?.block(prims)?;
+        Some(block.intersect(&self.rays[lane], 0.0, t_max))
+    }
+
+    #[inline(always)]
+    fn test_block_pair(&mut self, prims: &[u32], t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
+        let block = self.blocks?.block(prims)?;
+        Some(block.intersect_pair(&[self.rays[0], self.rays[1 % K]], 0.0, t_max))
+    }
+}
+
+/// The nearest hits of a packet of rays on `tree`.
+#[inline(always)]
+fn nearest<const K: usize>(
+    bvh: &Bvh,
+    world: &World,
+    rays: &[Ray; K],
+    tree: Tree,
+    st: &mut TraversalStats,
+) -> twinray::bvh::PacketHits<K> {
+    let p = Packet {
+        origins: rays.map(|r| r.origin),
+        dirs: rays.map(|r| r.dir),
+        t_min: 0.0,
+        t_max: [f32::INFINITY; K],
+        mask: (1 << K) - 1,
+    };
+    let test = Nearest {
+        shapes: &world.scene.shapes,
+        blocks: tree.blocks().then_some(&world.leaf_triangles),
+        rays,
+    };
+    if tree.wide() {
+        bvh.closest_wide(&p, st, test)
+    } else {
+        bvh.closest_binary(&p, st, test)
+    }
 }
 
 /// A scene with the rays of one `size`² view of it.
@@ -125,19 +205,7 @@ pub fn closest(
     tree: Tree,
     st: &mut TraversalStats,
 ) -> (u32, f32) {
-    let p = Packet {
-        origins: [ray.origin],
-        dirs: [ray.dir],
-        t_min: 0.0,
-        t_max: [f32::INFINITY],
-        mask: 1,
-    };
-    let shapes = &world.scene.shapes;
-    let test = |prim: u32, _: usize, t_max: f32| shapes[prim as usize].intersect(ray, 0.0, t_max);
-    let h = match tree {
-        Tree::Binary => bvh.closest_binary(&p, st, test),
-        Tree::Wide => bvh.closest_wide(&p, st, test),
-    };
+    let h = nearest(bvh, world, &[*ray], tree, st);
     (h.prim[0], h.hit[0].t)
 }
 
@@ -174,22 +242,8 @@ pub fn rays_pass(sets: &RaySets, rays: &[Ray], tree: Tree, threads: usize) -> u6
 /// Nearest hits of stereo pairs traced as two-lane packets (the twin method's descent).
 pub fn pairs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
     let w = &sets.world;
-    let shapes = &w.scene.shapes;
     pass(&sets.pairs, threads, |pair| {
-        let p = Packet {
-            origins: pair.map(|r| r.origin),
-            dirs: pair.map(|r| r.dir),
-            t_min: 0.0,
-            t_max: [f32::INFINITY; 2],
-            mask: 0b11,
-        };
-        let test =
-            |prim: u32, l: usize, t_max: f32| shapes[prim as usize].intersect(&pair[l], 0.0, t_max);
-        let mut st = TraversalStats::default();
-        let h = match tree {
-            Tree::Binary => w.bvh.closest_binary(&p, &mut st, test),
-            Tree::Wide => w.bvh.closest_wide(&p, &mut st, test),
-        };
+        let h = nearest(&w.bvh, w, pair, tree, &mut TraversalStats::default());
         checksum(h.prim[0], h.hit[0].t).wrapping_add(checksum(h.prim[1], h.hit[1].t))
     })
 }
@@ -224,9 +278,10 @@ fn any_hits<const K: usize>(w: &World, segs: [(Vec3, Vec3, f32); K], tree: Tree)
         }
     };
     let mut st = TraversalStats::default();
-    match tree {
-        Tree::Binary => w.bvh.occlusion_binary(&p, &mut st, &mut test),
-        Tree::Wide => w.bvh.occlusion_wide(&p, &mut st, &mut test),
+    if tree.wide() {
+        w.bvh.occlusion_wide(&p, &mut st, &mut test)
+    } else {
+        w.bvh.occlusion_binary(&p, &mut st, &mut test)
     }
     blocked
 }

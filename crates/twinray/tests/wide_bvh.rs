@@ -5,10 +5,19 @@
 //! binary tree returns; any-hit reaches every primitive a segment meets, and
 //! stops as brute force says. Nearest-first order is checked by counting the
 //! primitive tests on a ray down a row of objects.
+//!
+//! Leaves of triangles tested four at a time (`LeafTriangles`, the renderer's
+//! leaf test) give the same hits, bit for bit, on both trees: on the random
+//! scenes, and on meshes whose rays land exactly on shared edges and
+//! vertices, with degenerate and edge-on triangles among them.
 
-use twinray::bvh::{build, AnyHit, BuildOptions, Bvh, Packet, SegmentPacket, TraversalStats};
+use twinray::bvh::{
+    build, AnyHit, BuildOptions, Bvh, NearestTest, Packet, SegmentPacket, TraversalStats,
+};
 use twinray::math::{Aabb, Ray, Vec3};
-use twinray::shapes::{Shape, Sphere, SurfaceHit, Triangle, TriangleNormals};
+use twinray::shapes::{
+    BlockHits, LeafTriangles, Shape, Sphere, SurfaceHit, Triangle, TriangleNormals,
+};
 
 /// A random scene: small triangles and spheres in a 20-unit cube, some
 /// triangles sharing a plane (ties in distance), a few large ones.
@@ -324,4 +333,249 @@ fn nearest_child_first_stops_a_ray_at_the_first_of_a_row() {
             );
         }
     }
+}
+
+/// The renderer's nearest test: a leaf of triangles held as a SIMD block is
+/// tested four at a time, the rest one by one. Counts the blocks it tested.
+struct BlockTest<'a, const K: usize> {
+    shapes: &'a [Shape],
+    blocks: &'a LeafTriangles,
+    packet: &'a Packet<K>,
+    blocks_tested: &'a std::cell::Cell<u64>,
+}
+
+impl<const K: usize> NearestTest for BlockTest<'_, K> {
+    fn test(&mut self, prim: u32, lane: usize, t_max: f32) -> Option<SurfaceHit> {
+        let p = self.packet;
+        self.shapes[prim as usize].intersect(
+            &Ray::new(p.origins[lane], p.dirs[lane]),
+            p.t_min,
+            t_max,
+        )
+    }
+
+    fn test_block(&mut self, prims: &[u32], lane: usize, t_max: f32) -> Option<BlockHits> {
+        let block = self.blocks.block(prims)?;
+        self.blocks_tested.set(self.blocks_tested.get() + 1);
+        let p = self.packet;
+        Some(block.intersect(&Ray::new(p.origins[lane], p.dirs[lane]), p.t_min, t_max))
+    }
+
+    fn test_block_pair(&mut self, prims: &[u32], t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
+        let block = self.blocks.block(prims)?;
+        self.blocks_tested.set(self.blocks_tested.get() + 2);
+        let p = self.packet;
+        let rays = [0, 1 % K].map(|l| Ray::new(p.origins[l], p.dirs[l]));
+        Some(block.intersect_pair(&rays, p.t_min, t_max))
+    }
+}
+
+/// Every lane's nearest hit with block leaves, on the four-wide and the
+/// binary tree: brute force's, bit for bit. Returns (lanes hit, blocks tested).
+fn check_blocks<const K: usize>(
+    shapes: &[Shape],
+    bvh: &Bvh,
+    blocks: &LeafTriangles,
+    p: &Packet<K>,
+) -> (u64, u64) {
+    let tested = std::cell::Cell::new(0);
+    let mut hits = 0;
+    for wide in [true, false] {
+        let test = BlockTest {
+            shapes,
+            blocks,
+            packet: p,
+            blocks_tested: &tested,
+        };
+        let mut st = TraversalStats::default();
+        let got = if wide {
+            bvh.closest_wide(p, &mut st, test)
+        } else {
+            bvh.closest_binary(p, &mut st, test)
+        };
+        for l in 0..K {
+            let expect = if p.mask & (1 << l) != 0 {
+                brute(
+                    shapes,
+                    &Ray::new(p.origins[l], p.dirs[l]),
+                    p.t_min,
+                    p.t_max[l],
+                )
+            } else {
+                None
+            };
+            let bits = |h: Option<(u32, SurfaceHit)>| {
+                h.map(|(prim, h)| (prim, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
+            };
+            let found = got.has_hit(l).then(|| (got.prim[l], got.hit[l]));
+            assert_eq!(
+                bits(found),
+                bits(expect),
+                "{} tree, lane {l} of {K}, mask {:b}: {p:?}",
+                if wide { "wide" } else { "binary" },
+                p.mask
+            );
+            hits += found.is_some() as u64;
+        }
+    }
+    (hits, tested.get())
+}
+
+fn run_blocks<const K: usize>(
+    shapes: &[Shape],
+    bvh: &Bvh,
+    blocks: &LeafTriangles,
+    packets: impl Iterator<Item = Packet<K>>,
+) -> (u64, u64) {
+    packets.fold((0, 0), |acc, p| {
+        let (h, t) = check_blocks(shapes, bvh, blocks, &p);
+        (acc.0 + h, acc.1 + t)
+    })
+}
+
+#[test]
+fn block_leaves_give_brute_force_hits_for_packets_of_every_width() {
+    for (n, seed) in [(3, 2), (300, 4), (2000, 5)] {
+        let shapes = scene(n, seed);
+        let bvh = hierarchy(&shapes);
+        let blocks = LeafTriangles::new(&shapes, bvh.leaves());
+        assert!(!blocks.is_empty());
+        let mut rng = fastrand::Rng::with_seed(seed + 100);
+        let (mut hits, mut tested) = (0, 0);
+        for (h, t) in [
+            run_blocks(
+                &shapes,
+                &bvh,
+                &blocks,
+                (0..300).map(|_| packet::<1>(&mut rng)),
+            ),
+            run_blocks(
+                &shapes,
+                &bvh,
+                &blocks,
+                (0..300).map(|_| packet::<2>(&mut rng)),
+            ),
+            run_blocks(
+                &shapes,
+                &bvh,
+                &blocks,
+                (0..150).map(|_| packet::<3>(&mut rng)),
+            ),
+            run_blocks(
+                &shapes,
+                &bvh,
+                &blocks,
+                (0..100).map(|_| packet::<8>(&mut rng)),
+            ),
+        ] {
+            hits += h;
+            tested += t;
+        }
+        if n >= 300 {
+            assert!(hits > 100, "{n} shapes: only {hits} hits");
+            assert!(tested > 1000, "{n} shapes: only {tested} blocks tested");
+        }
+    }
+}
+
+/// A height-field mesh of `n` x `n` quads (two triangles each, sharing the
+/// diagonal and the quads' edges), plus a few degenerate triangles (a point,
+/// a segment) and triangles standing edge-on to rays along z.
+fn mesh(n: usize) -> (Vec<Shape>, Vec<Vec3>) {
+    let height = |i: usize, j: usize| ((i * 7 + j * 3) % 5) as f32 * 0.25;
+    let vertex = |i: usize, j: usize| Vec3::new(i as f32, j as f32, height(i, j));
+    let tri = |a: Vec3, b: Vec3, c: Vec3| {
+        let nrm = (b - a).cross(c - a).normalize_or_zero();
+        Shape::Triangle(Triangle::new(a, b, c, nrm, TriangleNormals::Flat))
+    };
+    let mut shapes = Vec::new();
+    let mut points = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (a, b, c, d) = (
+                vertex(i, j),
+                vertex(i + 1, j),
+                vertex(i + 1, j + 1),
+                vertex(i, j + 1),
+            );
+            shapes.push(tri(a, b, c));
+            shapes.push(tri(a, c, d));
+            // Exactly on the vertices, the shared diagonal and the quad edges.
+            points.extend([
+                a,
+                (a + c) * 0.5,
+                (a + b) * 0.5,
+                (a + d) * 0.5,
+                a + (c - a) * 0.25,
+            ]);
+        }
+    }
+    for k in 0..n {
+        let p = vertex(k, k) + Vec3::Z;
+        shapes.push(tri(p, p, p));
+        shapes.push(tri(p, p + Vec3::X, p + Vec3::X * 2.0));
+        // Edge-on to a vertical ray: a wall in the plane x = k + 0.5.
+        let w = Vec3::new(k as f32 + 0.5, k as f32, 0.0);
+        shapes.push(tri(w, w + Vec3::Y, w + Vec3::Z * 3.0));
+        points.push(w + Vec3::new(0.0, 0.25, 0.5));
+    }
+    (shapes, points)
+}
+
+#[test]
+fn block_leaves_agree_on_shared_edges_vertices_and_degenerate_triangles() {
+    let (shapes, points) = mesh(24);
+    let bvh = hierarchy(&shapes);
+    let blocks = LeafTriangles::new(&shapes, bvh.leaves());
+    assert!(
+        blocks.len() * 2 > bvh.leaves().count(),
+        "most leaves are blocks"
+    );
+    let mut rng = fastrand::Rng::with_seed(77);
+    // Rays straight down onto the points (edge-on to the walls), and slanted
+    // ones from random origins, alone and as twin packets with per-lane
+    // t_max (some ending right at the surface) and masks.
+    let rays: Vec<(Vec3, Vec3)> = points
+        .iter()
+        .flat_map(|&pt| {
+            let from = pt + Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, 1.0) * 10.0;
+            [
+                (pt + Vec3::Z * 5.0, Vec3::NEG_Z),
+                (from, (pt - from).normalize()),
+            ]
+        })
+        .collect();
+    let singles = rays.iter().map(|&(o, d)| Packet {
+        origins: [o],
+        dirs: [d],
+        t_min: 0.0,
+        t_max: [f32::INFINITY],
+        mask: 1,
+    });
+    let (hits, tested) = run_blocks(&shapes, &bvh, &blocks, singles);
+    assert!(
+        hits as usize > rays.len(),
+        "{hits} hits of {} rays",
+        rays.len()
+    );
+    assert!(tested as usize > rays.len());
+    let quads = rays.chunks_exact(4).map(|c| {
+        let t_max = [f32::INFINITY, 5.0, 4.0 + rng.f32() * 2.0, 100.0];
+        Packet {
+            origins: std::array::from_fn(|l| c[l].0),
+            dirs: std::array::from_fn(|l| c[l].1),
+            t_min: 1e-3,
+            t_max,
+            mask: rng.u32(1..16),
+        }
+    });
+    run_blocks(&shapes, &bvh, &blocks, quads);
+    let pairs = rays.chunks_exact(2).map(|c| Packet {
+        origins: [c[0].0, c[1].0],
+        dirs: [c[0].1, c[1].1],
+        t_min: 0.0,
+        t_max: [f32::INFINITY, 7.0],
+        mask: 0b11,
+    });
+    run_blocks(&shapes, &bvh, &blocks, pairs);
 }

@@ -94,6 +94,14 @@ impl Bvh {
         }
     }
 
+    /// The primitives of each leaf, as slices of `order`.
+    pub fn leaves(&self) -> impl Iterator<Item = &[u32]> + '_ {
+        self.nodes.iter().filter(|n| n.is_leaf()).map(|n| {
+            let first = n.first as usize;
+            &self.order[first..first + n.count() as usize]
+        })
+    }
+
     /// Memory held by the hierarchy, in bytes.
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node>()

@@ -16,7 +16,7 @@
 
 use super::{Bvh, Node};
 use crate::math::{Aabb, Vec3};
-use crate::shapes::SurfaceHit;
+use crate::shapes::{BlockHits, SurfaceHit};
 use arrayvec::ArrayVec;
 use wide::f32x4;
 
@@ -107,6 +107,25 @@ pub trait NearestTest {
     #[inline(always)]
     fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
         [self.test(prim, 0, t_max[0]), self.test(prim, 1, t_max[1])]
+    }
+
+    /// Lane `lane` against all the primitives `prims` of a leaf at once,
+    /// where the test keeps them as one SIMD block (`shapes::Triangle4`): bit
+    /// `i` and lane `i` are what `test(prims[i], lane, t_max)` returns. `None`:
+    /// the traversal tests them one by one.
+    #[inline(always)]
+    fn test_block(&mut self, _prims: &[u32], _lane: usize, _t_max: f32) -> Option<BlockHits> {
+        None
+    }
+
+    /// Lanes 0 and 1 against a leaf held as a block, at once: what two calls
+    /// of `test_block` return. `None` where `test_block` gives `None`.
+    #[inline(always)]
+    fn test_block_pair(&mut self, prims: &[u32], t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
+        Some([
+            self.test_block(prims, 0, t_max[0])?,
+            self.test_block(prims, 1, t_max[1])?,
+        ])
     }
 }
 
@@ -270,10 +289,64 @@ pub fn segment_enters(b: &Aabb, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
 }
 
 /// One lane's nearest hit so far.
+#[derive(Clone, Copy)]
 pub(super) struct LaneHit {
     pub(super) best: f32,
     pub(super) prim: u32,
     pub(super) hit: SurfaceHit,
+}
+
+impl LaneHit {
+    /// Takes hit `h` on `prim` if it is nearer, or as near on a lower index.
+    #[inline(always)]
+    fn offer(&mut self, prim: u32, h: SurfaceHit) {
+        if h.t < self.best || (h.t == self.best && prim < self.prim) {
+            self.best = h.t;
+            self.prim = prim;
+            self.hit = h;
+        }
+    }
+}
+
+/// One lane against a leaf's primitives `prims`, improving `state`: the leaf
+/// test of every nearest-hit descent, binary or four-wide, lane alone or in a
+/// packet. A leaf the test holds as a SIMD block is tested in one go, every
+/// primitive with the bound from before the leaf; `offer` then refuses what a
+/// smaller bound found on the way would have refused, so the hit is the one
+/// the primitives tested one by one give.
+#[inline(always)]
+pub(super) fn leaf_lane<T: NearestTest>(
+    prims: &[u32],
+    lane: usize,
+    state: &mut LaneHit,
+    test: &mut T,
+) {
+    // next_up lets an equal distance through, for the index tie-break.
+    if let Some(b) = test.test_block(prims, lane, state.best.next_up()) {
+        offer_block(prims, &b, state);
+        return;
+    }
+    for &prim in prims {
+        if let Some(h) = test.test(prim, lane, state.best.next_up()) {
+            state.offer(prim, h);
+        }
+    }
+}
+
+/// A block's hits on the leaf `prims` offered to `state`, in index order.
+#[inline(always)]
+fn offer_block(prims: &[u32], b: &BlockHits, state: &mut LaneHit) {
+    let mut m = b.mask;
+    while m != 0 {
+        let i = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let h = SurfaceHit {
+            t: b.t[i],
+            u: b.u[i],
+            v: b.v[i],
+        };
+        state.offer(prims[i], h);
+    }
 }
 
 /// The lanes of a packet prepared for slab tests, as structure of arrays: each
@@ -486,10 +559,25 @@ pub(super) fn test_leaf<const K: usize, T: NearestTest>(
     stats: &mut TraversalStats,
     test: &mut T,
 ) {
-    for &prim in prims {
-        if K == 2 && mask == 0b11 {
-            // Both rays of a stereo pair against one primitive at once.
-            stats.prim_tests += 2;
+    stats.prim_tests += (prims.len() * mask.count_ones() as usize) as u64;
+    let lane = |l: usize, best: &[f32; K], out: &PacketHits<K>| LaneHit {
+        best: best[l],
+        prim: out.prim[l],
+        hit: out.hit[l],
+    };
+    if K == 2 && mask == 0b11 {
+        let bounds = [best[0].next_up(), best[1 % K].next_up()];
+        if let Some(found) = test.test_block_pair(prims, bounds) {
+            // A leaf held as a block: both rays of the pair against it at once.
+            for (l, b) in found.iter().enumerate() {
+                let mut state = lane(l, best, out);
+                offer_block(prims, b, &mut state);
+                (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
+            }
+            return;
+        }
+        // Both rays of the pair against one primitive at once.
+        for &prim in prims {
             let found = test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
             for (l, h) in found.into_iter().enumerate() {
                 if let Some(h) = h {
@@ -500,22 +588,16 @@ pub(super) fn test_leaf<const K: usize, T: NearestTest>(
                     }
                 }
             }
-            continue;
         }
-        let mut lanes = mask;
-        while lanes != 0 {
-            let l = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
-            stats.prim_tests += 1;
-            // next_up lets an equal distance through, for the index tie-break.
-            if let Some(h) = test.test(prim, l, best[l].next_up()) {
-                if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
-                    best[l] = h.t;
-                    out.prim[l] = prim;
-                    out.hit[l] = h;
-                }
-            }
-        }
+        return;
+    }
+    let mut lanes = mask;
+    while lanes != 0 {
+        let l = lanes.trailing_zeros() as usize;
+        lanes &= lanes - 1;
+        let mut state = lane(l, best, out);
+        leaf_lane(prims, l, &mut state, test);
+        (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
     }
 }
 
@@ -584,7 +666,7 @@ impl Bvh {
                 prim: PacketHits::<K>::NO_HIT,
                 hit: NO_SURFACE,
             };
-            self.descend_single(None, &ray, &mut state, stats, |p, t| test.test(p, l, t));
+            self.descend_single(None, &ray, &mut state, stats, &mut test, l);
             out.prim[l] = state.prim;
             out.hit[l] = state.hit;
             return out;
@@ -622,9 +704,14 @@ impl Bvh {
                     hit: out.hit[l],
                 };
                 let ray = rays.single(l);
-                self.descend_single(Some((index, tnear[l])), &ray, &mut state, stats, |p, t| {
-                    test.test(p, l, t)
-                });
+                self.descend_single(
+                    Some((index, tnear[l])),
+                    &ray,
+                    &mut state,
+                    stats,
+                    &mut test,
+                    l,
+                );
                 (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
                 continue;
             }
@@ -744,17 +831,18 @@ impl Bvh {
     /// over to this when it is the only lane left in a subtree: depth-first order
     /// visits that whole subtree next either way. A ray traced alone starts here.
     #[inline(always)]
-    fn descend_single(
+    fn descend_single<T: NearestTest>(
         &self,
         start: Option<(u32, f32)>,
         ray: &SingleRay,
         state: &mut LaneHit,
         stats: &mut TraversalStats,
-        mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
+        test: &mut T,
+        lane: usize,
     ) {
         let ([ix, iy, iz], [ox, oy, oz]) = (ray.inv, ray.origin);
         let (neg, t_min) = (ray.neg, ray.t_min);
-        let (mut best, mut prim_hit, mut hit) = (state.best, state.prim, state.hit);
+        let mut lh = *state;
         let entry = |node: &Node, best: f32| -> Option<f32> {
             let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
             let tn = fmax(fmax(nx * ix - ox, ny * iy - oy), fmax(nz * iz - oz, t_min));
@@ -766,7 +854,7 @@ impl Bvh {
             Some(s) => s,
             None => {
                 stats.box_tests += 1;
-                match entry(&self.nodes[0], best) {
+                match entry(&self.nodes[0], lh.best) {
                     Some(tn) => (0, tn),
                     None => return,
                 }
@@ -775,37 +863,34 @@ impl Bvh {
         let mut stack = ArrayVec::<(u32, f32), STACK>::new();
         stack.push(start);
         while let Some((index, tnear)) = stack.pop() {
-            if tnear > best * CULL_SLACK {
+            if tnear > lh.best * CULL_SLACK {
                 continue;
             }
             nodes += 1;
             let node = &self.nodes[index as usize];
             if node.is_leaf() {
                 let first = node.first as usize;
-                for &prim in &self.order[first..first + node.count() as usize] {
-                    prims += 1;
-                    if let Some(h) = test(prim, best.next_up()) {
-                        if h.t < best || (h.t == best && prim < prim_hit) {
-                            best = h.t;
-                            prim_hit = prim;
-                            hit = h;
-                        }
-                    }
-                }
+                prims += node.count() as u64;
+                leaf_lane(
+                    &self.order[first..first + node.count() as usize],
+                    lane,
+                    &mut lh,
+                    test,
+                );
                 continue;
             }
             let (a, b) = (node.first as usize, node.first as usize + 1);
             let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
             boxes += 2;
-            let t_near = entry(&self.nodes[near], best);
-            if let Some(tn) = entry(&self.nodes[far], best) {
+            let t_near = entry(&self.nodes[near], lh.best);
+            if let Some(tn) = entry(&self.nodes[far], lh.best) {
                 let _ = stack.try_push((far as u32, tn));
             }
             if let Some(tn) = t_near {
                 let _ = stack.try_push((near as u32, tn));
             }
         }
-        (state.best, state.prim, state.hit) = (best, prim_hit, hit);
+        *state = lh;
         stats.nodes += nodes;
         stats.box_tests += boxes;
         stats.prim_tests += prims;

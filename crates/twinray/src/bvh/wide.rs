@@ -13,12 +13,12 @@
 //! (the shadow cache relies on it).
 
 use super::traverse::{
-    fmin, occlusion_leaf, test_leaf, LaneHit, SingleRay, CULL_SLACK, NO_SURFACE, ROBUST, STACK,
+    fmin, leaf_lane, occlusion_leaf, test_leaf, LaneHit, SingleRay, CULL_SLACK, NO_SURFACE, ROBUST,
+    STACK,
 };
 use super::{
     AnyHit, AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats,
 };
-use crate::shapes::SurfaceHit;
 use arrayvec::ArrayVec;
 use wide::{f32x4, f32x8};
 
@@ -371,7 +371,7 @@ impl Bvh {
                 count: 0,
                 tn: packet.t_min,
             };
-            self.wide_single(root, &rays[l], &mut state, stats, |p, t| test.test(p, l, t));
+            self.wide_single(root, &rays[l], &mut state, stats, &mut test, l);
             out.prim[l] = state.prim;
             out.hit[l] = state.hit;
             return out;
@@ -414,9 +414,7 @@ impl Bvh {
                     count,
                     tn: tn[l],
                 };
-                self.wide_single(start, &rays[l], &mut state, stats, |p, t| {
-                    test.test(p, l, t)
-                });
+                self.wide_single(start, &rays[l], &mut state, stats, &mut test, l);
                 (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
                 continue;
             }
@@ -505,37 +503,35 @@ impl Bvh {
 
     /// One ray's descent of the four-wide subtree at `start`, improving `state`.
     #[inline(always)]
-    fn wide_single(
+    fn wide_single<T: NearestTest>(
         &self,
         start: Entry,
         ray: &SingleRay,
         state: &mut LaneHit,
         stats: &mut TraversalStats,
-        mut test: impl FnMut(u32, f32) -> Option<SurfaceHit>,
+        test: &mut T,
+        lane: usize,
     ) {
         let wray = WideRay::new(ray);
-        let (mut best, mut prim_hit, mut hit) = (state.best, state.prim, state.hit);
+        let mut lh = *state;
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
         let mut stack = ArrayVec::<Entry, STACK>::new();
-        let mut current = (start.tn <= best * CULL_SLACK).then_some(start);
+        let mut current = (start.tn <= lh.best * CULL_SLACK).then_some(start);
         while let Some(Entry { child, count, .. }) = current {
             nodes += 1;
             if count > 0 {
                 let first = child as usize;
-                for &prim in &self.order[first..first + count as usize] {
-                    prims += 1;
-                    if let Some(h) = test(prim, best.next_up()) {
-                        if h.t < best || (h.t == best && prim < prim_hit) {
-                            best = h.t;
-                            prim_hit = prim;
-                            hit = h;
-                        }
-                    }
-                }
+                prims += count as u64;
+                leaf_lane(
+                    &self.order[first..first + count as usize],
+                    lane,
+                    &mut lh,
+                    test,
+                );
             } else {
                 let node = &self.wide[child as usize];
                 boxes += WIDTH as u64;
-                let (m, t) = wray.enter(node, best);
+                let (m, t) = wray.enter(node, lh.best);
                 if m != 0 {
                     // The nearest child next, the others stacked farthest first.
                     current = Some(take_nearest(&mut stack, node, m, &t));
@@ -544,13 +540,13 @@ impl Bvh {
             }
             current = None;
             while let Some(e) = stack.pop() {
-                if e.tn <= best * CULL_SLACK {
+                if e.tn <= lh.best * CULL_SLACK {
                     current = Some(e);
                     break;
                 }
             }
         }
-        (state.best, state.prim, state.hit) = (best, prim_hit, hit);
+        *state = lh;
         stats.nodes += nodes;
         stats.box_tests += boxes;
         stats.prim_tests += prims;

@@ -7,10 +7,12 @@
 mod cone;
 mod sphere;
 mod triangle;
+mod triangle4;
 
 pub use cone::Cone;
 pub use sphere::Sphere;
 pub use triangle::{Corners, Triangle, TriangleNormals, Uv};
+pub use triangle4::{BlockHits, LeafTriangles, Triangle4, BLOCK};
 
 use crate::math::{Aabb, Ray, Vec3};
 use wide::f32x4;
