@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Plots the cost of N views against one mono view from `bench/views.sh`'s CSV:
-one curve per scene, exact (solid) and shared shading (dashed).
+one curve per scene, exact (solid), shared shading (dashed) and, if measured,
+shared shading in batches of 8 views (dotted).
 
 usage: python3 bench/plot_views.py docs/views-bench.csv docs/images/views-cost.png
 """
@@ -24,7 +25,7 @@ def main(src, dst):
     for (scene, mode), pts in sorted(series.items()):
         pts.sort()
         color = colors.setdefault(scene, f"C{len(colors)}")
-        style = "-" if mode == "exact" else "--"
+        style = {"exact": "-", "shared": "--"}.get(mode, "-.")
         xs = [p[0] for p in pts]
         ax.plot(xs, [p[1] for p in pts], style, marker="o", ms=3, color=color,
                 label=f"{scene} {mode}")

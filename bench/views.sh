@@ -5,6 +5,8 @@
 # one run, mono first; and the shared views' worst PSNR and largest difference
 # against the exact views. One ray per pixel centre (--samples 1) everywhere.
 # Writes CSV; with matplotlib, the plot docs/images/views-cost.png.
+# MODES (default "exact shared") may add shared-b8: the shared shading with
+# batches of 8 views (--views-per-batch 8) instead of 4.
 #
 # Time: CPU seconds (user + sys) of the whole command, on THREADS threads
 # (default 1), so that other work on a shared machine does not count; the
@@ -30,6 +32,7 @@ if [[ ${#scenes[@]} -eq 0 ]]; then
 fi
 bin=${TWINRAY:-target/release/twinray}
 threads=${THREADS:-1}
+modes=${MODES:-exact shared}
 [[ -x $bin ]] || { echo "build first: cargo build --release" >&2; exit 2; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
@@ -42,26 +45,27 @@ render_s() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['ti
 counter() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))[sys.argv[2]])" "$1" "$2"; }
 shadow_rays() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['rays']['shadow'])" "$1"; }
 
-echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals" > "$csv"
+echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals,cache_colour_hits" > "$csv"
 for scene in "${scenes[@]}"; do
   name=$(basename "$scene" .nff)
   mono=$(cpu "$bin" render "$scene" -o "$tmp/mono.pfm" "${common[@]}" --stats "$tmp/mono.json" 2>/dev/null)
-  echo "$name,$size,$threads,0,mono,$mono,1,$(cat "$tmp/wall"),$(render_s "$tmp/mono.json"),,,$(shadow_rays "$tmp/mono.json"),0,0,0,0" >> "$csv"
+  echo "$name,$size,$threads,0,mono,$mono,1,$(cat "$tmp/wall"),$(render_s "$tmp/mono.json"),,,$(shadow_rays "$tmp/mono.json"),0,0,0,0,0" >> "$csv"
   for n in ${counts//,/ }; do
-    rm -f "$tmp"/exact_*.pfm "$tmp"/shared_*.pfm
+    rm -f "$tmp"/exact_*.pfm "$tmp"/shared*_*.pfm
     rig=(--views "$n" --interaxial "$b")
     [[ $n -eq 1 ]] && rig=()
-    for mode in exact shared; do
+    for mode in $modes; do
       extra=()
-      [[ $mode == shared && $n -gt 1 ]] && extra=(--share-shading)
-      [[ $mode == shared && $n -eq 1 ]] && continue
+      [[ $mode == shared* && $n -eq 1 ]] && continue
+      [[ $mode == shared* ]] && extra=(--share-shading)
+      [[ $mode == shared-b8 ]] && extra+=(--views-per-batch 8)
       s=$(cpu "$bin" render "$scene" -o "$tmp/$mode.pfm" "${common[@]}" "${rig[@]}" "${extra[@]}" \
         --stats "$tmp/$mode.json" 2>/dev/null)
       wall=$(cat "$tmp/wall")
       worst=inf; maxabs=0
-      if [[ $mode == shared ]]; then
+      if [[ $mode == shared* ]]; then
         for e in "$tmp"/exact_*.pfm; do  # exact_0.pfm ... (a pair: exact_L.pfm, exact_R.pfm)
-          read -r p m < <("$bin" compare "$e" "$tmp/shared_${e#"$tmp"/exact_}" \
+          read -r p m < <("$bin" compare "$e" "$tmp/${mode}_${e#"$tmp"/exact_}" \
             | sed 's/^psnr_db \([^ ]*\) *max_abs \([^ ]*\).*/\1 \2/')
           worst=$(python3 -c "print(min(float('$worst'), float('$p')))")
           maxabs=$(python3 -c "print(max($maxabs, $m))")
@@ -72,8 +76,9 @@ for scene in "${scenes[@]}"; do
       entries=$(counter "$tmp/$mode.json" cache_entries)
       fb=$(counter "$tmp/$mode.json" cache_fallbacks)
       edge=$(counter "$tmp/$mode.json" cache_edge_refusals)
+      whole=$(counter "$tmp/$mode.json" cache_colour_hits)
       ratio=$(python3 -c "print(f'{$s / $mono:.3f}')")
-      echo "$name,$size,$threads,$n,$mode,$s,$ratio,$wall,$(render_s "$tmp/$mode.json"),$worst,$maxabs,$shadow,$hits,$entries,$fb,$edge" >> "$csv"
+      echo "$name,$size,$threads,$n,$mode,$s,$ratio,$wall,$(render_s "$tmp/$mode.json"),$worst,$maxabs,$shadow,$hits,$entries,$fb,$edge,$whole" >> "$csv"
       printf '%-8s %4s views %-6s %7.3f CPU s %8s x mono  worst %s dB  max %s\n' "$name" "$n" "$mode" "$s" "$ratio" "$worst" "$maxabs"
     done
   done

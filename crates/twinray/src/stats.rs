@@ -56,11 +56,13 @@ pub struct TraceCounts {
     /// (`cache_entries`), of those refused for a shadow edge next to them
     /// (`cache_edge_refusals`); samples that took a kept sample's light
     /// (`cache_hits`), and samples that might have but found none and were
-    /// shaded exactly (`cache_fallbacks`).
+    /// shaded exactly (`cache_fallbacks`); of the hits, those that took the
+    /// entry's finished colour, computing nothing (`cache_colour_hits`).
     pub cache_entries: u64,
     pub cache_edge_refusals: u64,
     pub cache_hits: u64,
     pub cache_fallbacks: u64,
+    pub cache_colour_hits: u64,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -107,6 +109,7 @@ impl TraceCounts {
         self.cache_edge_refusals += o.cache_edge_refusals;
         self.cache_hits += o.cache_hits;
         self.cache_fallbacks += o.cache_fallbacks;
+        self.cache_colour_hits += o.cache_colour_hits;
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -191,6 +194,7 @@ pub struct Report {
     pub cache_edge_refusals: u64,
     pub cache_hits: u64,
     pub cache_fallbacks: u64,
+    pub cache_colour_hits: u64,
     pub nodes_visited: u64,
     pub box_tests: u64,
     pub primitive_tests: u64,
@@ -240,6 +244,7 @@ impl Report {
         self.cache_edge_refusals = c.cache_edge_refusals;
         self.cache_hits = c.cache_hits;
         self.cache_fallbacks = c.cache_fallbacks;
+        self.cache_colour_hits = c.cache_colour_hits;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
         self.primitive_tests = c.prim_tests;

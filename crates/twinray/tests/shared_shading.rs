@@ -8,6 +8,7 @@
 mod common;
 
 use common::*;
+use twinray::lights::LightKind;
 use twinray::math::{Color, Vec3};
 use twinray::output::compare;
 use twinray::render::{
@@ -96,11 +97,33 @@ fn rig(world: &World, views: usize, spacing: f32, convergence: Option<f64>) -> (
     (cam, rig)
 }
 
+/// The default tolerance, and what the tests allow beyond it (rounding).
+const E: f32 = SharedShading::DEFAULT_TOLERANCE;
+const ROUNDING: f32 = 1e-6;
+
 /// The exact twin render and the shared-shading one (default tolerance).
 fn exact_and_shared(world: &World, cam: &Camera, rig: &Rig) -> (RenderOutput, RenderOutput) {
     let exact = run(world, cam, rig, &options(Method::Twin, Sampling::Centers));
-    let shared = run(world, cam, rig, &shared(SharedShading::DEFAULT_TOLERANCE));
+    let shared = run(world, cam, rig, &shared(E));
     (exact, shared)
+}
+
+/// A thin feature is kept: with light shared only (tolerance 0) every view
+/// equals the exact one; with colours taken whole too (the default
+/// tolerance), each is within the tolerance of it. The default run's output.
+fn assert_kept(world: &World, cam: &Camera, rig: &Rig, what: &str) -> RenderOutput {
+    let exact = run(world, cam, rig, &options(Method::Twin, Sampling::Centers));
+    let light_only = run(world, cam, rig, &shared(0.0));
+    for (v, (a, b)) in exact.images.iter().zip(&light_only.images).enumerate() {
+        assert!(max_diff(a, b) <= ROUNDING, "view {v}, tolerance 0: {what}");
+    }
+    let out = run(world, cam, rig, &shared(E));
+    for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
+        let d = max_diff(a, b);
+        assert!(d <= E + ROUNDING, "view {v}: {what}, {d} off");
+    }
+    assert!(out.counts.cache_hits > 0, "{what}: nothing shared");
+    out
 }
 
 fn max_diff(a: &Image, b: &Image) -> f32 {
@@ -112,6 +135,7 @@ fn diffuse_light_with_nothing_in_its_way_is_shared_exactly() {
     // Every sample sees a diffuse surface, lit, unshadowed: the light's
     // visibility a sample takes is its own, its ambient and diffuse terms are
     // computed at its own point, so the image is the independent render's.
+    // Tolerance 0 shares light only (no colour is taken whole).
     let world = World::new(open_scene());
     for (views, spacing, convergence) in [(2, 0.4, None), (8, 0.1, Some(10.0)), (12, 0.05, None)] {
         let (cam, rig) = rig(&world, views, spacing, convergence);
@@ -121,13 +145,9 @@ fn diffuse_light_with_nothing_in_its_way_is_shared_exactly() {
             &rig,
             &options(Method::Independent, Sampling::Centers),
         );
-        let out = run(
-            &world,
-            &cam,
-            &rig,
-            &shared(SharedShading::DEFAULT_TOLERANCE),
-        );
+        let out = run(&world, &cam, &rig, &shared(0.0));
         assert_eq!(out.images, reference.images, "{views} views");
+        assert_eq!(out.counts.cache_colour_hits, 0);
         // Every view but the first could take view 0's light.
         let samples = (96 * 64 * (views - 1)) as u64;
         assert!(
@@ -145,6 +165,95 @@ fn diffuse_light_with_nothing_in_its_way_is_shared_exactly() {
     }
 }
 
+/// The open scene lit by parallel light (from above, left and behind the
+/// camera): on each flat, untextured, diffuse surface the colour is the same
+/// at every point, so a colour taken whole is the sample's own.
+fn parallel_light_scene() -> Scene {
+    let mut scene = open_scene();
+    scene.lights[0] = Light {
+        kind: LightKind::Directional {
+            direction: Vec3::new(0.3, 0.6, -0.7).normalize(),
+        },
+        color: Some(Color::ONE),
+    };
+    scene
+}
+
+#[test]
+fn colours_taken_whole_are_exact_where_the_colour_is_constant() {
+    let world = World::new(parallel_light_scene());
+    for (views, spacing, convergence) in [(2, 0.4, None), (8, 0.1, Some(10.0)), (12, 0.05, None)] {
+        let (cam, rig) = rig(&world, views, spacing, convergence);
+        let reference = run(
+            &world,
+            &cam,
+            &rig,
+            &options(Method::Independent, Sampling::Centers),
+        );
+        let out = run(&world, &cam, &rig, &shared(E));
+        assert_eq!(out.images, reference.images, "{views} views");
+        // Nearly every other view's sample took a colour and computed nothing.
+        let samples = (96 * 64 * (views - 1)) as u64;
+        assert!(
+            out.counts.cache_colour_hits * 10 >= samples * 8,
+            "{views} views: {} of {samples} samples took a colour whole",
+            out.counts.cache_colour_hits
+        );
+    }
+}
+
+#[test]
+fn colours_taken_whole_stay_within_the_tolerance() {
+    // A point light near a tilted wall: the diffuse term varies across every
+    // pixel; a sample that takes its neighbour's colour is off by at most the
+    // spread between the kept sample and its row neighbours (checked ≤ E).
+    let world = World::new(open_scene());
+    let (cam, rig) = rig(&world, 8, 0.1, Some(10.0));
+    let exact = run(
+        &world,
+        &cam,
+        &rig,
+        &options(Method::Twin, Sampling::Centers),
+    );
+    for tolerance in [0.002, E, 0.05] {
+        let out = run(&world, &cam, &rig, &shared(tolerance));
+        assert!(out.counts.cache_colour_hits > 0, "tolerance {tolerance}");
+        let mut differing = 0;
+        for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
+            let d = compare(a, b).expect("same size");
+            assert!(
+                d.max_abs <= tolerance + ROUNDING,
+                "view {v}, tolerance {tolerance}: {d:?}"
+            );
+            differing += d.differing_pixels;
+        }
+        assert!(
+            differing > 0,
+            "tolerance {tolerance}: colours were taken whole"
+        );
+    }
+}
+
+/// The open scene with a broad highlight on the wall (weight 0.6, far above
+/// the tolerance): it moves across the wall from view to view.
+fn highlight_scene() -> Scene {
+    let mut scene = open_scene();
+    scene.materials[0].ks = 0.6;
+    scene.materials[0].shine = 4.0;
+    scene.materials[0].specular_color = Color::ONE;
+    scene
+}
+
+#[test]
+fn a_highlight_is_each_views_own() {
+    // The wall's light may be shared, its colour may not be taken whole: each
+    // view computes its own highlight.
+    let world = World::new(highlight_scene());
+    let (cam, rig) = rig(&world, 8, 0.3, Some(10.0));
+    let out = assert_kept(&world, &cam, &rig, "the wall's highlight");
+    assert!(out.counts.cache_colour_hits > 0, "the floor's colours");
+}
+
 /// The open scene with a faintly mirroring floor (weight `mirror`) facing
 /// the wall, and a red ball above it that the floor reflects.
 fn faint_mirror_scene(mirror: f32) -> Scene {
@@ -160,7 +269,8 @@ fn faint_mirror_scene(mirror: f32) -> Scene {
 fn shared_secondary_light_stays_within_the_tolerance() {
     // The floor's reflection differs from view to view; it weighs `mirror`,
     // and every radiance here is at most 1, so a view that takes another's
-    // secondary colour is off by at most `mirror`, within the tolerance.
+    // secondary colour is off by at most `mirror`, within the tolerance; a
+    // colour taken whole adds at most the tolerance (its neighbours' spread).
     let world = World::new(faint_mirror_scene(0.008));
     let (cam, rig) = rig(&world, 8, 0.15, Some(8.0));
     let exact = run(
@@ -176,16 +286,23 @@ fn shared_secondary_light_stays_within_the_tolerance() {
     for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
         let d = max_diff(a, b);
         assert!(
-            d <= 0.008 + 1e-5,
-            "view {v}: max difference {d} beyond the mirror weight"
+            d <= 0.008 + tolerance + 1e-5,
+            "view {v}: max difference {d} beyond the mirror weight and the tolerance"
         );
         differing += compare(a, b).expect("same size").differing_pixels;
     }
     assert!(differing > 0, "the floor's reflection was shared");
-    // Below the floor's weight, the floor is shaded exactly, every view.
-    let strict = run(&world, &cam, &rig, &shared(0.005));
-    for (v, (a, b)) in exact.images.iter().zip(&strict.images).enumerate() {
-        assert!(max_diff(a, b) <= 1e-6, "view {v} with tolerance 0.005");
+    // Below the floor's weight, the floor is shaded exactly, every view: what
+    // differs is colours taken whole, within the tolerance; with light shared
+    // only (tolerance 0), nothing.
+    for strict in [0.005, 0.0] {
+        let out = run(&world, &cam, &rig, &shared(strict));
+        for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
+            assert!(
+                max_diff(a, b) <= strict + ROUNDING,
+                "view {v} with tolerance {strict}"
+            );
+        }
     }
 }
 
@@ -195,10 +312,7 @@ fn a_mirror_is_traced_by_every_view() {
     // (and between any key views); no view takes another's.
     let world = World::new(faint_mirror_scene(0.7));
     let (cam, rig) = rig(&world, 8, 0.15, Some(8.0));
-    let (exact, out) = exact_and_shared(&world, &cam, &rig);
-    for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
-        assert!(max_diff(a, b) <= 1e-6, "view {v}");
-    }
+    assert_kept(&world, &cam, &rig, "the mirror's reflection");
 }
 
 /// The open scene with a thin red pole near the camera at the right edge of
@@ -249,16 +363,7 @@ fn a_pole_seen_by_some_views_only_keeps_its_own_shading() {
     let seen: Vec<usize> = exact.images.iter().map(red_pixels).collect();
     assert_eq!(seen[0], 0, "view 0 does not see the pole: {seen:?}");
     assert!(seen[7] >= 32, "view 7 sees it: {seen:?}");
-    let out = run(
-        &world,
-        &cam,
-        &rig,
-        &shared(SharedShading::DEFAULT_TOLERANCE),
-    );
-    for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
-        assert!(max_diff(a, b) <= 1e-6, "view {v}: the pole in shadow");
-    }
-    assert!(out.counts.cache_hits > 0);
+    assert_kept(&world, &cam, &rig, "the pole in shadow");
 }
 
 /// The open scene with a vertical bar between the light and the wall: its
@@ -285,11 +390,8 @@ fn shadow_edge_scene() -> Scene {
 fn a_shadow_edge_between_the_views_samples_is_kept() {
     let world = World::new(shadow_edge_scene());
     let (cam, rig) = rig(&world, 8, 0.07, Some(10.0));
-    let (exact, out) = exact_and_shared(&world, &cam, &rig);
+    let out = assert_kept(&world, &cam, &rig, "the shadow stripe");
     assert!(out.counts.cache_edge_refusals > 0, "the edges are seen");
-    for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
-        assert!(max_diff(a, b) <= 1e-6, "view {v}");
-    }
 }
 
 #[test]
@@ -313,6 +415,8 @@ fn the_same_image_for_1_2_and_5_threads() {
             let many = run_on_threads(threads, &world, &cam, &rig, &opts);
             assert_eq!(one.images, many.images, "{threads} threads, {sampling:?}");
             assert_eq!(one.counts.cache_hits, many.counts.cache_hits);
+            assert_eq!(one.counts.cache_colour_hits, many.counts.cache_colour_hits);
+            assert!(one.counts.cache_colour_hits > 0);
         }
     }
 }

@@ -625,8 +625,8 @@ impl Job {
             )));
             if o.approx.shared_shading.is_some() {
                 m.push(Message::info(format!(
-                    "shared shading: cache entries {} (refused at a shadow edge {}), samples that took an entry's light {}, exact fall-backs {}",
-                    c.cache_entries, c.cache_edge_refusals, c.cache_hits, c.cache_fallbacks
+                    "shared shading: cache entries {} (refused at a shadow edge {}), samples that took an entry's light {} (its whole colour {}), exact fall-backs {}",
+                    c.cache_entries, c.cache_edge_refusals, c.cache_hits, c.cache_colour_hits, c.cache_fallbacks
                 )));
             }
         }

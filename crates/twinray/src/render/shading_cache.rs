@@ -46,6 +46,33 @@ struct Entry {
     gives: bool,
     /// It may be taken: it gives, and no shadow edge passes next to it.
     shareable: bool,
+    /// The sample's finished colour.
+    color: Color,
+    /// Its whole shading tree is diffuse within the tolerance (no highlight,
+    /// mirror or transmission weight above it, on any surface of the tree).
+    whole: bool,
+    /// Its colour may be taken as it is: it is shareable, whole, and its row
+    /// neighbours are whole and within the tolerance of its colour.
+    finished: bool,
+}
+
+/// What a leader's exactly shaded sample leaves in the cache (`keep`).
+#[derive(Clone, Copy, Debug)]
+pub struct Kept<'a> {
+    /// The primitive hit, the point, and the distance along the eye ray.
+    pub prim: u32,
+    pub point: Vec3,
+    pub t: f32,
+    /// Transmittance toward each light.
+    pub through: &'a [f32],
+    /// Weighted colour of its reflected and refracted rays.
+    pub secondary: Color,
+    /// Its finished colour.
+    pub color: Color,
+    /// Its surface may give light (mirror + transmission ≤ the tolerance).
+    pub gives: bool,
+    /// Its whole shading tree is within the tolerance (see `Entry::whole`).
+    pub whole: bool,
 }
 
 /// A leader view of the row and, per sample, the entry its hit found or made.
@@ -64,6 +91,9 @@ const LEADERS_SEARCHED: usize = 3;
 #[derive(Debug, Default)]
 pub struct ShadingCache {
     lights: usize,
+    /// `--share-tolerance`: how far apart a kept colour and its neighbours'
+    /// may be for the colour to be taken whole.
+    tolerance: f32,
     entries: Vec<Entry>,
     /// `lights` transmittances per entry.
     through: Vec<f32>,
@@ -79,9 +109,11 @@ pub struct ShadingCache {
 pub struct Found(u32);
 
 impl ShadingCache {
-    /// Empties the cache for a new row of samples (the row's first batch).
-    pub fn start_row(&mut self, lights: usize) {
+    /// Empties the cache for a new row of samples (the row's first batch),
+    /// for a scene of `lights` lights and the sharing's `tolerance`.
+    pub fn start_row(&mut self, lights: usize, tolerance: f32) {
         self.lights = lights;
+        self.tolerance = tolerance;
         self.entries.clear();
         self.through.clear();
         self.used = 0;
@@ -105,33 +137,23 @@ impl ShadingCache {
         self.used.checked_sub(1).map(|l| &mut self.leaders[l])
     }
 
-    /// Keeps the current leader's exactly shaded sample `i`: it hit `prim` at
-    /// `point`, `t` along its ray, saw light `l` through `through[l]` and got
-    /// `secondary` from its reflected and refracted rays. `gives`: its surface
-    /// may give its light to others (see the module's bound).
-    #[allow(clippy::too_many_arguments)]
-    pub fn keep(
-        &mut self,
-        i: usize,
-        prim: u32,
-        point: Vec3,
-        t: f32,
-        through: &[f32],
-        secondary: Color,
-        gives: bool,
-    ) {
+    /// Keeps the current leader's exactly shaded sample `i` (see [`Kept`]).
+    pub fn keep(&mut self, i: usize, kept: Kept) {
         let e = self.entries.len() as u32;
         self.entries.push(Entry {
-            prim,
-            point,
-            t,
-            secondary,
-            gives,
+            prim: kept.prim,
+            point: kept.point,
+            t: kept.t,
+            secondary: kept.secondary,
+            gives: kept.gives,
             shareable: false,
+            color: kept.color,
+            whole: kept.whole,
+            finished: false,
         });
         let lights = self.lights;
         self.through
-            .extend((0..lights).map(|l| through.get(l).copied().unwrap_or(0.0)));
+            .extend((0..lights).map(|l| kept.through.get(l).copied().unwrap_or(0.0)));
         self.point_to(i, Found(e));
     }
 
@@ -150,7 +172,10 @@ impl ShadingCache {
     /// Judges the current leader's new entries: one may be taken if it gives
     /// and each of its row neighbours (in the leader's row) points to an entry
     /// that gives and saw every light exactly as it did — no shadow edge
-    /// passes within a pixel of it. Returns how many were refused for an edge.
+    /// passes within a pixel of it. Its colour may be taken whole if, besides,
+    /// it and its neighbours' entries are whole and their colours lie within
+    /// the tolerance of its own (no texture, silhouette or shading edge within
+    /// a pixel). Returns how many were refused for a shadow edge.
     pub fn settle(&mut self) -> u64 {
         let Some(l) = self.used.checked_sub(1) else {
             return 0;
@@ -171,7 +196,22 @@ impl ShadingCache {
                         self.entries[n as usize].gives && self.through_of(n) == self.through_of(e)
                     })
                 });
-            self.entries[e as usize].shareable = coherent;
+            // E = 0 shares light only: a colour is then never taken whole.
+            let finished = coherent && self.tolerance > 0.0 && self.entries[e as usize].whole && {
+                let (own, tolerance) = (self.entries[e as usize].color, self.tolerance);
+                [i.wrapping_sub(1), i + 1]
+                    .into_iter()
+                    .filter(|&j| j < width)
+                    .all(|j| {
+                        slots[j].is_some_and(|n| {
+                            let n = &self.entries[n as usize];
+                            n.whole && (n.color - own).abs().max_element() <= tolerance
+                        })
+                    })
+            };
+            let entry = &mut self.entries[e as usize];
+            entry.shareable = coherent;
+            entry.finished = finished;
             refused += u64::from(!coherent);
         }
         self.leaders[l].slots = slots;
@@ -212,6 +252,12 @@ impl ShadingCache {
                 (entry.shareable && entry.prim == prim && (point - entry.point).length() <= radius)
                     .then_some(Found(e))
             })
+    }
+
+    /// The finished colour of entry `found`, if it may be taken whole.
+    pub fn finished(&self, found: Found) -> Option<Color> {
+        let entry = &self.entries[found.0 as usize];
+        entry.finished.then_some(entry.color)
     }
 
     /// The light of entry `found`: the transmittance toward each light, and
@@ -259,13 +305,35 @@ mod tests {
     /// A row of one leader (the centre view) whose every sample saw the z = 0
     /// plane (primitive 3) lit, `through[x]` toward the single light.
     fn filled(camera: &Camera, through: impl Fn(usize) -> f32) -> ShadingCache {
+        filled_with(camera, through, |_| 0.5)
+    }
+
+    /// `filled`, sample `x` of a grey `color(x)` (times its transmittance).
+    fn filled_with(
+        camera: &Camera,
+        through: impl Fn(usize) -> f32,
+        color: impl Fn(usize) -> f32,
+    ) -> ShadingCache {
         let mut cache = ShadingCache::default();
-        cache.start_row(1);
+        cache.start_row(1, 0.01);
         cache.begin_leader(CENTRE, 64);
         for x in 0..64 {
             let p = seen(camera, x);
             let t = (p - camera.eye).length();
-            cache.keep(x, 3, p, t, &[through(x)], Color::ZERO, true);
+            let through = [through(x)];
+            cache.keep(
+                x,
+                Kept {
+                    prim: 3,
+                    point: p,
+                    t,
+                    through: &through,
+                    secondary: Color::ZERO,
+                    color: Color::splat(color(x) * through[0]),
+                    gives: true,
+                    whole: true,
+                },
+            );
         }
         cache.settle();
         cache
@@ -320,12 +388,31 @@ mod tests {
         }
     }
 
+    /// A colour edge (a texture's or a seam's) between samples 30 and 31, with
+    /// the light unchanged: their light may be taken, their colour may not;
+    /// their neighbours beyond keep both. Within the tolerance, it may.
+    #[test]
+    fn colours_next_to_a_colour_edge_are_not_taken_whole() {
+        let camera = camera();
+        for (step, beyond) in [(0.02, false), (0.005, true)] {
+            let cache = filled_with(&camera, |_| 1.0, |x| if x <= 30 { 0.5 } else { 0.5 + step });
+            for (x, whole) in [(29, true), (30, beyond), (31, beyond), (32, true)] {
+                let found = look(&cache, &camera, x, 3, 0.0).expect("light shared");
+                assert_eq!(
+                    cache.finished(found).is_some(),
+                    whole,
+                    "sample {x}, step {step}"
+                );
+            }
+        }
+    }
+
     /// A new row forgets the last one's entries.
     #[test]
     fn a_new_row_starts_empty() {
         let camera = camera();
         let mut cache = filled(&camera, |_| 1.0);
-        cache.start_row(1);
+        cache.start_row(1, 0.01);
         cache.begin_leader(CENTRE, 64);
         assert_eq!(look(&cache, &camera, 20, 3, 0.0), None);
     }

@@ -6,7 +6,7 @@
 
 use super::{RowScratch, TwinBatch};
 use crate::render::sampler::{RowColors, SampleRow};
-use crate::render::shading_cache::{Found, ShadingCache};
+use crate::render::shading_cache::{Found, Kept, ShadingCache};
 use crate::render::Tracer;
 
 impl<const K: usize> TwinBatch<'_, K> {
@@ -34,7 +34,8 @@ impl<const K: usize> TwinBatch<'_, K> {
         cache.find(self.camera, row, i, prim, point, hit.t)
     }
 
-    /// View `v`'s sample `i` shaded with the light of the cache's `found`.
+    /// View `v`'s sample `i` shaded with the cache's `found`: its colour
+    /// whole if it may be taken so (a lookup, nothing else), else its light.
     fn shade_found(
         &self,
         tracer: &mut Tracer,
@@ -43,12 +44,16 @@ impl<const K: usize> TwinBatch<'_, K> {
         found: Found,
         (v, i): (usize, usize),
     ) -> crate::math::Color {
+        tracer.counts.cache_hits += 1;
+        if let Some(color) = cache.finished(found) {
+            tracer.counts.cache_colour_hits += 1;
+            return color;
+        }
         let (through, secondary) = cache.light(found);
         scratch.donor.through.clear();
         scratch.donor.through.extend_from_slice(through);
         scratch.donor.secondary = secondary;
         let (packet, hits) = self.sample_packet(scratch, v, i);
-        tracer.counts.cache_hits += 1;
         tracer.shade_from_donor(&packet, &hits, &scratch.donor)
     }
 
@@ -59,9 +64,9 @@ impl<const K: usize> TwinBatch<'_, K> {
     ///    finds none is shaded alone and kept; the others' groups are shaded
     ///    as packets, exactly. The leader's new entries are then judged
     ///    (`ShadingCache::settle`: no shadow edge next to them).
-    /// 2. Every other sample (and the leader's pointing ones) takes the light
-    ///    of the entry it finds, else is shaded exactly, the rest of its group
-    ///    as one packet.
+    /// 2. Every other sample (and the leader's pointing ones) takes the colour
+    ///    of the entry it finds if that may be taken whole, else its light,
+    ///    else is shaded exactly, the rest of its group as one packet.
     pub(super) fn share_shading(
         &self,
         tracer: &mut Tracer,
@@ -72,7 +77,7 @@ impl<const K: usize> TwinBatch<'_, K> {
     ) {
         let mut cache = std::mem::take(&mut tracer.shading_cache);
         if self.first_view == 0 {
-            cache.start_row(self.world.scene.lights.len());
+            cache.start_row(self.world.scene.lights.len(), tolerance);
         }
         cache.begin_leader(self.rig.views[0], row.len());
         let groups = std::mem::take(&mut scratch.groups);
@@ -98,7 +103,19 @@ impl<const K: usize> TwinBatch<'_, K> {
             out[0][i] = donor.color;
             let point = scratch.points[0][i].unwrap_or_default();
             let (prim, hit) = scratch.hits[0][i];
-            cache.keep(i, prim, point, hit.t, &donor.through, donor.secondary, true);
+            cache.keep(
+                i,
+                Kept {
+                    prim,
+                    point,
+                    t: hit.t,
+                    through: &donor.through,
+                    secondary: donor.secondary,
+                    color: donor.color,
+                    gives: true,
+                    whole: donor.tree_coefficient <= tolerance,
+                },
+            );
             scratch.donor = donor;
             tracer.counts.cache_entries += 1;
         }
