@@ -19,6 +19,10 @@ pub struct World {
     pub far: Option<Bvh>,
     /// Seconds spent building the hierarchy.
     pub build_seconds: f64,
+    /// Whether some material's alpha matters (`Scene::has_alpha`): rays then
+    /// go on past cut-away hits, and shadow rays ask the alpha where they meet
+    /// such a material.
+    pub has_alpha: bool,
 }
 
 /// The paper's section 2.3: objects farther than `depth` along the camera's
@@ -121,6 +125,7 @@ impl World {
         scene.shape_group = groups;
         bvh.order = (0..near_count).collect();
         World {
+            has_alpha: scene.has_alpha(),
             scene,
             bvh,
             far: far_bvh,
