@@ -8,9 +8,9 @@
 //!   shading), the texture coordinates the base-colour texture names.
 //! * Metallic-roughness materials with `baseColorTexture`,
 //!   `KHR_materials_transmission`, `KHR_materials_ior`, `emissiveFactor`,
-//!   `emissiveTexture`, `KHR_materials_emissive_strength` and
-//!   `occlusionTexture` map to twinray's Whitted material as docs/formats.md
-//!   explains.
+//!   `emissiveTexture`, `KHR_materials_emissive_strength`,
+//!   `occlusionTexture`, `normalTexture` and `alphaMode` (MASK cut-outs,
+//!   BLEND) map to twinray's Whitted material as docs/formats.md explains.
 //! * `KHR_lights_punctual` point, spot and directional lights; perspective
 //!   cameras (`Scene::cameras`, the first one in use).
 //!

@@ -3,8 +3,9 @@
 //! * Objects (`o`) and groups (`g`) become scene groups (one id per name).
 //! * Polygons of any size are cut into triangles exactly as NFF's are.
 //! * `vn` normals give smooth shading, `vt` texture coordinates feed `map_Kd`.
-//! * MTL `Kd`, `Ks`, `Ns`, `d`/`Tr`, `Ni`, `Ke`, `illum` and `map_Kd` map to
-//!   twinray's Whitted material as docs/formats.md explains.
+//! * MTL `Kd`, `Ks`, `Ns`, `d`/`Tr`, `Ni`, `Ke`, `illum`, `map_Kd`, `map_d`,
+//!   `map_Ke`, `norm` and `map_Bump` map to twinray's Whitted material as
+//!   docs/formats.md explains.
 //!
 //! A malformed OBJ or MTL line is an error naming the file and the line (tobj
 //! reads line by line; a counting reader tells which line it stopped on). A
