@@ -4,9 +4,10 @@
 //! `map_Bump`; glTF `normalTexture`) and OBJ `map_Ke`. The twin method must
 //! still give what independent renders give, bit for bit.
 
+mod common;
+
 use std::path::Path;
 
-use base64::Engine as _;
 use serde_json::json;
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::math::{Color, Vec3};
@@ -479,52 +480,7 @@ fn map_ke_multiplies_ke() {
     assert!(close(right, Color::new(0.0, 0.5, 0.0), 1e-3), "{right}");
 }
 
-/// A glTF quad like the OBJ one (texture coordinates v = 0 at the top) with
-/// `material` and one image, leaf.png, beside it.
+/// A glTF quad like the OBJ one with `material` and one image, leaf.png.
 fn gltf_quad(dir: &Path, material: serde_json::Value) -> std::path::PathBuf {
-    let corners: [([f32; 3], [f32; 2]); 4] = [
-        ([-1.0, -1.0, 0.0], [0.0, 1.0]),
-        ([1.0, -1.0, 0.0], [1.0, 1.0]),
-        ([1.0, 1.0, 0.0], [1.0, 0.0]),
-        ([-1.0, 1.0, 0.0], [0.0, 0.0]),
-    ];
-    let order = [0, 1, 2, 0, 2, 3];
-    let mut bytes: Vec<u8> = order
-        .iter()
-        .flat_map(|&i| corners[i].0)
-        .flat_map(f32::to_le_bytes)
-        .collect();
-    bytes.extend(
-        order
-            .iter()
-            .flat_map(|&i| corners[i].1)
-            .flat_map(f32::to_le_bytes),
-    );
-    let uri = format!(
-        "data:application/octet-stream;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(&bytes)
-    );
-    let doc = json!({
-        "asset": {"version": "2.0"},
-        "scene": 0,
-        "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}]}],
-        "materials": [material],
-        "textures": [{"source": 0}],
-        "images": [{"uri": "leaf.png"}],
-        "buffers": [{"byteLength": 120, "uri": uri}],
-        "bufferViews": [
-            {"buffer": 0, "byteOffset": 0, "byteLength": 72},
-            {"buffer": 0, "byteOffset": 72, "byteLength": 48}
-        ],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": 6, "type": "VEC3",
-             "min": [-1.0, -1.0, 0.0], "max": [1.0, 1.0, 0.0]},
-            {"bufferView": 1, "componentType": 5126, "count": 6, "type": "VEC2"}
-        ]
-    });
-    let path = dir.join("quad.gltf");
-    std::fs::write(&path, doc.to_string()).unwrap();
-    path
+    common::gltf_quad(dir, material, &["leaf.png"])
 }
