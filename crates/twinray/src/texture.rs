@@ -268,6 +268,27 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn alpha_and_coverage_texels() {
+        let mut rgba = Vec::new();
+        image::RgbaImage::from_pixel(2, 1, image::Rgba([50, 0, 0, 100]))
+            .write_to(
+                &mut std::io::Cursor::new(&mut rgba),
+                image::ImageFormat::Png,
+            )
+            .unwrap();
+        let rgb = png(2, 1, [50, 0, 0]);
+        let value =
+            |bytes: &[u8], kind| Texture::decode_as(bytes, "t.png", kind).unwrap().texels[1];
+        // With an alpha channel both read it; without, alpha is 1 and
+        // coverage (OBJ map_d) the red channel.
+        assert_eq!(value(&rgba, Texels::Alpha), Color::splat(100.0 / 255.0));
+        assert_eq!(value(&rgba, Texels::Coverage), Color::splat(100.0 / 255.0));
+        assert_eq!(value(&rgb, Texels::Alpha), Color::ONE);
+        assert_eq!(value(&rgb, Texels::Coverage), Color::splat(50.0 / 255.0));
+        assert!(Texture::decode_as(b"junk", "j.png", Texels::Alpha).is_err());
+    }
+
+    #[test]
     fn png_decodes_and_garbage_is_an_error() {
         let png = png(3, 2, [255, 0, 0]);
         let t = Texture::decode(&png, "red.png").unwrap();

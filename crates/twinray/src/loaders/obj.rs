@@ -770,6 +770,39 @@ mod tests {
     }
 
     #[test]
+    fn dissolve_is_blend_map_d_is_a_cut_out_and_illum_6_refracts() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("a.png"),
+            crate::texture::tests::png(2, 2, [255, 255, 255]),
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("m.mtl"),
+            "newmtl half\nd 0.5\nillum 2\nnewmtl tr\nTr 0.25\n\
+             newmtl leaf\nmap_d a.png\nnewmtl both\nd 0.5\nmap_d a.png\n\
+             newmtl glass\nd 0.2\nNi 1.5\nillum 6\nnewmtl glow\nmap_Ke a.png\n",
+        )
+        .unwrap();
+        let s = load(dir.path(), "a.obj", "mtllib m.mtl\nv 0 0 0\n").unwrap();
+        let m = &s.materials;
+        assert_eq!(
+            (m[0].alpha_mode, m[0].alpha, m[0].t),
+            (AlphaMode::Blend, 0.5, 0.0)
+        );
+        assert_eq!((m[1].alpha_mode, m[1].alpha), (AlphaMode::Blend, 0.75));
+        assert_eq!(m[2].alpha_mode, AlphaMode::Mask { cutoff: 0.5 });
+        assert!(m[2].alpha_texture.is_some());
+        assert_eq!(m[3].alpha_mode, AlphaMode::Blend);
+        assert!(m[3].alpha_texture.is_some());
+        assert_eq!((m[4].alpha_mode, m[4].alpha), (AlphaMode::Opaque, 1.0));
+        assert!((m[4].t - 0.8).abs() < 1e-6 && m[4].ior == 1.5);
+        // map_Ke without Ke: the texture is the light emitted.
+        assert_eq!(m[5].emission, Color::ONE);
+        assert!(m[5].emission_texture.is_some());
+    }
+
+    #[test]
     fn missing_mtl_warns() {
         let dir = tempfile::tempdir().unwrap();
         let s = load(
