@@ -20,6 +20,7 @@ pub mod scene;
 pub mod shading;
 pub mod shapes;
 pub mod stats;
+pub mod surface_maps;
 pub mod texture;
 pub mod video;
 pub mod world;

@@ -11,6 +11,7 @@ use crate::shapes::{Cone, Shape, Sphere, SurfaceHit, Triangle, TriangleNormals};
 use crate::texture::Texture;
 
 pub use crate::lights::{Light, LightKind};
+pub use crate::surface_maps::{AlphaMode, NormalMap, NormalMapKind};
 
 /// Texture coordinates (u, v), v = 0 at the top row of the image.
 pub use crate::shapes::{Corners, Uv};
@@ -42,6 +43,17 @@ pub struct Material {
     /// non-colour data), blended by `occlusion_strength`.
     pub occlusion_texture: Option<u32>,
     pub occlusion_strength: f32,
+    /// How the surface's alpha is used: ignored, a cut-out, or a partial
+    /// straight-through transmission (docs/shading.md).
+    pub alpha_mode: AlphaMode,
+    /// Coverage: glTF `baseColorFactor`'s alpha, OBJ `d` (or `1 − Tr`).
+    pub alpha: f32,
+    /// Index into `Scene::textures` of a texture whose channels hold the
+    /// alpha that multiplies `alpha` (the base colour's alpha; OBJ `map_d`).
+    pub alpha_texture: Option<u32>,
+    /// A normal or height map that bends the shading normal (glTF
+    /// `normalTexture`, OBJ `norm` / `map_Bump`).
+    pub normal_map: Option<NormalMap>,
 }
 
 impl Material {
@@ -102,6 +114,10 @@ impl Default for Material {
             emission_texture: None,
             occlusion_texture: None,
             occlusion_strength: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            alpha: 1.0,
+            alpha_texture: None,
+            normal_map: None,
         }
     }
 }
@@ -201,6 +217,12 @@ pub struct SurfaceSample<'a> {
     pub emission: Color,
     /// Ambient occlusion here, 1 = none.
     pub occlusion: f32,
+    /// The share of the surface that is there (a BLEND material's alpha);
+    /// 1 for opaque and cut-out materials.
+    pub coverage: f32,
+    /// The unit normal before a normal map bent it (equal to `normal`
+    /// without one): secondary rays leave the surface along it.
+    pub offset_normal: Vec3,
 }
 
 impl SurfaceSample<'_> {
@@ -277,24 +299,33 @@ impl Scene {
             material,
             emission: material.emission,
             occlusion: 1.0,
+            coverage: 1.0,
+            offset_normal: normal,
         };
+        let blend = material.alpha_mode == AlphaMode::Blend;
+        if blend {
+            sample.coverage = material.alpha;
+        }
         let textured = material.texture.is_some()
             || material.emission_texture.is_some()
-            || material.occlusion_texture.is_some();
+            || material.occlusion_texture.is_some()
+            || material.normal_map.is_some()
+            || (blend && material.alpha_texture.is_some());
         if !textured {
             return sample;
         }
-        let Shape::Triangle(t) = shape else {
+        let Some((t, corners, uv)) = self.uv_at(prim, hit) else {
             return sample;
         };
-        let TriangleNormals::Patch(i) = t.normals else {
-            return sample;
-        };
-        let Some([a, b, c]) = self.corners[i as usize].uv else {
-            return sample;
-        };
-        let uv = a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v;
         let texel = |tex: u32| self.textures[tex as usize].sample(uv.x, uv.y);
+        if let Some(map) = &material.normal_map {
+            let texture = &self.textures[map.texture as usize];
+            sample.normal =
+                crate::surface_maps::mapped_normal(t, corners, uv, normal, map, texture);
+        }
+        if let (true, Some(tex)) = (blend, material.alpha_texture) {
+            sample.coverage *= texel(tex).x;
+        }
         if let Some(tex) = material.texture {
             sample.color *= texel(tex);
         }

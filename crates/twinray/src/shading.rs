@@ -14,7 +14,8 @@ use arrayvec::ArrayVec;
 use crate::bvh::{AnyHit, AnyHitTest, SegmentPacket, TraversalStats};
 use crate::lights::Light;
 use crate::math::{Color, Ray, Vec3};
-use crate::scene::Material;
+use crate::scene::{AlphaMode, Material};
+use crate::shapes::SurfaceHit;
 use crate::world::World;
 
 /// Distance a secondary ray's origin is moved off the surface, relative to the
@@ -40,6 +41,9 @@ pub struct SurfacePoint<'a> {
     pub material: &'a Material,
     /// The surface colour here: the material's, times its texture.
     pub color: Color,
+    /// The normal before a normal map bent it, turned like `normal`: shadow
+    /// and secondary rays leave the surface along it.
+    pub offset_normal: Vec3,
 }
 
 /// What reaches a point from a light through transmitting objects: the product
@@ -86,13 +90,28 @@ impl Transmittance {
 
 /// The shadow rays of a packet of surface points toward one light, traced
 /// together. Returns each lane's transmittance and, for lanes in full shadow,
-/// the opaque primitive that blocked them (for the shadow cache).
+/// the opaque primitive that blocked them (for the shadow cache). In a scene
+/// with cut-outs or partly transparent materials, each hit asks the alpha
+/// where it is (only such scenes pay for it).
 pub fn shadow_packet<const K: usize>(
     world: &World,
     segments: &SegmentPacket<K>,
     stats: &mut TraversalStats,
 ) -> ([f32; K], [Option<u32>; K]) {
-    let mut test = ShadowTest {
+    if world.has_alpha {
+        shadow_packet_with::<K, true>(world, segments, stats)
+    } else {
+        shadow_packet_with::<K, false>(world, segments, stats)
+    }
+}
+
+/// `shadow_packet`, asking the alpha at each hit (`ALPHA`) or not.
+fn shadow_packet_with<const K: usize, const ALPHA: bool>(
+    world: &World,
+    segments: &SegmentPacket<K>,
+    stats: &mut TraversalStats,
+) -> ([f32; K], [Option<u32>; K]) {
+    let mut test = ShadowTest::<K, ALPHA> {
         world,
         segments,
         through: std::array::from_fn(|_| Transmittance::default()),
@@ -109,7 +128,7 @@ pub fn shadow_packet<const K: usize>(
                 rest.mask &= !(1 << l);
             }
         }
-        let mut test = ShadowTest {
+        let mut test = ShadowTest::<K, ALPHA> {
             world,
             segments: &rest,
             through,
@@ -121,17 +140,25 @@ pub fn shadow_packet<const K: usize>(
     (std::array::from_fn(|l| through[l].value()), blocker)
 }
 
-/// What the shadow rays of a packet met so far.
-struct ShadowTest<'a, const K: usize> {
+/// What the shadow rays of a packet met so far; with `ALPHA`, a hit on a
+/// MASK or BLEND material lets through what its alpha there says.
+struct ShadowTest<'a, const K: usize, const ALPHA: bool> {
     world: &'a World,
     segments: &'a SegmentPacket<K>,
     through: [Transmittance; K],
     blocker: [Option<u32>; K],
 }
 
-impl<const K: usize> ShadowTest<'_, K> {
+impl<const K: usize, const ALPHA: bool> ShadowTest<'_, K, ALPHA> {
     #[inline(always)]
-    fn met(&mut self, prim: u32, lane: usize) -> AnyHit {
+    fn met(&mut self, prim: u32, lane: usize, hit: &SurfaceHit) -> AnyHit {
+        if ALPHA && self.world.material_of(prim).alpha_mode != AlphaMode::Opaque {
+            // Never a cached blocker: it blocks only where its alpha says so.
+            return match self.world.scene.shadow_factor(prim as usize, hit) {
+                None => AnyHit::Continue,
+                Some(t) => self.through[lane].meet(t),
+            };
+        }
         let t = self.world.transmission_of(prim);
         if t <= 0.0 {
             self.blocker[lane] = Some(prim);
@@ -145,17 +172,14 @@ impl<const K: usize> ShadowTest<'_, K> {
     }
 }
 
-impl<const K: usize> AnyHitTest for ShadowTest<'_, K> {
+impl<const K: usize, const ALPHA: bool> AnyHitTest for ShadowTest<'_, K, ALPHA> {
     #[inline(always)]
     fn test(&mut self, prim: u32, lane: usize) -> AnyHit {
         let shape = &self.world.scene.shapes[prim as usize];
-        if shape
-            .intersect(&self.ray(lane), 0.0, self.segments.t_max[lane])
-            .is_none()
-        {
-            return AnyHit::Continue;
+        match shape.intersect(&self.ray(lane), 0.0, self.segments.t_max[lane]) {
+            None => AnyHit::Continue,
+            Some(hit) => self.met(prim, lane, &hit),
         }
-        self.met(prim, lane)
     }
 
     #[inline(always)]
@@ -164,12 +188,9 @@ impl<const K: usize> AnyHitTest for ShadowTest<'_, K> {
         let shape = &self.world.scene.shapes[prim as usize];
         let t_max = [self.segments.t_max[a], self.segments.t_max[b]];
         let found = shape.intersect_pair(&[self.ray(a), self.ray(b)], 0.0, t_max);
-        [a, b].map(|l| {
-            if found[l].is_none() {
-                AnyHit::Continue
-            } else {
-                self.met(prim, l)
-            }
+        [a, b].map(|l| match &found[l] {
+            None => AnyHit::Continue,
+            Some(hit) => self.met(prim, l, hit),
         })
     }
 }
@@ -244,6 +265,7 @@ mod tests {
             t: 3.0,
             material,
             color: Color::new(0.5, 0.25, 1.0),
+            offset_normal: normal,
         }
     }
 

@@ -63,6 +63,8 @@ pub struct TraceCounts {
     pub cache_hits: u64,
     pub cache_fallbacks: u64,
     pub cache_colour_hits: u64,
+    /// Rays traced on past a cut-away hit (alpha MASK), one per layer.
+    pub cutout_continuations: u64,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -110,6 +112,7 @@ impl TraceCounts {
         self.cache_hits += o.cache_hits;
         self.cache_fallbacks += o.cache_fallbacks;
         self.cache_colour_hits += o.cache_colour_hits;
+        self.cutout_continuations += o.cutout_continuations;
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {

@@ -75,8 +75,39 @@ impl Texture {
 
     /// Reads and decodes an image file.
     pub fn load(path: &Path) -> Result<Texture, String> {
+        Texture::load_as(path, Texels::Colour)
+    }
+
+    /// Reads and decodes an image file into texels of the kind asked for.
+    pub fn load_as(path: &Path, kind: Texels) -> Result<Texture, String> {
         let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        Texture::decode(&bytes, &path.display().to_string())
+        Texture::decode_as(&bytes, &path.display().to_string(), kind)
+    }
+
+    /// Decodes a PNG or JPEG image held in memory into texels of `kind`.
+    pub fn decode_as(bytes: &[u8], what: &str, kind: Texels) -> Result<Texture, String> {
+        match kind {
+            Texels::Colour => Texture::decode(bytes, what),
+            Texels::Data => Texture::decode_data(bytes, what),
+            Texels::Alpha | Texels::Coverage => {
+                let (rgba, has_alpha) = decode_rgba8(bytes, what)?;
+                let value = |p: &image::Rgba<u8>| {
+                    let byte = match (has_alpha, kind) {
+                        (true, _) => p.0[3],
+                        (false, Texels::Coverage) => p.0[0],
+                        (false, _) => 255,
+                    };
+                    f32::from(byte) / 255.0
+                };
+                Ok(Texture {
+                    width: rgba.width(),
+                    height: rgba.height(),
+                    texels: rgba.pixels().map(|p| Color::splat(value(p))).collect(),
+                    wrap_s: Wrap::Repeat,
+                    wrap_t: Wrap::Repeat,
+                })
+            }
+        }
     }
 
     /// Bilinear sample at (`u`, `v`), `v` = 0 on the top row; texel centres at
@@ -109,9 +140,32 @@ impl Texture {
     }
 }
 
-/// A PNG or JPEG image's size and 8-bit RGB pixels; too large an image is
-/// refused before it is decoded.
-fn decode_rgb8(bytes: &[u8], what: &str) -> Result<(u32, u32, Vec<[u8; 3]>), String> {
+/// What an image's texels hold once decoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Texels {
+    /// sRGB-encoded colour, decoded to linear light (base colour, emission).
+    Colour,
+    /// Non-colour data, `byte / 255` (occlusion, normal maps, heights).
+    Data,
+    /// The alpha channel (glTF base colour alpha), 1 where the image has none;
+    /// in every channel.
+    Alpha,
+    /// The alpha channel if the image has one, else its red channel (OBJ
+    /// `map_d`, a scalar texture often saved as a grey image); in every channel.
+    Coverage,
+}
+
+/// A PNG or JPEG image as 8-bit RGBA, and whether it has an alpha channel.
+fn decode_rgba8(bytes: &[u8], what: &str) -> Result<(image::RgbaImage, bool), String> {
+    check_size(bytes, what)?;
+    let img = image::load_from_memory(bytes)
+        .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?;
+    let has_alpha = img.color().has_alpha();
+    Ok((img.into_rgba8(), has_alpha))
+}
+
+/// Refuses an image too large to decode, before decoding it.
+fn check_size(bytes: &[u8], what: &str) -> Result<(), String> {
     let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| format!("{what}: {e}"))?;
@@ -123,6 +177,13 @@ fn decode_rgb8(bytes: &[u8], what: &str) -> Result<(u32, u32, Vec<[u8; 3]>), Str
             "{what}: image of {w}x{h} pixels refused (at most {MAX_TEXELS} pixels)"
         ));
     }
+    Ok(())
+}
+
+/// A PNG or JPEG image's size and 8-bit RGB pixels; too large an image is
+/// refused before it is decoded.
+fn decode_rgb8(bytes: &[u8], what: &str) -> Result<(u32, u32, Vec<[u8; 3]>), String> {
+    check_size(bytes, what)?;
     let img = image::load_from_memory(bytes)
         .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?
         .into_rgb8();
@@ -204,6 +265,27 @@ pub(crate) mod tests {
         assert_eq!(t.sample(1.25, 0.25), Color::ONE);
         assert_eq!(t.sample(1.75, 0.25), Color::ZERO);
         assert_eq!(t.sample(f32::NAN, 0.0), t.texels[0]);
+    }
+
+    #[test]
+    fn alpha_and_coverage_texels() {
+        let mut rgba = Vec::new();
+        image::RgbaImage::from_pixel(2, 1, image::Rgba([50, 0, 0, 100]))
+            .write_to(
+                &mut std::io::Cursor::new(&mut rgba),
+                image::ImageFormat::Png,
+            )
+            .unwrap();
+        let rgb = png(2, 1, [50, 0, 0]);
+        let value =
+            |bytes: &[u8], kind| Texture::decode_as(bytes, "t.png", kind).unwrap().texels[1];
+        // With an alpha channel both read it; without, alpha is 1 and
+        // coverage (OBJ map_d) the red channel.
+        assert_eq!(value(&rgba, Texels::Alpha), Color::splat(100.0 / 255.0));
+        assert_eq!(value(&rgba, Texels::Coverage), Color::splat(100.0 / 255.0));
+        assert_eq!(value(&rgb, Texels::Alpha), Color::ONE);
+        assert_eq!(value(&rgb, Texels::Coverage), Color::splat(50.0 / 255.0));
+        assert!(Texture::decode_as(b"junk", "j.png", Texels::Alpha).is_err());
     }
 
     #[test]

@@ -22,6 +22,10 @@ pub struct World {
     /// The leaves of `bvh` and `far` made only of triangles, as SIMD blocks
     /// (the nearest-hit traversals test them four at a time).
     pub leaf_triangles: LeafTriangles,
+    /// Whether some material's alpha matters (`Scene::has_alpha`): rays then
+    /// go on past cut-away hits, and shadow rays ask the alpha where they meet
+    /// such a material.
+    pub has_alpha: bool,
 }
 
 /// The paper's section 2.3: objects farther than `depth` along the camera's
@@ -128,6 +132,7 @@ impl World {
             bvh.leaves().chain(far_bvh.iter().flat_map(Bvh::leaves)),
         );
         World {
+            has_alpha: scene.has_alpha(),
             scene,
             bvh,
             far: far_bvh,

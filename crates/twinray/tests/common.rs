@@ -1,7 +1,10 @@
 //! Helpers shared by the integration tests: the project's own scenes, rendered small.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use serde_json::json;
 
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::render::{render, Method, RenderOptions, RenderOutput, Sampling, TraceSettings};
@@ -95,4 +98,57 @@ pub fn centroid(img: &Image, x: f64, y: f64, radius: f64) -> Option<(f64, f64)> 
         }
     }
     (sw > 0.0).then(|| (sx / sw, sy / sw))
+}
+
+/// The quad −1..1 at z = 0 as two triangles with texture coordinates (v = 0 at the top).
+pub fn quad_buffer() -> String {
+    let corners: [([f32; 3], [f32; 2]); 4] = [
+        ([-1.0, -1.0, 0.0], [0.0, 1.0]),
+        ([1.0, -1.0, 0.0], [1.0, 1.0]),
+        ([1.0, 1.0, 0.0], [1.0, 0.0]),
+        ([-1.0, 1.0, 0.0], [0.0, 0.0]),
+    ];
+    let mut bytes = Vec::new();
+    for i in [0, 1, 2, 0, 2, 3] {
+        for v in corners[i].0 {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    for i in [0, 1, 2, 0, 2, 3] {
+        for v in corners[i].1 {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&bytes)
+    )
+}
+
+/// A glTF quad with `material`; `images` are file names beside it.
+pub fn gltf_quad(dir: &Path, material: serde_json::Value, images: &[&str]) -> PathBuf {
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}]}],
+        "materials": [material],
+        "textures": (0..images.len()).map(|i| json!({"source": i})).collect::<Vec<_>>(),
+        "images": images.iter().map(|u| json!({"uri": u})).collect::<Vec<_>>(),
+        "buffers": [{"byteLength": 6 * 20, "uri": quad_buffer()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 72},
+            {"buffer": 0, "byteOffset": 72, "byteLength": 48}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 6, "type": "VEC3",
+             "min": [-1.0, -1.0, 0.0], "max": [1.0, 1.0, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 6, "type": "VEC2"}
+        ]
+    });
+    let path = dir.join("quad.gltf");
+    std::fs::write(&path, doc.to_string()).unwrap();
+    path
 }

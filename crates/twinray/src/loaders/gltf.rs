@@ -8,9 +8,9 @@
 //!   shading), the texture coordinates the base-colour texture names.
 //! * Metallic-roughness materials with `baseColorTexture`,
 //!   `KHR_materials_transmission`, `KHR_materials_ior`, `emissiveFactor`,
-//!   `emissiveTexture`, `KHR_materials_emissive_strength` and
-//!   `occlusionTexture` map to twinray's Whitted material as docs/formats.md
-//!   explains.
+//!   `emissiveTexture`, `KHR_materials_emissive_strength`,
+//!   `occlusionTexture`, `normalTexture` and `alphaMode` (MASK cut-outs,
+//!   BLEND) map to twinray's Whitted material as docs/formats.md explains.
 //! * `KHR_lights_punctual` point, spot and directional lights; perspective
 //!   cameras (`Scene::cameras`, the first one in use).
 //!
@@ -33,9 +33,10 @@ use crate::error::{Error, Result};
 use crate::lights::{Light, LightKind};
 use crate::math::{Color, Vec3};
 use crate::scene::{
-    AngleSpan, Material, MeshPolygon, NamedCamera, Scene, SceneFormat, Uv, Viewpoint,
+    AlphaMode, AngleSpan, Material, MeshPolygon, NamedCamera, NormalMap, NormalMapKind, Scene,
+    SceneFormat, Uv, Viewpoint,
 };
-use crate::texture::{Texture, Wrap};
+use crate::texture::{Texels, Texture, Wrap};
 
 /// Deepest node hierarchy accepted (deeper means a cycle or a hostile file).
 const MAX_DEPTH: usize = 256;
@@ -73,25 +74,30 @@ pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene
     scene.viewpoint.height = 480;
     let mut textures = HashMap::new();
     for m in doc.materials() {
-        let mut texture = |t: Option<gltf::Texture>, data: bool| {
-            t.and_then(|t| loader.texture(&mut scene, &mut textures, &t, data, &buffers))
+        let mut texture = |t: Option<gltf::Texture>, kind: Texels| {
+            t.and_then(|t| loader.texture(&mut scene, &mut textures, &t, kind, &buffers))
         };
+        let base_texture = || {
+            m.pbr_metallic_roughness()
+                .base_color_texture()
+                .map(|i| i.texture())
+        };
+        let uses_alpha = m.alpha_mode() != gltf::material::AlphaMode::Opaque;
+        let alpha = texture(base_texture().filter(|_| uses_alpha), Texels::Alpha);
+        let normal = texture(m.normal_texture().map(|n| n.texture()), Texels::Data);
         let maps = MaterialTextures {
-            base: texture(
-                m.pbr_metallic_roughness()
-                    .base_color_texture()
-                    .map(|i| i.texture()),
-                false,
-            ),
-            emission: texture(m.emissive_texture().map(|i| i.texture()), false),
-            occlusion: texture(m.occlusion_texture().map(|o| o.texture()), true),
+            base: texture(base_texture(), Texels::Colour),
+            emission: texture(m.emissive_texture().map(|i| i.texture()), Texels::Colour),
+            occlusion: texture(m.occlusion_texture().map(|o| o.texture()), Texels::Data),
             metal_rough_mean: texture(
                 m.pbr_metallic_roughness()
                     .metallic_roughness_texture()
                     .map(|i| i.texture()),
-                true,
+                Texels::Data,
             )
             .map(|t| mean_texel(&scene.textures[t as usize])),
+            alpha,
+            normal,
         };
         scene.add_material(material_from_pbr(&m, maps));
     }
@@ -580,14 +586,14 @@ impl Loader<'_> {
     }
 
     /// A texture of a material: decoded once per image, sampler and
-    /// encoding (`data`: non-colour values such as occlusion, not
-    /// sRGB-decoded); `None`, with a warning, when its image cannot be had.
+    /// kind of texels (colour, non-colour data such as occlusion, alpha);
+    /// `None`, with a warning, when its image cannot be had.
     fn texture(
         &self,
         scene: &mut Scene,
-        cache: &mut HashMap<(usize, Wrap, Wrap, bool), Option<u32>>,
+        cache: &mut HashMap<(usize, Wrap, Wrap, Texels), Option<u32>>,
         texture: &gltf::Texture,
-        data: bool,
+        kind: Texels,
         buffers: &[Vec<u8>],
     ) -> Option<u32> {
         let image = texture.source();
@@ -596,7 +602,7 @@ impl Loader<'_> {
             image.index(),
             wrap(sampler.wrap_s()),
             wrap(sampler.wrap_t()),
-            data,
+            kind,
         );
         if let Some(&t) = cache.get(&key) {
             return t;
@@ -618,13 +624,7 @@ impl Loader<'_> {
             (None, Some(uri)) => self.uri_bytes(uri, &what).map_err(|e| e.to_string()),
             (None, None) => Err(format!("{what} has neither a uri nor a bufferView")),
         };
-        let decoded = bytes.and_then(|b| {
-            if data {
-                Texture::decode_data(&b, &what)
-            } else {
-                Texture::decode(&b, &what)
-            }
-        });
+        let decoded = bytes.and_then(|b| Texture::decode_as(&b, &what, kind));
         let index = match decoded {
             Ok(mut tex) => {
                 (tex.wrap_s, tex.wrap_t) = (key.1, key.2);
@@ -736,6 +736,10 @@ pub struct MaterialTextures {
     /// blue: metallic), which scales the factors: the texture is not
     /// sampled per hit, and its factors are usually 1 (the texture decides).
     pub metal_rough_mean: Option<Color>,
+    /// The base colour texture's alpha channel (MASK and BLEND materials only).
+    pub alpha: Option<u32>,
+    /// `normalTexture`, as data.
+    pub normal: Option<u32>,
 }
 
 /// The mean of a texture's texels.
@@ -763,7 +767,7 @@ pub fn material_from_pbr(m: &gltf::Material, maps: MaterialTextures) -> Material
             0.0
         }
     };
-    let [r, g, b, _alpha] = pbr.base_color_factor().map(unit);
+    let [r, g, b, alpha] = pbr.base_color_factor().map(unit);
     let mean = maps.metal_rough_mean.unwrap_or(Color::ONE);
     let metal = unit(pbr.metallic_factor() * mean.z);
     let rough = unit(pbr.roughness_factor() * mean.y);
@@ -795,6 +799,25 @@ pub fn material_from_pbr(m: &gltf::Material, maps: MaterialTextures) -> Material
         emission_texture: maps.emission,
         occlusion_texture: maps.occlusion,
         occlusion_strength: m.occlusion_texture().map_or(1.0, |o| unit(o.strength())),
+        alpha_mode: match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask {
+                cutoff: m.alpha_cutoff().filter(|c| c.is_finite()).unwrap_or(0.5),
+            },
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        },
+        alpha,
+        alpha_texture: maps.alpha,
+        normal_map: maps.normal.map(|texture| NormalMap {
+            texture,
+            scale: m
+                .normal_texture()
+                .map(|n| n.scale())
+                .filter(|s| s.is_finite())
+                .unwrap_or(1.0)
+                .clamp(-100.0, 100.0),
+            kind: NormalMapKind::Tangent,
+        }),
     }
 }
 

@@ -3,8 +3,9 @@
 //! * Objects (`o`) and groups (`g`) become scene groups (one id per name).
 //! * Polygons of any size are cut into triangles exactly as NFF's are.
 //! * `vn` normals give smooth shading, `vt` texture coordinates feed `map_Kd`.
-//! * MTL `Kd`, `Ks`, `Ns`, `d`/`Tr`, `Ni`, `Ke`, `illum` and `map_Kd` map to
-//!   twinray's Whitted material as docs/formats.md explains.
+//! * MTL `Kd`, `Ks`, `Ns`, `d`/`Tr`, `Ni`, `Ke`, `illum`, `map_Kd`, `map_d`,
+//!   `map_Ke`, `norm` and `map_Bump` map to twinray's Whitted material as
+//!   docs/formats.md explains.
 //!
 //! A malformed OBJ or MTL line is an error naming the file and the line (tobj
 //! reads line by line; a counting reader tells which line it stopped on). A
@@ -20,8 +21,10 @@ use super::material_model::{phong_from_roughness, roughness_from_ns};
 use super::{fold_warnings, read_file, reserve_triangles, LoadOptions};
 use crate::error::{Error, Result};
 use crate::math::{Color, Vec3};
-use crate::scene::{Material, MeshPolygon, Scene, SceneFormat, Uv};
-use crate::texture::{Texture, Wrap};
+use crate::scene::{
+    AlphaMode, Material, MeshPolygon, NormalMap, NormalMapKind, Scene, SceneFormat, Uv,
+};
+use crate::texture::{Texels, Texture, Wrap};
 
 /// Read and parse an OBJ file and the MTL files it names.
 pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene> {
@@ -164,11 +167,8 @@ pub fn parse_obj(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
     scene.warnings = warnings.into_inner();
     let mut textures = TextureCache::new(&dir);
     for m in &materials {
-        let texture = m
-            .diffuse_texture
-            .as_deref()
-            .and_then(|spec| textures.get(&mut scene, spec, &m.name, file));
-        scene.add_material(material_from_mtl(m, texture));
+        let maps = MtlTextures::load(m, &mut textures, &mut scene, file);
+        scene.add_material(material_from_mtl(m, maps));
     }
     // Faces without `usemtl`: the default material, after the file's.
     let default_material = scene.add_material(Material {
@@ -412,9 +412,13 @@ fn vec3_at(values: &[f32], i: u32) -> Option<Vec3> {
 /// `Ks`'s largest component is the specular reflectance, `Ns` a roughness
 /// (`1 − √(Ns/1000)`, as Blender's importer reads it), and the two give the
 /// Phong highlight from `illum` 2 on and the mirror weight from `illum` 3 on
-/// ([`phong_from_roughness`]); `1 - d` (or `Tr`) is the transmission, `Ni`
-/// its index of refraction; `Ke` is emitted light.
-pub fn material_from_mtl(m: &tobj::Material, texture: Option<u32>) -> Material {
+/// ([`phong_from_roughness`]); `d` (or `1 − Tr`) below 1 is a BLEND alpha (a
+/// straight-through transmission), except under `illum` 6 and 7 (the MTL
+/// spec's refraction models), where `1 − d` refracts with index `Ni`;
+/// `map_d` makes a cut-out (MASK at 0.5) when `d` is 1, else scales the
+/// BLEND alpha; `Ke` (× `map_Ke`) is emitted light; `norm` and `map_Bump`
+/// bend the shading normal ([`MtlTextures`]).
+pub fn material_from_mtl(m: &tobj::Material, maps: MtlTextures) -> Material {
     let finite = |x: f32| if x.is_finite() { x.max(0.0) } else { 0.0 };
     let kd_rgb = m.diffuse.unwrap_or([0.8; 3]).map(finite);
     let kd = kd_rgb.iter().copied().fold(0.0, f32::max);
@@ -436,7 +440,21 @@ pub fn material_from_mtl(m: &tobj::Material, texture: Option<u32>) -> Material {
         (None, Some(tr)) => 1.0 - tr.trim().parse::<f32>().unwrap_or(0.0),
         (None, None) => 1.0,
     };
-    let t = (1.0 - finite(opacity)).clamp(0.0, 1.0);
+    let opacity = finite(opacity).clamp(0.0, 1.0);
+    let refracts = matches!(illum, 6 | 7);
+    let t = if refracts { 1.0 - opacity } else { 0.0 };
+    let alpha = if refracts { 1.0 } else { opacity };
+    let alpha_mode = match (maps.alpha.is_some(), alpha < 1.0) {
+        (_, true) => AlphaMode::Blend,
+        (true, false) => AlphaMode::Mask { cutoff: 0.5 },
+        (false, false) => AlphaMode::Opaque,
+    };
+    // `map_Ke` without `Ke`: the texture is the emitted light.
+    let ke = match (m.emissive, maps.emission) {
+        (Some(ke), _) => ke,
+        (None, Some(_)) => [1.0; 3],
+        (None, None) => [0.0; 3],
+    };
     let ior = m
         .optical_density
         .map(finite)
@@ -452,16 +470,97 @@ pub fn material_from_mtl(m: &tobj::Material, texture: Option<u32>) -> Material {
         t,
         ior,
         mirror: if illum >= 3 { phong.mirror } else { 0.0 },
-        emission: Color::from(m.emissive.unwrap_or([0.0; 3]).map(finite)),
-        texture,
+        emission: Color::from(ke.map(finite)),
+        texture: maps.diffuse,
+        emission_texture: maps.emission,
+        alpha_mode,
+        alpha,
+        alpha_texture: maps.alpha,
+        normal_map: maps.normal,
         ..Material::default()
     }
+}
+
+/// The textures of an MTL material, as indices into `Scene::textures`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MtlTextures {
+    /// `map_Kd`.
+    pub diffuse: Option<u32>,
+    /// `map_d`: its alpha channel, or its red channel if it has none.
+    pub alpha: Option<u32>,
+    /// `map_Ke`.
+    pub emission: Option<u32>,
+    /// `norm` (a tangent-space normal map), else `map_Bump` / `bump`: a
+    /// normal map if its image is bluish (mean blue above mean red and green
+    /// by more than [`NORMAL_MAP_BLUE`], as tangent-space normal maps are),
+    /// else a height map (a grey image: what the MTL spec means by a bump
+    /// map); `-bm` scales either.
+    pub normal: Option<NormalMap>,
+}
+
+/// How much bluer than red and green on average an image must be to be
+/// taken for a tangent-space normal map (flat texels are (0.5, 0.5, 1)).
+pub const NORMAL_MAP_BLUE: f32 = 0.2;
+
+impl MtlTextures {
+    fn load(
+        m: &tobj::Material,
+        cache: &mut TextureCache,
+        scene: &mut Scene,
+        file: &Path,
+    ) -> MtlTextures {
+        let mut get = |spec: Option<&str>, kind: Texels| {
+            spec.and_then(|spec| cache.get(scene, spec, kind, &m.name, file))
+        };
+        let unknown = |key: &str| m.unknown_param.get(key).map(String::as_str);
+        let diffuse = get(m.diffuse_texture.as_deref(), Texels::Colour);
+        let alpha = get(m.dissolve_texture.as_deref(), Texels::Coverage);
+        let emission = get(unknown("map_Ke"), Texels::Colour);
+        let norm = unknown("norm");
+        let bump = m.normal_texture.as_deref();
+        let spec = norm.or(bump);
+        let normal = get(spec, Texels::Data).map(|texture| {
+            let t = &scene.textures[texture as usize];
+            let mean: Color =
+                t.texels.iter().copied().sum::<Color>() / t.texels.len().max(1) as f32;
+            let bluish = mean.z - mean.x.max(mean.y) > NORMAL_MAP_BLUE;
+            let kind = if norm.is_some() || bluish {
+                NormalMapKind::Tangent
+            } else {
+                NormalMapKind::Height
+            };
+            let scale = spec
+                .and_then(|s| texture_option(s, "-bm"))
+                .filter(|b| b.is_finite())
+                .unwrap_or(1.0)
+                .clamp(-100.0, 100.0);
+            NormalMap {
+                texture,
+                scale,
+                kind,
+            }
+        });
+        MtlTextures {
+            diffuse,
+            alpha,
+            emission,
+            normal,
+        }
+    }
+}
+
+/// The first number after option `name` in a texture statement's options
+/// (`-bm 0.5 file.png`).
+fn texture_option(spec: &str, name: &str) -> Option<f32> {
+    let mut words = spec.split_whitespace();
+    words.find(|w| *w == name)?;
+    words.next()?.parse().ok()
 }
 
 /// Textures by file, each decoded once however many materials use it.
 struct TextureCache<'a> {
     dir: &'a Path,
-    loaded: HashMap<PathBuf, Option<u32>>,
+    loaded: HashMap<(PathBuf, Texels), Option<u32>>,
 }
 
 impl<'a> TextureCache<'a> {
@@ -472,15 +571,24 @@ impl<'a> TextureCache<'a> {
         }
     }
 
-    /// The texture of a `map_Kd` statement (options, then the file name);
-    /// `None`, with a warning, when it cannot be read.
-    fn get(&mut self, scene: &mut Scene, spec: &str, material: &str, file: &Path) -> Option<u32> {
+    /// The texture of a `map_Kd` (`map_d`, ...) statement (options, then
+    /// the file name), decoded as `kind`; `None`, with a warning, when it
+    /// cannot be read.
+    fn get(
+        &mut self,
+        scene: &mut Scene,
+        spec: &str,
+        kind: Texels,
+        material: &str,
+        file: &Path,
+    ) -> Option<u32> {
         let (name, wrap) = texture_file_name(spec);
         let path = self.dir.join(name.replace('\\', "/"));
-        if let Some(&index) = self.loaded.get(&path) {
+        let key = (path, kind);
+        if let Some(&index) = self.loaded.get(&key) {
             return index;
         }
-        let index = match Texture::load(&path) {
+        let index = match Texture::load_as(&key.0, kind) {
             Ok(mut tex) => {
                 tex.wrap_s = wrap;
                 tex.wrap_t = wrap;
@@ -495,7 +603,7 @@ impl<'a> TextureCache<'a> {
                 None
             }
         };
-        self.loaded.insert(path, index);
+        self.loaded.insert(key, index);
         index
     }
 }
@@ -541,7 +649,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(
             dir.path().join("m.mtl"),
-            "newmtl red\nKd 0.8 0 0\nKs 0.5 0.5 0.5\nNs 1000\nillum 3\nd 0.75\nNi 1.3\n\
+            "newmtl red\nKd 0.8 0 0\nKs 0.5 0.5 0.5\nNs 1000\nillum 7\nd 0.75\nNi 1.3\n\
              newmtl tex\nKd 1 1 1\nillum 1\nmap_Kd -clamp on missing.png\n",
         )
         .unwrap();
@@ -659,6 +767,39 @@ mod tests {
         std::fs::write(dir.path().join("grey.mtl"), "newmtl a\nKd 0.5\n").unwrap();
         let s = load(dir.path(), "g.obj", "mtllib grey.mtl\nv 0 0 0\n").unwrap();
         assert_eq!(s.materials[0].kd, 0.5);
+    }
+
+    #[test]
+    fn dissolve_is_blend_map_d_is_a_cut_out_and_illum_6_refracts() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("a.png"),
+            crate::texture::tests::png(2, 2, [255, 255, 255]),
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("m.mtl"),
+            "newmtl half\nd 0.5\nillum 2\nnewmtl tr\nTr 0.25\n\
+             newmtl leaf\nmap_d a.png\nnewmtl both\nd 0.5\nmap_d a.png\n\
+             newmtl glass\nd 0.2\nNi 1.5\nillum 6\nnewmtl glow\nmap_Ke a.png\n",
+        )
+        .unwrap();
+        let s = load(dir.path(), "a.obj", "mtllib m.mtl\nv 0 0 0\n").unwrap();
+        let m = &s.materials;
+        assert_eq!(
+            (m[0].alpha_mode, m[0].alpha, m[0].t),
+            (AlphaMode::Blend, 0.5, 0.0)
+        );
+        assert_eq!((m[1].alpha_mode, m[1].alpha), (AlphaMode::Blend, 0.75));
+        assert_eq!(m[2].alpha_mode, AlphaMode::Mask { cutoff: 0.5 });
+        assert!(m[2].alpha_texture.is_some());
+        assert_eq!(m[3].alpha_mode, AlphaMode::Blend);
+        assert!(m[3].alpha_texture.is_some());
+        assert_eq!((m[4].alpha_mode, m[4].alpha), (AlphaMode::Opaque, 1.0));
+        assert!((m[4].t - 0.8).abs() < 1e-6 && m[4].ior == 1.5);
+        // map_Ke without Ke: the texture is the light emitted.
+        assert_eq!(m[5].emission, Color::ONE);
+        assert!(m[5].emission_texture.is_some());
     }
 
     #[test]

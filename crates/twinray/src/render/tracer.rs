@@ -95,7 +95,14 @@ struct Surfaces<'a, const K: usize> {
     lit: u32,
     reflected: [Option<Spawn>; K],
     refracted: [Option<Spawn>; K],
+    /// Share of each lane's surface that is there (BLEND alpha; else 1).
+    coverage: [f32; K],
+    /// The rays that go straight on through the uncovered share (BLEND).
+    passed: [Option<Spawn>; K],
 }
+
+/// A ray goes on past at most this many cut-away hits, then stops at the last.
+const MAX_CUTOUT_LAYERS: u32 = 64;
 
 /// A surface point's shading, kept so that other views' samples that see the
 /// same point can take it (the paper's section 2.5): what reached it from each
@@ -241,14 +248,61 @@ impl<'a> Tracer<'a> {
                 continue;
             }
             if let Some((dir, _, color)) = toward_light(sp, light) {
-                out += light_contribution(sp, packet.dirs[0], dir, color, through);
+                out += light_contribution(sp, packet.dirs[0], dir, color, through * s.coverage[0]);
             }
         }
         out + donor.secondary
     }
 
-    /// The nearest hit of every lane, in the whole scene.
+    /// The nearest hit of every lane, in the whole scene, past cut-outs.
     fn closest<const K: usize>(&mut self, packet: &Packet<K>) -> PacketHits<K> {
+        let mut hits = self.closest_near_far(packet);
+        if self.world.has_alpha {
+            self.past_cutouts(packet, &mut hits, |t, p| t.closest_near_far(p));
+        }
+        hits
+    }
+
+    /// Lanes whose nearest hit lands on a cut-away part of a MASK material go
+    /// on past it, each alone: the same ray with `t_min` raised to the hit
+    /// (`nearest` traces it), until it meets a part that is there or nothing.
+    /// A lane's answer depends on its own ray only, never on the packet it
+    /// came in, so the twin and the independent renders stay bit-identical;
+    /// and the traversal is not involved.
+    fn past_cutouts<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        hits: &mut PacketHits<K>,
+        mut nearest: impl FnMut(&mut Self, &Packet<1>) -> PacketHits<1>,
+    ) {
+        let scene = &self.world.scene;
+        let mut lanes = packet.mask;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let mut layers = 0;
+            while hits.has_hit(l) && scene.cut_away(hits.prim[l] as usize, &hits.hit[l]) {
+                layers += 1;
+                if layers > MAX_CUTOUT_LAYERS {
+                    break; // the ray stops at the last layer it reached
+                }
+                self.counts.cutout_continuations += 1;
+                let on = Packet {
+                    origins: [packet.origins[l]],
+                    dirs: [packet.dirs[l]],
+                    t_min: hits.hit[l].t,
+                    t_max: [packet.t_max[l]],
+                    mask: 1,
+                };
+                let next = nearest(self, &on);
+                hits.prim[l] = next.prim[0];
+                hits.hit[l] = next.hit[0];
+            }
+        }
+    }
+
+    /// The nearest hit of every lane among all primitives, cut away or not.
+    fn closest_near_far<const K: usize>(&mut self, packet: &Packet<K>) -> PacketHits<K> {
         let world = self.world;
         let mut hits = self.closest_in(&world.bvh, packet);
         if let Some(far) = &world.far {
@@ -287,11 +341,16 @@ impl<'a> Tracer<'a> {
         near: bool,
     ) -> PacketHits<K> {
         let world = self.world;
-        match (&world.far, near) {
-            (Some(far), false) => self.closest_in(far, packet),
-            (Some(_), true) => self.closest_in(&world.bvh, packet),
-            (None, _) => self.closest(packet),
+        let part = match (&world.far, near) {
+            (Some(far), false) => far,
+            (Some(_), true) => &world.bvh,
+            (None, _) => return self.closest(packet),
+        };
+        let mut hits = self.closest_in(part, packet);
+        if world.has_alpha {
+            self.past_cutouts(packet, &mut hits, |t, p| t.closest_in(part, p));
         }
+        hits
     }
 
     /// Traces a secondary packet at `level`.
@@ -361,6 +420,8 @@ impl<'a> Tracer<'a> {
             lit: 0,
             reflected: [None; K],
             refracted: [None; K],
+            coverage: [1.0; K],
+            passed: [None; K],
         };
         let spawn_more = level < self.settings.max_depth;
         let mut lanes = packet.mask;
@@ -377,18 +438,29 @@ impl<'a> Tracer<'a> {
             let point = packet.origins[l] + d * hit.t;
             let surface = scene.surface_at(prim, hit, point);
             let (material, normal) = (surface.material, surface.normal);
+            let coverage = surface.coverage;
             tree.largest_coefficient = tree
                 .largest_coefficient
-                .max(material.ks.max(material.mirror).max(material.t));
+                .max(material.ks.max(material.mirror).max(material.t))
+                .max(1.0 - coverage);
             let facing = if normal.dot(d) < 0.0 { normal } else { -normal };
+            // Rays leave along the normal before a normal map bent it.
+            let unbent = surface.offset_normal;
+            let off = if unbent.dot(d) < 0.0 { unbent } else { -unbent };
             let sp = SurfacePoint {
                 point,
                 normal: facing,
                 t: hit.t,
                 material,
                 color: surface.color,
+                offset_normal: off,
             };
-            s.ambient[l] = surface.ambient();
+            s.ambient[l] = if coverage < 1.0 {
+                surface.ambient() * coverage
+            } else {
+                surface.ambient()
+            };
+            s.coverage[l] = coverage;
             s.prims[l] = prim as u32;
             s.points[l] = Some(sp);
             if material.kd > 0.0 || material.ks > 0.0 {
@@ -397,8 +469,16 @@ impl<'a> Tracer<'a> {
             if !spawn_more {
                 continue;
             }
+            if coverage < 1.0 && self.wanted(weights[l] * (1.0 - coverage)) {
+                s.passed[l] = Some(Spawn {
+                    origin: offset_point(point, -off, hit.t),
+                    dir: d,
+                    coefficient: 1.0 - coverage,
+                });
+            }
             // Transmission first: total internal reflection hands its weight to the mirror.
-            let mut mirror = material.mirror;
+            let mut mirror = material.mirror * coverage;
+            let transmission = material.t * coverage;
             if material.t > 0.0 {
                 let entering = shape.geometric_normal(point).dot(d) < 0.0;
                 let ior = if material.ior > 0.0 {
@@ -409,21 +489,21 @@ impl<'a> Tracer<'a> {
                 let eta = if entering { 1.0 / ior } else { ior };
                 match refract(d, facing, eta) {
                     Some(dir) => {
-                        if self.wanted(weights[l] * material.t) {
+                        if self.wanted(weights[l] * transmission) {
                             s.refracted[l] = Some(Spawn {
-                                origin: offset_point(point, -facing, hit.t),
+                                origin: offset_point(point, -off, hit.t),
                                 dir,
-                                coefficient: material.t,
+                                coefficient: transmission,
                             });
                         }
                     }
-                    None => mirror += material.t,
+                    None => mirror += transmission,
                 }
             }
             let spd_forces = self.settings.spd && (material.mirror > 0.0 || material.t > 0.0);
             if (mirror > 0.0 && self.wanted(weights[l] * mirror)) || spd_forces {
                 s.reflected[l] = Some(Spawn {
-                    origin: offset_point(point, facing, hit.t),
+                    origin: offset_point(point, off, hit.t),
                     dir: reflect(d, facing),
                     coefficient: mirror,
                 });
@@ -463,7 +543,7 @@ impl<'a> Tracer<'a> {
                 let Some(sp) = &s.points[l] else { continue };
                 if let Some((dir, dist, color)) = toward_light(sp, light) {
                     light_color[l] = color;
-                    seg.origins[l] = offset_point(sp.point, sp.normal, sp.t);
+                    seg.origins[l] = offset_point(sp.point, sp.offset_normal, sp.t);
                     seg.dirs[l] = dir;
                     seg.t_max[l] = dist;
                     seg.mask |= 1 << l;
@@ -486,7 +566,7 @@ impl<'a> Tracer<'a> {
                         packet.dirs[l],
                         seg.dirs[l],
                         light_color[l],
-                        through[l],
+                        through[l] * s.coverage[l],
                     );
                 }
             }
@@ -560,7 +640,12 @@ impl<'a> Tracer<'a> {
         out: &mut [Color; K],
         mut record: Option<&mut Color>,
     ) {
-        for (spawns, reflected) in [(&s.reflected, true), (&s.refracted, false)] {
+        // Rays passed straight through a BLEND surface count as refracted.
+        for (spawns, reflected) in [
+            (&s.reflected, true),
+            (&s.refracted, false),
+            (&s.passed, false),
+        ] {
             if spawns.iter().all(Option::is_none) {
                 continue;
             }
