@@ -113,13 +113,13 @@ pub struct RenderArgs {
     #[arg(long)]
     pub camera: Option<String>,
     /// Camera position X,Y,Z (default: the file's camera, or one framing the scene).
-    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub from: Option<Vec3>,
     /// Point the camera looks at, X,Y,Z.
-    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub at: Option<Vec3>,
     /// Camera up direction X,Y,Z.
-    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub up: Option<Vec3>,
     /// Vertical field of view in degrees, top edge of the image to bottom edge.
     #[arg(long)]
