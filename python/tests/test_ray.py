@@ -1,19 +1,21 @@
 """twinray-ray on a local Ray cluster (ray.init(num_cpus=2)): frames and
 tiles equal the binary's own renders bit for bit; a worker killed mid-run
 still leaves every frame written once and nothing partial; a re-run renders
-nothing; a share that fails every attempt is reported with twinray's error.
+nothing; a share that fails every attempt is reported with twinray's error;
+progress advances frame by frame while a task is still rendering.
 
 The binary: $TWINRAY_BIN, else target/release/twinray of this repository.
 """
 
 import os
+import shlex
 import subprocess
 from pathlib import Path
 
 import pytest
 import ray
 
-from twinray_ray import cli
+from twinray_ray import cli, driver
 
 REPO = Path(__file__).resolve().parents[2]
 SCENE = str(REPO / "scenes" / "example.nff")
@@ -99,3 +101,71 @@ def test_a_share_failing_every_attempt_is_reported(tmp_path, capsys):
     assert "failed 3 times" in err, err
     assert "bad.nff:" in err, err  # twinray's own message, with file:line
     assert not any(p.suffix == ".png" for p in tmp_path.iterdir())
+
+
+def test_progress_advances_per_frame_while_the_task_runs(tmp_path):
+    """One task renders all 8 frames; twinray is held after its first frame
+    until the driver has reported that frame (30 s at most). Progress per
+    task would come only when the task ends, after the hold times out."""
+    gate, verdict = tmp_path / "gate", tmp_path / "verdict"
+    held = tmp_path / "twinray-held"
+    held.write_text(
+        f"""#!/bin/bash
+# twinray, its messages passed on, held after the first frame's line
+# until the driver has shown that frame (the gate file), or 30 s.
+set -o pipefail
+{shlex.quote(BIN)} "$@" 2>&1 >/dev/null | {{
+    waited=0
+    while IFS= read -r line; do
+        printf '%s\\n' "$line" >&2
+        if [ $waited = 0 ] && [[ $line == "frame "* ]]; then
+            waited=1
+            for i in $(seq 300); do [ -e {gate} ] && break; sleep 0.1; done
+            if [ -e {gate} ]; then echo released > {verdict}; else echo timed-out > {verdict}; fi
+        fi
+    done
+}}
+"""
+    )
+    held.chmod(0o755)
+    out = tmp_path / "out"
+    out.mkdir()
+    seen = []
+
+    def on_progress(unit):
+        seen.append(unit)
+        gate.touch()
+
+    summary = driver.run_frames(
+        str(held),
+        SCENE,
+        str(out / "f_####.png"),
+        "0..7",
+        extra=FRAMES[2:],
+        chunk=8,
+        progress=False,
+        on_progress=on_progress,
+    )
+    assert verdict.read_text().strip() == "released", "no progress while the task ran"
+    assert seen == [f"frame {i}" for i in range(8)], seen  # one step a frame, each once
+    assert files(out) == [f"f_{i:04}.png" for i in range(8)]
+    assert len(summary.written) == 8
+
+
+def test_progress_counts_each_frame_once_when_a_worker_dies(tmp_path, monkeypatch):
+    """Frames written by an attempt that died and skipped by its retry, and
+    frames done already before the run, each count once."""
+    out = tmp_path / "out"
+    out.mkdir()
+    twinray("render", SCENE, "-o", str(out / "f_####.png"), "-q", *FRAMES, "--only", "1..2")
+    monkeypatch.setenv("TWINRAY_RAY_FAULT", str(tmp_path / "fault"))
+    seen = []
+    summary = driver.run_frames(
+        BIN, SCENE, str(out / "f_####.png"), "0..7", extra=FRAMES[2:], chunk=4,
+        progress=False, on_progress=seen.append,
+    )
+    assert (tmp_path / "fault").exists(), "no fault was injected"
+    assert sorted(seen, key=lambda u: int(u.split()[1])) == [f"frame {i}" for i in range(8)], seen
+    # Skipped: frames 1 and 2, and the frame the dead attempt wrote.
+    assert {1, 2} < set(summary.skipped), summary.skipped
+    assert files(out) == [f"f_{i:04}.png" for i in range(8)]

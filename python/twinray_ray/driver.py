@@ -11,6 +11,13 @@ twinray writes each file atomically under its final name; a task whose
 worker dies takes its twinray process with it (the child gets SIGTERM,
 cancels its render and removes its temporary file), so nothing partial is
 left.
+
+Progress is per frame, not per share: twinray prints ``frame N: wrote
+PATH`` (or ``frame N: done already``) as each frame is finished; the task
+reports the frame to a small actor (:class:`ProgressLog`) at once, and the
+driver, polling it while it waits for the tasks, advances the bar by one
+for every frame it has not seen (a frame written by an attempt that died,
+then skipped by the retry, counts once).
 """
 
 from __future__ import annotations
@@ -24,7 +31,7 @@ import subprocess
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import List, Optional, Sequence, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
 import ray
 
@@ -89,11 +96,36 @@ def _die_with_parent() -> None:
         pass
 
 
+@ray.remote(num_cpus=0)
+class ProgressLog:
+    """The frames the tasks report finished, in the order they arrive."""
+
+    def __init__(self) -> None:
+        self.units: List[str] = []
+
+    def done(self, unit: str) -> None:
+        self.units.append(unit)
+
+    def since(self, start: int) -> List[str]:
+        return self.units[start:]
+
+
+# How often the driver asks the progress log for news (seconds).
+POLL_S = 0.2
+
+FRAME_LINE = re.compile(r"frame (\d+): (wrote (.*)|done already)")
+
+
 @ray.remote
 def render_share(
-    twinray: str, args: List[str], journal: Optional[str], fault: Optional[str]
+    twinray: str,
+    args: List[str],
+    journal: Optional[str],
+    fault: Optional[str],
+    progress: Optional["ray.actor.ActorHandle"] = None,
 ) -> dict:
-    """Runs `twinray ARGS`; returns the files written and frames skipped."""
+    """Runs `twinray ARGS`; returns the files written and frames skipped,
+    and reports each frame to `progress` as twinray finishes it."""
     proc = subprocess.Popen(
         [twinray, *args],
         stdin=subprocess.DEVNULL,
@@ -106,22 +138,30 @@ def render_share(
     skipped: List[int] = []
     said: List[str] = []
     assert proc.stderr is not None
+    reported = set()
     for line in proc.stderr:
         line = line.rstrip("\n")
-        if line.startswith("wrote "):
-            wrote.append(line[len("wrote ") :])
-            if journal:
-                with open(journal, "a", encoding="utf-8") as j:
-                    j.write(line + "\n")
-            if fault and not os.path.exists(fault):
-                Path(fault).write_text(f"worker {os.getpid()} killed mid-run\n")
-                os._exit(1)  # the worker dies; Ray retries the task
+        m = FRAME_LINE.match(line)
+        if m:  # a frame: `frame N: wrote PATH` or `frame N: done already`
+            frame, path = int(m.group(1)), m.group(3)
+            if progress is not None and frame not in reported:
+                reported.add(frame)
+                ray.get(progress.done.remote(f"frame {frame}"))
+            if path is None:
+                skipped.append(frame)
+                continue
+        elif line.startswith("wrote "):  # a tile: its files
+            path = line[len("wrote ") :]
+        else:
+            said.append(line)
             continue
-        m = re.match(r"frame (\d+): done already", line)
-        if m:
-            skipped.append(int(m.group(1)))
-            continue
-        said.append(line)
+        wrote.append(path)
+        if journal:
+            with open(journal, "a", encoding="utf-8") as j:
+                j.write(f"wrote {path}\n")
+        if fault and not os.path.exists(fault):
+            Path(fault).write_text(f"worker {os.getpid()} killed mid-run\n")
+            os._exit(1)  # the worker dies; Ray retries the task
     code = proc.wait()
     if code != 0:
         message = " / ".join(l for l in said if l.strip()) or f"exit status {code}"
@@ -146,23 +186,47 @@ def _why(err: Exception) -> str:
 
 
 def _gather(
-    tasks: dict, total: int, progress: bool, unit: str
+    tasks: dict,
+    total: int,
+    progress: bool,
+    unit: str,
+    log: Optional["ray.actor.ActorHandle"],
+    on_progress: Optional[Callable[[str], None]],
 ) -> Tuple[List[dict], List[str]]:
-    """Waits for every task with a progress bar; returns results and failures."""
+    """Waits for every task with a progress bar; returns results and
+    failures. With a progress `log` the bar advances per unit the tasks
+    report (a frame); without, per task finished (a tile)."""
     from tqdm import tqdm
 
     results: List[dict] = []
     failures: List[str] = []
+    seen: set = set()
+    heard = 0
     pending = list(tasks)
     with tqdm(total=total, unit=unit, disable=not progress, file=sys.stderr) as bar:
+
+        def advance(units: List[str]) -> None:
+            for u in units:
+                if u not in seen:
+                    seen.add(u)
+                    bar.update(1)
+                    if on_progress:
+                        on_progress(u)
+
         while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            share, count = tasks[done[0]]
-            try:
-                results.append(ray.get(done[0]))
-            except Exception as err:  # a share that failed every attempt
-                failures.append(f"{share}: {_why(err)}")
-            bar.update(count)
+            done, pending = ray.wait(pending, num_returns=1, timeout=POLL_S if log else None)
+            if log is not None:
+                news = ray.get(log.since.remote(heard))
+                heard += len(news)
+                advance(news)
+            for ref in done:
+                share, _ = tasks[ref]
+                try:
+                    results.append(ray.get(ref))
+                except Exception as err:  # a share that failed every attempt
+                    failures.append(f"{share}: {_why(err)}")
+                if log is None:
+                    advance([share])
     return results, failures
 
 
@@ -174,17 +238,27 @@ def _run_shares(
     journal: Optional[str],
     progress: bool,
     unit: str,
+    on_progress: Optional[Callable[[str], None]] = None,
 ) -> List[dict]:
     """One Ray task a share `(label, units, twinray args)`, each tried
-    `max_retries + 1` times; raises RenderFailed with twinray's errors."""
+    `max_retries + 1` times; raises RenderFailed with twinray's errors.
+    Frames are reported one by one as the tasks finish them: to the bar,
+    and to `on_progress` (``"frame N"``); tiles as their tasks end."""
     fault = os.environ.get(FAULT_ENV)
     options = dict(num_cpus=cpus_per_task, max_retries=max_retries, retry_exceptions=[TwinrayError])
+    log = ProgressLog.remote() if unit == "frame" else None
     tasks = {}
     for label, units, args in shares:
         args = [*args, *_threads(args, cpus_per_task)]
-        ref = render_share.options(**options).remote(twinray, args, journal, fault)
+        ref = render_share.options(**options).remote(twinray, args, journal, fault, log)
         tasks[ref] = (label, units)
-    results, failures = _gather(tasks, sum(u for _, u, _ in shares), progress, unit)
+    try:
+        results, failures = _gather(
+            tasks, sum(u for _, u, _ in shares), progress, unit, log, on_progress
+        )
+    finally:
+        if log is not None:
+            ray.kill(log)
     if failures:
         raise RenderFailed(
             f"{len(failures)} share(s) failed {max_retries + 1} times: " + "; ".join(failures)
@@ -203,16 +277,20 @@ def run_frames(
     cpus_per_task: float = 1,
     journal: Optional[str] = None,
     progress: bool = True,
+    on_progress: Optional[Callable[[str], None]] = None,
 ) -> Summary:
     """Renders frames `frames` (A..B) of `scene` to `output` in chunks, one
-    Ray task a chunk, each tried `max_retries + 1` times."""
+    Ray task a chunk, each tried `max_retries + 1` times; `on_progress` is
+    called with ``"frame N"`` as each frame is done (written or found)."""
     first, last = parse_range(frames, "--frames")
     base = ["render", scene, "-o", output, "--frames", f"{first}..{last}", "--skip-existing"]
     shares = [
         (f"frames {a}..{b}", b - a + 1, [*base, *extra, "--only", f"{a}..{b}"])
         for a, b in chunks(first, last, chunk)
     ]
-    results = _run_shares(twinray, shares, max_retries, cpus_per_task, journal, progress, "frame")
+    results = _run_shares(
+        twinray, shares, max_retries, cpus_per_task, journal, progress, "frame", on_progress
+    )
     summary = Summary()
     for r in results:
         summary.written += r["wrote"]

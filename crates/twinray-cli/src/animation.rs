@@ -47,9 +47,10 @@ pub fn run(spec: JobSpec, args: &RenderArgs) -> Result<Vec<PathBuf>> {
             if r.skipped {
                 eprintln!("frame {}: done already, skipped", r.frame);
             } else {
-                // As each frame is written: a driver (twinray-ray) follows these lines.
+                // As each frame is written, with its number: a driver
+                // (twinray-ray) follows these lines for its progress.
                 for path in &r.written {
-                    eprintln!("wrote {}", path.display());
+                    eprintln!("frame {}: wrote {}", r.frame, path.display());
                 }
             }
         });

@@ -20,7 +20,12 @@ pub struct StudioArgs {
     /// A point light at X,Y,Z (scene units), white or of colour R,G,B (linear),
     /// without falloff; repeat for more. For a file without lights they
     /// replace the default key, fill and rim lights.
-    #[arg(long = "light", value_name = "X,Y,Z[:R,G,B]", value_parser = parse_light)]
+    #[arg(
+        long = "light",
+        value_name = "X,Y,Z[:R,G,B]",
+        value_parser = parse_light,
+        allow_hyphen_values = true
+    )]
     pub lights: Vec<LightSpec>,
     /// A diffuse grey floor just below the model (along --up-axis), so that
     /// its shadows show. Framing still fits the model alone.

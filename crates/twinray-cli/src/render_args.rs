@@ -113,13 +113,13 @@ pub struct RenderArgs {
     #[arg(long)]
     pub camera: Option<String>,
     /// Camera position X,Y,Z (default: the file's camera, or one framing the scene).
-    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub from: Option<Vec3>,
     /// Point the camera looks at, X,Y,Z.
-    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub at: Option<Vec3>,
     /// Camera up direction X,Y,Z.
-    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub up: Option<Vec3>,
     /// Vertical field of view in degrees, top edge of the image to bottom edge.
     #[arg(long)]
@@ -189,7 +189,8 @@ pub struct AnimationArgs {
     /// Render frames A to B (both included: 0..239 is 240 frames). The output
     /// name takes the frame number where it has #### (zero-padded to their
     /// count) or {frame}; otherwise _#### is added. An .mp4 or .mkv output is
-    /// one video (H.264 through ffmpeg; sbs and tb with stereo metadata).
+    /// one video (H.264 or HEVC through ffmpeg; sbs and tb with stereo
+    /// metadata; a quilt named NAME_qsCOLSxROWSaASPECT for Looking Glass).
     #[arg(long, value_name = "A..B")]
     pub frames: Option<String>,
     /// Frames per second of a video output (and of nothing else).
@@ -227,6 +228,21 @@ pub struct AnimationArgs {
     /// Render only tile K (0 to N-1) of --tiles N.
     #[arg(long, value_name = "K", requires = "tiles")]
     pub tile: Option<u32>,
+    /// Codec of a video output: h264 (libx264) or hevc (libx265, smaller
+    /// files), both through ffmpeg.
+    #[arg(long, value_enum, default_value_t = CodecArg::H264, requires = "frames")]
+    pub codec: CodecArg,
+    /// Quality of a video output, the encoder's constant rate factor: 0
+    /// (lossless) to 51; default 18 for h264, 20 for hevc (visually lossless).
+    #[arg(long, value_name = "N", requires = "frames")]
+    pub crf: Option<u32>,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug, Default)]
+pub enum CodecArg {
+    #[default]
+    H264,
+    Hevc,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug, Default)]
@@ -414,6 +430,11 @@ impl RenderArgs {
                 },
                 skip_existing: self.animation.skip_existing,
                 only: self.animation.only.clone(),
+                codec: match self.animation.codec {
+                    CodecArg::H264 => twinray::video::Codec::H264,
+                    CodecArg::Hevc => twinray::video::Codec::Hevc,
+                },
+                crf: self.animation.crf,
             },
             tile: match (self.animation.tiles, self.animation.tile) {
                 (Some(count), Some(index)) => Some(TileSpec { index, count }),

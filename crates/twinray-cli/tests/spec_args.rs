@@ -110,3 +110,49 @@ fn defaults_are_left_out_and_negative_values_joined() {
     );
     assert!(args.contains(&"--from=-1,0,2".to_string()), "{args:?}");
 }
+
+/// A vector whose first number is negative (`--from -4.9,0,1`) is the
+/// flag's value, not a flag of its own, as `--from=-4.9,0,1` is.
+#[test]
+fn negative_vectors_are_values_not_flags() {
+    let args: Vec<String> = [
+        "scenes/example.nff",
+        "-o",
+        "x.png",
+        "--from",
+        "-4.9,0,1",
+        "--at",
+        "-1,-2.5,-3",
+        "--up",
+        "-0,-1,0",
+        "--light",
+        "-4,2,1:1,0.5,0.25",
+        "--light",
+        "-1e1,-2,-3",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let spec = printed(&args);
+    assert_eq!(spec.camera.from, Some([-4.9, 0.0, 1.0]));
+    assert_eq!(spec.camera.at, Some([-1.0, -2.5, -3.0]));
+    assert_eq!(spec.camera.up, Some([-0.0, -1.0, 0.0]));
+    let lights: Vec<[f32; 3]> = spec.studio.lights.iter().map(|l| l.position).collect();
+    assert_eq!(lights, vec![[-4.0, 2.0, 1.0], [-10.0, -2.0, -3.0]]);
+    assert_eq!(spec.studio.lights[0].color, [1.0, 0.5, 0.25]);
+    // The `=` form gives the same spec.
+    let joined: Vec<String> = [
+        "scenes/example.nff",
+        "-o",
+        "x.png",
+        "--from=-4.9,0,1",
+        "--at=-1,-2.5,-3",
+        "--up=-0,-1,0",
+        "--light=-4,2,1:1,0.5,0.25",
+        "--light=-1e1,-2,-3",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    assert_eq!(printed(&joined), spec);
+}

@@ -1,10 +1,11 @@
 //! Video files through `ffmpeg`, run as a subprocess: frames are streamed to
 //! its standard input as raw 8-bit RGB, one at a time, and encoded as H.264
-//! (libx264, yuv420p) in an MP4 or Matroska file.
+//! (libx264) or HEVC (libx265), yuv420p, in an MP4 or Matroska file.
 //!
-//! Stereo metadata, as ffmpeg 5.1 (Debian 12) writes it (docs/video.md):
-//! * every side-by-side or top-bottom file carries the H.264 frame-packing
-//!   arrangement SEI (x264's `frame-packing` 3 or 4);
+//! Stereo metadata, as ffmpeg 5.1 (Debian 12) writes it (docs/animation.md):
+//! * every side-by-side or top-bottom H.264 file carries the frame-packing
+//!   arrangement SEI (x264's `frame-packing` 3 or 4); x265 has no such
+//!   option, so an HEVC file has the container's metadata only;
 //! * `.mkv`: the Matroska `StereoMode` element (`stereo_mode` metadata:
 //!   `left_right`, `top_bottom`);
 //! * `.mp4`: the `st3d` box of Google's spherical-video RFC. ffmpeg's MP4
@@ -20,7 +21,75 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, Stdio};
 
+use serde::{Deserialize, Serialize};
+
 use crate::{Error, Result};
+
+/// The video codec, and the ffmpeg encoder that writes it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Codec {
+    /// H.264 (libx264): what every player decodes.
+    #[default]
+    H264,
+    /// HEVC / H.265 (libx265): about half the size at the same quality.
+    Hevc,
+}
+
+impl Codec {
+    /// ffmpeg's encoder.
+    pub fn encoder(self) -> &'static str {
+        match self {
+            Codec::H264 => "libx264",
+            Codec::Hevc => "libx265",
+        }
+    }
+
+    /// The constant rate factor that looks lossless (x264's 18; x265's
+    /// scale gives the same quality about 2 higher).
+    pub fn default_crf(self) -> u32 {
+        match self {
+            Codec::H264 => 18,
+            Codec::Hevc => 20,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Codec::H264 => "h264",
+            Codec::Hevc => "hevc",
+        }
+    }
+
+    /// The encoder's own options (`-x264-params` / `-x265-params`): the
+    /// frame-packing SEI where the encoder has one; `crf 0` lossless.
+    fn params(self, packing: FramePacking, crf: u32) -> Option<(&'static str, String)> {
+        let mut p: Vec<String> = Vec::new();
+        match self {
+            Codec::H264 => {
+                if let Some((_, sei)) = packing.tags() {
+                    p.push(format!("frame-packing={sei}"));
+                }
+                // x264 at crf 0 is lossless already.
+            }
+            Codec::Hevc => {
+                // x265 prints its settings to stderr unless told not to.
+                p.push("log-level=error".into());
+                if crf == 0 {
+                    p.push("lossless=1".into());
+                }
+            }
+        }
+        let flag = match self {
+            Codec::H264 => "-x264-params",
+            Codec::Hevc => "-x265-params",
+        };
+        (!p.is_empty()).then(|| (flag, p.join(":")))
+    }
+}
+
+/// Largest constant rate factor of both encoders' 8-bit scales.
+pub const MAX_CRF: u32 = 51;
 
 /// How the two eyes share a frame, for the metadata.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -78,8 +147,10 @@ pub struct VideoSpec {
     pub height: u32,
     pub fps: f64,
     pub packing: FramePacking,
-    /// x264's constant rate factor (lower: better; 18 is visually lossless).
+    /// The encoder's constant rate factor, 0 to [`MAX_CRF`] (lower: better;
+    /// 0 lossless in YUV; [`Codec::default_crf`] looks lossless).
     pub crf: u32,
+    pub codec: Codec,
 }
 
 /// The ffmpeg program: `$TWINRAY_FFMPEG`, else `ffmpeg` on the PATH,
@@ -104,6 +175,33 @@ pub fn find_ffmpeg() -> Result<PathBuf> {
     Ok(program)
 }
 
+/// The ffmpeg program, checked to have `codec`'s encoder: Debian's ffmpeg
+/// has libx264 and libx265; a build without one is told so before anything
+/// is rendered.
+pub fn find_encoder(codec: Codec) -> Result<PathBuf> {
+    let program = find_ffmpeg()?;
+    let listed = Command::new(&program)
+        .args(["-hide_banner", "-encoders"])
+        .stdin(Stdio::null())
+        .stderr(Stdio::null())
+        .output()
+        .map_err(|e| Error::Invalid(format!("cannot run {}: {e}", program.display())))?;
+    let encoders = String::from_utf8_lossy(&listed.stdout);
+    let has = encoders
+        .lines()
+        .any(|l| l.split_whitespace().nth(1) == Some(codec.encoder()));
+    if !has {
+        return Err(Error::Invalid(format!(
+            "--codec {} needs ffmpeg's {} encoder, and '{}' has none: install an ffmpeg built with it (Debian/Ubuntu's ffmpeg has it) or use --codec {}",
+            codec.name(),
+            codec.encoder(),
+            program.display(),
+            if codec == Codec::H264 { "hevc" } else { "h264" }
+        )));
+    }
+    Ok(program)
+}
+
 /// An encode in progress: frames go to ffmpeg's standard input.
 pub struct VideoWriter {
     ffmpeg: PathBuf,
@@ -122,7 +220,13 @@ pub struct VideoWriter {
 impl VideoWriter {
     /// Starts ffmpeg for `spec` (ffmpeg from [`find_ffmpeg`]).
     pub fn start(spec: VideoSpec) -> Result<VideoWriter> {
-        let ffmpeg = find_ffmpeg()?;
+        if spec.crf > MAX_CRF {
+            return Err(Error::Invalid(format!(
+                "--crf {} is beyond the encoders' 0..{MAX_CRF}",
+                spec.crf
+            )));
+        }
+        let ffmpeg = find_encoder(spec.codec)?;
         let container = Container::of(&spec.path).ok_or_else(|| {
             Error::Invalid(format!("{}: a video is .mp4 or .mkv", spec.path.display()))
         })?;
@@ -150,14 +254,14 @@ impl VideoWriter {
             // yuv420p (what players decode) needs even sizes: an odd edge
             // gets one black row or column.
             .args(["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2"])
-            .args([
-                "-c:v", "libx264", "-pix_fmt", "yuv420p", "-preset", "medium",
-            ])
+            .args(["-c:v", spec.codec.encoder()])
+            .args(["-pix_fmt", "yuv420p", "-preset", "medium"])
             .arg("-crf")
             .arg(spec.crf.to_string());
-        if let Some((mode, packing)) = spec.packing.tags() {
-            cmd.arg("-x264-params")
-                .arg(format!("frame-packing={packing}"));
+        if let Some((flag, params)) = spec.codec.params(spec.packing, spec.crf) {
+            cmd.arg(flag).arg(params);
+        }
+        if let Some((mode, _)) = spec.packing.tags() {
             if remux || container == Container::Matroska {
                 cmd.arg("-metadata:s:v:0")
                     .arg(format!("stereo_mode={mode}"));
@@ -170,6 +274,7 @@ impl VideoWriter {
         };
         if format == "mp4" {
             cmd.args(["-movflags", "+faststart"]);
+            cmd.args(hevc_tag(spec.codec));
         }
         cmd.args(["-f", format]).arg(encoded.as_os_str());
         let mut child = cmd
@@ -252,6 +357,7 @@ impl VideoWriter {
                 .args(["-hide_banner", "-loglevel", "error", "-nostdin", "-y", "-i"])
                 .arg(encoded.as_os_str())
                 .args(["-c", "copy", "-strict", "unofficial"])
+                .args(hevc_tag(self.spec.codec))
                 .args(["-movflags", "+faststart", "-f", "mp4"])
                 .arg(mp4.as_os_str())
                 .stdin(Stdio::null())
@@ -293,6 +399,15 @@ impl Drop for VideoWriter {
             let _ = c.kill();
             let _ = c.wait();
         }
+    }
+}
+
+/// HEVC in MP4 tagged `hvc1` (parameter sets in the sample entry), the tag
+/// Apple's players require; ffmpeg's default `hev1` plays elsewhere only.
+fn hevc_tag(codec: Codec) -> &'static [&'static str] {
+    match codec {
+        Codec::Hevc => &["-tag:v", "hvc1"],
+        Codec::H264 => &[],
     }
 }
 

@@ -31,14 +31,11 @@ use crate::rig::camera_overrides as view;
 use crate::rig::choice as rig_choice;
 use crate::rig::depth_pass::DepthRange;
 use crate::scene::Viewpoint;
-use crate::video::{Container, VideoSpec, VideoWriter};
+use crate::video::{Codec, Container, VideoSpec, VideoWriter};
 use crate::{Error, Result};
 
 /// Most frames whose depths the per-shot rig is fitted to.
 pub const SHOT_SAMPLES: u32 = 16;
-
-/// x264's constant rate factor of video outputs: visually lossless.
-pub const VIDEO_CRF: u32 = 18;
 
 /// Where the frames go.
 #[derive(Clone, Debug, PartialEq)]
@@ -67,6 +64,9 @@ pub struct Animation {
     animated: bool,
     output: FrameOutput,
     messages: Vec<Message>,
+    /// A video's codec and constant rate factor.
+    codec: Codec,
+    crf: u32,
 }
 
 /// The rig chosen once for a shot.
@@ -172,7 +172,14 @@ impl Animation {
                     ));
                 }
                 // Refused before anything is rendered when it cannot run.
-                crate::video::find_ffmpeg()?;
+                crate::video::find_encoder(a.codec)?;
+                if a.crf.is_some_and(|c| c > crate::video::MAX_CRF) {
+                    return Err(Error::Invalid(format!(
+                        "--crf must be 0 (lossless) to {}, got {}",
+                        crate::video::MAX_CRF,
+                        a.crf.unwrap_or_default()
+                    )));
+                }
                 FrameOutput::Video(spec.output.path.clone())
             }
             None => {
@@ -204,6 +211,8 @@ impl Animation {
             animated: is_animated(&spec.scene),
             output,
             messages,
+            codec: a.codec,
+            crf: a.crf.unwrap_or(a.codec.default_crf()),
         };
         if let FrameOutput::Video(_) = animation.output {
             let views = animation.base.views();
@@ -415,12 +424,13 @@ impl Animation {
                     let writer = match &mut video {
                         Some(w) => w,
                         None => video.insert(VideoWriter::start(VideoSpec {
-                            path: path.clone(),
+                            path: job.video_path(path, &plan),
                             width: picture.width,
                             height: picture.height,
                             fps: self.fps,
                             packing,
-                            crf: VIDEO_CRF,
+                            crf: self.crf,
+                            codec: self.codec,
                         })?),
                     };
                     writer.push(&to_rgb8(&picture, &job.write_options()))?;

@@ -653,6 +653,18 @@ impl Job {
         outputs::compose_frame(&self.spec.output, self.quilt.as_ref(), &shown)
     }
 
+    /// The file a video of this job's frames is written to: `out`, or for a
+    /// quilt `NAME_qsCOLSxROWSaASPECT.ext`, the grid and the views' aspect
+    /// that Looking Glass software reads from the name (as a quilt still's).
+    pub fn video_path(&self, out: &std::path::Path, plan: &Plan) -> PathBuf {
+        match (self.spec.output.layout, self.quilt) {
+            (LayoutSpec::Quilt, Some(q)) => {
+                output::quilt_path(out, q.layout, plan.width, plan.height)
+            }
+            _ => out.to_path_buf(),
+        }
+    }
+
     /// Writes the files (all or none) and the statistics; returns the files
     /// written. `loaded` and the seconds of writing feed the statistics.
     pub fn write(&self, loaded: &Loaded, plan: &Plan, rendered: &Rendered) -> Result<Vec<PathBuf>> {

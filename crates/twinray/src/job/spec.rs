@@ -410,6 +410,13 @@ pub struct AnimationSpec {
     /// motion and the shot's rig stay those of the whole range.
     #[serde(default)]
     pub only: Option<String>,
+    /// The codec of a video output.
+    #[serde(default)]
+    pub codec: crate::video::Codec,
+    /// The encoder's constant rate factor of a video output, 0 (lossless)
+    /// to 51 (`None`: the codec's visually lossless default).
+    #[serde(default)]
+    pub crf: Option<u32>,
 }
 
 impl Default for AnimationSpec {
@@ -422,6 +429,8 @@ impl Default for AnimationSpec {
             rig: ShotRigSpec::PerShot,
             skip_existing: false,
             only: None,
+            codec: Default::default(),
+            crf: None,
         }
     }
 }
