@@ -220,6 +220,10 @@ pub struct AnimationArgs {
     /// motion and the shot's rig stay those of the whole range.
     #[arg(long, value_name = "C..D", requires = "frames")]
     pub only: Option<String>,
+    /// A glTF file's animation to play, by name or index (default: all of
+    /// the file's animations at once).
+    #[arg(long, value_name = "NAME|INDEX", requires = "frames")]
+    pub animation: Option<String>,
     /// Split the still into N bands of rows, written as NAME_tileKofN, for
     /// `twinray merge` to assemble (all N, or only --tile K).
     #[arg(long, value_name = "N", conflicts_with = "frames")]
@@ -414,6 +418,7 @@ impl RenderArgs {
                 },
                 skip_existing: self.animation.skip_existing,
                 only: self.animation.only.clone(),
+                clip: self.animation.animation.clone(),
             },
             tile: match (self.animation.tiles, self.animation.tile) {
                 (Some(count), Some(index)) => Some(TileSpec { index, count }),

@@ -8,6 +8,9 @@ use crate::math::{Aabb, Vec3};
 use crate::scene::{Material, Scene};
 use crate::shapes::{Shape, TriangleNormals};
 
+mod two_level;
+pub use two_level::{Instance, InstanceCounts, InstanceTrees};
+
 pub struct World {
     pub scene: Scene,
     /// The hierarchy over every primitive, or with a cut (the paper's section
@@ -19,6 +22,9 @@ pub struct World {
     pub far: Option<Bvh>,
     /// Seconds spent building the hierarchy.
     pub build_seconds: f64,
+    /// A two-level hierarchy ([`World::two_level`]): its instances, and how
+    /// many of them (and of their primitives) were built for it.
+    pub instances: Option<InstanceCounts>,
 }
 
 /// The paper's section 2.3: objects farther than `depth` along the camera's
@@ -125,6 +131,7 @@ impl World {
             bvh,
             far: far_bvh,
             build_seconds: start.elapsed().as_secs_f64(),
+            instances: None,
         }
     }
 

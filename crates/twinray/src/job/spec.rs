@@ -410,6 +410,10 @@ pub struct AnimationSpec {
     /// motion and the shot's rig stay those of the whole range.
     #[serde(default)]
     pub only: Option<String>,
+    /// glTF: the one animation that plays (`--animation NAME|INDEX`); `None`:
+    /// every animation of the file at once.
+    #[serde(default)]
+    pub clip: Option<String>,
 }
 
 impl Default for AnimationSpec {
@@ -422,6 +426,7 @@ impl Default for AnimationSpec {
             rig: ShotRigSpec::PerShot,
             skip_existing: false,
             only: None,
+            clip: None,
         }
     }
 }
