@@ -196,6 +196,13 @@ impl Animation {
                 FrameOutput::Images(pattern)
             }
         };
+        let animated = is_animated(&spec.scene);
+        if let (Some(clip), false) = (&a.clip, animated) {
+            return Err(Error::Invalid(format!(
+                "--animation '{clip}': {} has no glTF animations",
+                spec.scene.display()
+            )));
+        }
         let mut still = spec.clone();
         // The frames' stills play the chosen animation (a still job ignores
         // it but checks that the file has it).
@@ -213,7 +220,7 @@ impl Animation {
             rig: a.rig,
             skip_existing: a.skip_existing,
             only,
-            animated: is_animated(&spec.scene),
+            animated,
             output,
             messages,
             posing: Mutex::new(None),

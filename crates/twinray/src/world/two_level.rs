@@ -86,7 +86,11 @@ impl World {
                         .iter()
                         .map(|s| s.bounds())
                         .collect();
-                    bvh::build(&boxes, &BuildOptions::default())
+                    let mut tree = bvh::build(&boxes, &BuildOptions::default());
+                    // Only the joined tree is traversed: its wide form is
+                    // made after the splice.
+                    tree.wide = Vec::new();
+                    tree
                 })
             })
             .collect();
