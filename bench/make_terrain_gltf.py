@@ -2,17 +2,23 @@
 """Writes a height-field terrain as one mesh: NX x NZ cells, two triangles
 each (1000 x 500 = 1,000,000 triangles by default), indexed, with normals.
 
-    python3 bench/make_terrain_gltf.py OUT.glb [NX NZ]
+    python3 bench/make_terrain_gltf.py OUT.glb [NX NZ] [--animated]
 
 .glb gives one binary glTF file; .gltf gives JSON with an external .bin next
 to it; .obj gives the same triangles as Wavefront OBJ (v, vn, f v//vn).
+--animated (glTF only) adds a small cube (12 triangles) on a second node
+that slides across the terrain and turns over 2 seconds (animation "slide"):
+a large static scene with one small moving node, for
+`cargo bench -p twinray-bench --bench animated_instances`.
 Only the standard library is used (array, struct, json).
 """
 import array, json, math, struct, sys
 
-out = sys.argv[1]
-nx = int(sys.argv[2]) if len(sys.argv) > 2 else 1000
-nz = int(sys.argv[3]) if len(sys.argv) > 3 else 500
+animated = "--animated" in sys.argv
+argv = [a for a in sys.argv if a != "--animated"]
+out = argv[1]
+nx = int(argv[2]) if len(argv) > 2 else 1000
+nz = int(argv[3]) if len(argv) > 3 else 500
 
 def height(x, z):
     return 0.05 * math.sin(x * 0.11) * math.cos(z * 0.07) + 0.02 * math.sin(x * 0.53 + z * 0.31)
@@ -59,6 +65,41 @@ doc = {
         {"bufferView": 2, "componentType": 5125, "count": len(idx), "type": "SCALAR"},
     ],
 }
+if animated:
+    # A cube of half-side 0.1 (its own mesh, node 1), moved along x from -1.5
+    # to 1.5 and turned half a turn about y, linearly over 2 seconds.
+    cube = array.array("f", [c for k in range(8) for c in ((k & 1) * 0.2 - 0.1, (k >> 1 & 1) * 0.2 - 0.1, (k >> 2 & 1) * 0.2 - 0.1)])
+    cube_idx = array.array("I", [0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                                 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5])
+    times = array.array("f", [0.0, 1.0, 2.0])
+    moves = array.array("f", [-1.5, 0.3, 0.0, 0.0, 0.3, 0.0, 1.5, 0.3, 0.0])
+    s = math.sqrt(0.5)
+    turns = array.array("f", [0, 0, 0, 1, 0, s, 0, s, 0, 1, 0, 0])
+    for data, count, kind, target in [(cube, 8, "VEC3", 34962), (cube_idx, 36, "SCALAR", 34963),
+                                      (times, 3, "SCALAR", None), (moves, 3, "VEC3", None), (turns, 3, "VEC4", None)]:
+        view = {"buffer": 0, "byteOffset": len(binary), "byteLength": len(data.tobytes())}
+        if target:
+            view["target"] = target
+        doc["bufferViews"].append(view)
+        acc = {"bufferView": len(doc["bufferViews"]) - 1, "componentType": 5125 if data is cube_idx else 5126,
+               "count": count, "type": kind}
+        if data is cube:
+            acc["min"], acc["max"] = [-0.1] * 3, [0.1] * 3
+        if data is times:
+            acc["min"], acc["max"] = [0.0], [2.0]
+        doc["accessors"].append(acc)
+        binary += data.tobytes()
+    doc["buffers"][0]["byteLength"] = len(binary)
+    a = len(doc["accessors"]) - 5
+    doc["meshes"].append({"primitives": [{"attributes": {"POSITION": a}, "indices": a + 1, "material": 1}]})
+    doc["materials"].append({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.2, 0.2, 1], "metallicFactor": 0, "roughnessFactor": 0.5}})
+    doc["nodes"].append({"mesh": 1, "name": "mover"})
+    doc["scenes"][0]["nodes"].append(1)
+    doc["animations"] = [{"name": "slide", "samplers": [
+        {"input": a + 2, "output": a + 3, "interpolation": "LINEAR"},
+        {"input": a + 2, "output": a + 4, "interpolation": "LINEAR"}],
+        "channels": [{"sampler": 0, "target": {"node": 1, "path": "translation"}},
+                     {"sampler": 1, "target": {"node": 1, "path": "rotation"}}]}]
 if out.endswith(".obj"):
     with open(out, "w") as f:
         f.write("o terrain\n")

@@ -221,6 +221,10 @@ pub struct AnimationArgs {
     /// motion and the shot's rig stay those of the whole range.
     #[arg(long, value_name = "C..D", requires = "frames")]
     pub only: Option<String>,
+    /// A glTF file's animation to play, by name or index (default: all of
+    /// the file's animations at once).
+    #[arg(long, value_name = "NAME|INDEX", requires = "frames")]
+    pub animation: Option<String>,
     /// Split the still into N bands of rows, written as NAME_tileKofN, for
     /// `twinray merge` to assemble (all N, or only --tile K).
     #[arg(long, value_name = "N", conflicts_with = "frames")]
@@ -435,6 +439,7 @@ impl RenderArgs {
                     CodecArg::Hevc => twinray::video::Codec::Hevc,
                 },
                 crf: self.animation.crf,
+                clip: self.animation.animation.clone(),
             },
             tile: match (self.animation.tiles, self.animation.tile) {
                 (Some(count), Some(index)) => Some(TileSpec { index, count }),

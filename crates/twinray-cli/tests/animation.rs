@@ -192,6 +192,10 @@ fn frame_flags_are_checked() {
         (vec!["--orbit", "90"], "--frames"),
         (vec!["--frames", "0..1", "--stats", "s.json"], "--stats"),
         (vec!["--frames", "0..1", "--tiles", "2"], "--tiles"),
+        (
+            vec!["--frames", "0..1", "--animation", "Walk"],
+            "has no glTF animations",
+        ),
     ] {
         let mut args = vec!["render", s(&scene), "-o", s(&out), "-q"];
         args.extend(extra.iter().copied());

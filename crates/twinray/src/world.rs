@@ -8,6 +8,9 @@ use crate::math::{Aabb, Vec3};
 use crate::scene::{Material, Scene};
 use crate::shapes::{LeafTriangles, Shape, TriangleNormals};
 
+mod two_level;
+pub use two_level::{Instance, InstanceCounts, InstanceTrees};
+
 pub struct World {
     pub scene: Scene,
     /// The hierarchy over every primitive, or with a cut (the paper's section
@@ -26,6 +29,9 @@ pub struct World {
     /// go on past cut-away hits, and shadow rays ask the alpha where they meet
     /// such a material.
     pub has_alpha: bool,
+    /// A two-level hierarchy ([`World::two_level`]): its instances, and how
+    /// many of them (and of their primitives) were built for it.
+    pub instances: Option<InstanceCounts>,
 }
 
 /// The paper's section 2.3: objects farther than `depth` along the camera's
@@ -138,6 +144,7 @@ impl World {
             far: far_bvh,
             build_seconds: start.elapsed().as_secs_f64(),
             leaf_triangles,
+            instances: None,
         }
     }
 

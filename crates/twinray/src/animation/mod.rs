@@ -19,13 +19,17 @@
 
 pub mod frames;
 pub mod motion;
+mod posing;
 
 pub use frames::{FramePattern, FrameRange};
 pub use motion::{CameraPath, FrameCamera, Motion};
 
 use std::path::PathBuf;
+use std::sync::Mutex;
 
-use crate::job::{CancelToken, Job, JobSpec, LayoutSpec, Level, Loaded, Message, ShotRigSpec};
+use crate::job::{
+    AnimationSpec, CancelToken, Job, JobSpec, LayoutSpec, Level, Loaded, Message, ShotRigSpec,
+};
 use crate::output::encode::to_rgb8;
 use crate::rig::camera_overrides as view;
 use crate::rig::choice as rig_choice;
@@ -59,14 +63,17 @@ pub struct Animation {
     skip_existing: bool,
     /// The frames rendered (all, or a machine's share).
     only: FrameRange,
-    /// A glTF file with animations: read again for every frame, its nodes
-    /// at the frame's time (frame / fps seconds).
+    /// A glTF file with animations: posed for every frame, its nodes at the
+    /// frame's time (frame / fps seconds).
     animated: bool,
     output: FrameOutput,
     messages: Vec<Message>,
     /// A video's codec and constant rate factor.
     codec: Codec,
     crf: u32,
+    /// An animated file, read at the first frame and kept: what did not
+    /// move between frames is kept with it.
+    posing: Mutex<Option<posing::Posing>>,
 }
 
 /// The rig chosen once for a shot.
@@ -196,8 +203,20 @@ impl Animation {
                 FrameOutput::Images(pattern)
             }
         };
+        let animated = is_animated(&spec.scene);
+        if let (Some(clip), false) = (&a.clip, animated) {
+            return Err(Error::Invalid(format!(
+                "--animation '{clip}': {} has no glTF animations",
+                spec.scene.display()
+            )));
+        }
         let mut still = spec.clone();
-        still.animation = Default::default();
+        // The frames' stills play the chosen animation (a still job ignores
+        // it but checks that the file has it).
+        still.animation = AnimationSpec {
+            clip: a.clip.clone(),
+            ..AnimationSpec::default()
+        };
         let first = frame_still(&still, &output, frames.first, FrameCamera::default(), None);
         let mut animation = Animation {
             spec: still,
@@ -208,11 +227,12 @@ impl Animation {
             rig: a.rig,
             skip_existing: a.skip_existing,
             only,
-            animated: is_animated(&spec.scene),
+            animated,
             output,
             messages,
             codec: a.codec,
             crf: a.crf.unwrap_or(a.codec.default_crf()),
+            posing: Mutex::new(None),
         };
         if let FrameOutput::Video(_) = animation.output {
             let views = animation.base.views();
@@ -253,13 +273,21 @@ impl Animation {
     }
 
     /// The scene of `frame`: `None` where the shared one serves (the file is
-    /// not animated), else the file read with its nodes at the frame's time.
+    /// not animated), else the file posed at the frame's time, with a
+    /// two-level hierarchy in which only what moved since the frame asked
+    /// for before was made and built again. It equals the scene a fresh
+    /// load at that time gives (`Job::load_at`), shape for shape.
     pub fn loaded_at(&self, frame: u32) -> Result<Option<Loaded>> {
         if !self.animated {
             return Ok(None);
         }
         let time = (f64::from(frame) / self.fps) as f32;
-        self.base.load_at(Some(time)).map(Some)
+        let mut posing = self.posing.lock().unwrap_or_else(|e| e.into_inner());
+        let posing = match &mut *posing {
+            Some(p) => p,
+            None => posing.insert(posing::Posing::open(&self.base)?),
+        };
+        posing.loaded_at(&self.base, time).map(Some)
     }
 
     /// The scene's viewpoint with the spec's camera flags: what the motion
@@ -416,6 +444,15 @@ impl Animation {
             };
             let rendered = job.render(&plan, &frame_progress, cancel)?;
             let mut frame_messages = plan.messages.clone();
+            if let Some(c) = plan.world.instances {
+                frame_messages.push(Message {
+                    level: Level::Info,
+                    text: format!(
+                        "frame {frame}: hierarchy of {} instances, {} of them built again ({} of {} primitives; {} made from the file)",
+                        c.instances, c.rebuilt_instances, c.rebuilt_primitives, c.primitives, c.made_primitives
+                    ),
+                });
+            }
             frame_messages.extend(rendered.messages.iter().cloned());
             let files = match &self.output {
                 FrameOutput::Images(_) => job.write(loaded, &plan, &rendered)?,

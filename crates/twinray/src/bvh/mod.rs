@@ -9,10 +9,12 @@
 #[cfg(test)]
 pub(crate) mod brute_force;
 mod build;
+mod splice;
 mod traverse;
 mod wide;
 
 pub use build::{build, primitive_box, BuildOptions};
+pub use splice::{splice, Placed};
 pub use traverse::{
     segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
     TraversalStats,

@@ -145,6 +145,17 @@ impl Loaded {
             .get_or_init(|| Arc::new(pool.install(|| World::new((*self.scene).clone()))))
             .clone()
     }
+
+    /// The hierarchy if a plan has built it (or it was given).
+    pub fn built_world(&self) -> Option<&Arc<World>> {
+        self.world.get()
+    }
+
+    /// Gives the scene its hierarchy, built elsewhere (an animation's
+    /// two-level one); the plans use it instead of building their own.
+    pub(crate) fn set_world(&mut self, world: Arc<World>) {
+        self.world = OnceLock::from(world);
+    }
 }
 
 /// Everything decided before rendering.
@@ -266,20 +277,24 @@ impl Job {
     /// Reads the scene file with a glTF file's animations at `time` seconds.
     pub fn load_at(&self, time: Option<f32>) -> Result<Loaded> {
         let start = Instant::now();
-        let limits = &self.spec.limits;
-        let scene = load_scene(
-            &self.spec.scene,
-            &LoadOptions {
-                max_resolution: limits.max_resolution,
-                max_vertices: limits.max_vertices,
-                max_triangles: limits.max_triangles,
-                animation_time: time,
-            },
-        )?;
+        let scene = load_scene(&self.spec.scene, &self.load_options(time))?;
         let load_seconds = start.elapsed().as_secs_f64();
         let mut loaded = self.prepare(scene)?;
         loaded.load_seconds = load_seconds;
         Ok(loaded)
+    }
+
+    /// What the loaders are given: the spec's limits, the time of a glTF
+    /// file's animations and the one that plays.
+    pub fn load_options(&self, time: Option<f32>) -> LoadOptions {
+        let limits = &self.spec.limits;
+        LoadOptions {
+            max_resolution: limits.max_resolution,
+            max_vertices: limits.max_vertices,
+            max_triangles: limits.max_triangles,
+            animation_time: time,
+            animation: self.spec.animation.clip.clone(),
+        }
     }
 
     /// Readies a scene already in memory (as [`Job::load`] does after reading

@@ -417,6 +417,10 @@ pub struct AnimationSpec {
     /// to 51 (`None`: the codec's visually lossless default).
     #[serde(default)]
     pub crf: Option<u32>,
+    /// glTF: the one animation that plays (`--animation NAME|INDEX`); `None`:
+    /// every animation of the file at once.
+    #[serde(default)]
+    pub clip: Option<String>,
 }
 
 impl Default for AnimationSpec {
@@ -431,6 +435,7 @@ impl Default for AnimationSpec {
             only: None,
             codec: Default::default(),
             crf: None,
+            clip: None,
         }
     }
 }

@@ -36,6 +36,7 @@ use crate::scene::{
     AlphaMode, AngleSpan, Material, MeshPolygon, NamedCamera, NormalMap, NormalMapKind, Scene,
     SceneFormat, Uv, Viewpoint,
 };
+use crate::shapes::{Shape, TriangleNormals};
 use crate::texture::{Texels, Texture, Wrap};
 
 /// Deepest node hierarchy accepted (deeper means a cycle or a hostile file).
@@ -54,126 +55,242 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene> {
 /// Parse glTF or GLB bytes; `file` names it in messages and locates its
 /// external buffers and images.
 pub fn parse_gltf(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {
-    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| gltf_error(file, e))?;
-    validate(&gltf, file)?;
-    let doc = &gltf.document;
-    let loader = Loader {
-        file,
-        dir: file.parent().unwrap_or(Path::new("")),
-        opts,
-        doc,
-    };
-    let buffers = doc
-        .buffers()
-        .map(|b| loader.buffer(&b, gltf.blob.as_deref()))
-        .collect::<Result<Vec<_>>>()?;
+    Ok(GltfFile::read(bytes, file, opts)?
+        .pose(opts.animation_time, None)?
+        .scene)
+}
 
-    let mut scene = Scene::new();
-    scene.format = SceneFormat::Gltf;
-    scene.viewpoint.width = 640;
-    scene.viewpoint.height = 480;
-    let mut textures = HashMap::new();
-    for m in doc.materials() {
-        let mut texture = |t: Option<gltf::Texture>, kind: Texels| {
-            t.and_then(|t| loader.texture(&mut scene, &mut textures, &t, kind, &buffers))
-        };
-        let base_texture = || {
-            m.pbr_metallic_roughness()
-                .base_color_texture()
-                .map(|i| i.texture())
-        };
-        let uses_alpha = m.alpha_mode() != gltf::material::AlphaMode::Opaque;
-        let alpha = texture(base_texture().filter(|_| uses_alpha), Texels::Alpha);
-        let normal = texture(m.normal_texture().map(|n| n.texture()), Texels::Data);
-        let maps = MaterialTextures {
-            base: texture(base_texture(), Texels::Colour),
-            emission: texture(m.emissive_texture().map(|i| i.texture()), Texels::Colour),
-            occlusion: texture(m.occlusion_texture().map(|o| o.texture()), Texels::Data),
-            metal_rough_mean: texture(
-                m.pbr_metallic_roughness()
-                    .metallic_roughness_texture()
-                    .map(|i| i.texture()),
-                Texels::Data,
-            )
-            .map(|t| mean_texel(&scene.textures[t as usize])),
-            alpha,
-            normal,
-        };
-        scene.add_material(material_from_pbr(&m, maps));
+/// A glTF file read, with its materials and textures made: what an
+/// animation keeps between frames, posed at each frame's time by
+/// [`GltfFile::pose`] without reading the file again.
+pub struct GltfFile {
+    doc: gltf::Document,
+    buffers: Vec<Vec<u8>>,
+    file: std::path::PathBuf,
+    opts: LoadOptions,
+    /// The scene before the node walk: materials, textures, their warnings.
+    base: Scene,
+    default_material: u32,
+    /// The animation `LoadOptions::animation` chose (`None`: all of them).
+    clip: Option<usize>,
+}
+
+/// A glTF file's scene at one time, and where each mesh instance's
+/// triangles are in it.
+pub struct Posed {
+    pub scene: Scene,
+    pub instances: Vec<PosedInstance>,
+    /// Triangles made from the file's buffers for this pose; the others were
+    /// copied from the previous pose's unchanged instances.
+    pub made_triangles: usize,
+}
+
+/// One mesh instance (a node of the walk) of a [`Posed`] scene.
+#[derive(Clone, Debug)]
+pub struct PosedInstance {
+    /// What its triangles are made from: node, mesh, world transform and
+    /// morph weights, as bits. Equal keys give equal triangles.
+    pub key: Vec<u32>,
+    pub shapes: std::ops::Range<usize>,
+    corners: std::ops::Range<usize>,
+    warnings: Vec<String>,
+}
+
+impl GltfFile {
+    /// Reads a `.gltf` or `.glb` file, its buffers, materials and textures.
+    pub fn open(path: &Path, opts: &LoadOptions) -> Result<GltfFile> {
+        GltfFile::read(&read_file(path)?, path, opts)
     }
-    let default_material = scene.add_material(Material {
-        kd: 0.8,
-        ..Material::default()
-    });
 
-    let animated = match opts.animation_time {
-        Some(t) => loader.animated_locals(doc, &buffers, t)?,
-        None => HashMap::new(),
-    };
-    let instances = loader.node_instances(doc, &animated)?;
-    let triangles = instances
-        .iter()
-        .filter_map(|(node, _)| node.mesh())
-        .flat_map(|mesh| mesh.primitives())
-        .map(|p| primitive_triangles(&p))
-        .fold(0u64, u64::saturating_add);
-    let with_corners = doc.meshes().flat_map(|m| m.primitives()).any(|p| {
-        p.get(&gltf::Semantic::Normals).is_some() || p.get(&gltf::Semantic::TexCoords(0)).is_some()
-    });
-    reserve_triangles(&mut scene, triangles, with_corners, file, opts)?;
+    /// Reads the document, its buffers, materials and textures.
+    pub fn read(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<GltfFile> {
+        let gltf =
+            gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| gltf_error(file, e))?;
+        validate(&gltf, file)?;
+        let doc = &gltf.document;
+        let loader = Loader {
+            file,
+            dir: file.parent().unwrap_or(Path::new("")),
+            opts,
+            doc,
+        };
+        let buffers = doc
+            .buffers()
+            .map(|b| loader.buffer(&b, gltf.blob.as_deref()))
+            .collect::<Result<Vec<_>>>()?;
+        let (scene, default_material) = loader.materials(&buffers)?;
+        let clip = loader.chosen_animation()?;
+        Ok(GltfFile {
+            doc: gltf.document,
+            buffers,
+            file: file.to_path_buf(),
+            opts: opts.clone(),
+            base: scene,
+            default_material,
+            clip,
+        })
+    }
 
-    let first_warning = scene.warnings.len();
-    let mut cameras = Vec::new();
-    for (node, world) in &instances {
-        if let Some(mesh) = node.mesh() {
-            let group = scene.new_group();
-            for prim in mesh.primitives() {
-                let material = prim
-                    .material()
-                    .index()
-                    .map_or(default_material, |i| i as u32);
-                loader.primitive(&mut scene, &mesh, &prim, world, material, group, &buffers)?;
+    fn loader(&self) -> Loader<'_> {
+        Loader {
+            file: &self.file,
+            dir: self.file.parent().unwrap_or(Path::new("")),
+            opts: &self.opts,
+            doc: &self.doc,
+        }
+    }
+
+    /// Whether the file has animations.
+    pub fn is_animated(&self) -> bool {
+        self.doc.animations().next().is_some()
+    }
+
+    /// The scene with the animations at `time` seconds (`None`: the nodes'
+    /// own transforms). The triangles of a mesh instance whose key is that of
+    /// the same instance in `previous` (a pose of this file and its scene,
+    /// or that scene with more after it) are copied from it, not made again.
+    pub fn pose(
+        &self,
+        time: Option<f32>,
+        previous: Option<(&Scene, &[PosedInstance])>,
+    ) -> Result<Posed> {
+        let loader = self.loader();
+        let doc = &self.doc;
+        let buffers = &self.buffers;
+        let file = self.file.as_path();
+        let opts = &self.opts;
+        let default_material = self.default_material;
+        let mut scene = self.base.clone();
+        let pose = match time {
+            Some(t) => loader.animated_pose(doc, buffers, t, self.clip)?,
+            None => animation::Pose::default(),
+        };
+        let instances = loader.node_instances(doc, &pose.locals)?;
+        let triangles = instances
+            .iter()
+            .filter_map(|(node, _)| node.mesh())
+            .flat_map(|mesh| mesh.primitives())
+            .map(|p| primitive_triangles(&p))
+            .fold(0u64, u64::saturating_add);
+        let with_corners = doc.meshes().flat_map(|m| m.primitives()).any(|p| {
+            p.get(&gltf::Semantic::Normals).is_some()
+                || p.get(&gltf::Semantic::TexCoords(0)).is_some()
+        });
+        reserve_triangles(&mut scene, triangles, with_corners, file, opts)?;
+
+        let first_warning = scene.warnings.len();
+        let mut cameras = Vec::new();
+        let mut posed: Vec<PosedInstance> = Vec::new();
+        let mut made_triangles = 0;
+        for (node, world) in &instances {
+            if let Some(mesh) = node.mesh() {
+                let group = scene.new_group();
+                let weights = pose.weights_of(node, &mesh);
+                let key = instance_key(node, &mesh, world, &weights);
+                let start = (
+                    scene.shapes.len(),
+                    scene.corners.len(),
+                    scene.warnings.len(),
+                );
+                let same = previous
+                    .and_then(|(s, p)| p.get(posed.len()).filter(|q| q.key == key).map(|q| (s, q)));
+                match same {
+                    Some((s, q)) => copy_instance(&mut scene, s, q, group),
+                    None => {
+                        for prim in mesh.primitives() {
+                            let material = prim
+                                .material()
+                                .index()
+                                .map_or(default_material, |i| i as u32);
+                            loader.primitive(
+                                &mut scene, &mesh, &prim, world, material, group, buffers, &weights,
+                            )?;
+                        }
+                        made_triangles += scene.shapes.len() - start.0;
+                    }
+                }
+                posed.push(PosedInstance {
+                    key,
+                    shapes: start.0..scene.shapes.len(),
+                    corners: start.1..scene.corners.len(),
+                    warnings: scene.warnings[start.2..].to_vec(),
+                });
+            }
+            if let Some(camera) = node.camera() {
+                match loader.camera(&camera, node, world) {
+                    Some(c) => cameras.push((camera.index(), c)),
+                    None => scene.warnings.push(format!(
+                        "{}: cameras[{}]: orthographic cameras are not supported, skipped",
+                        file.display(),
+                        camera.index()
+                    )),
+                }
+            }
+            if let Some(light) = node.light() {
+                scene.lights.push(light_at(&light, world));
             }
         }
-        if let Some(camera) = node.camera() {
-            match loader.camera(&camera, node, world) {
-                Some(c) => cameras.push((camera.index(), c)),
-                None => scene.warnings.push(format!(
-                    "{}: cameras[{}]: orthographic cameras are not supported, skipped",
-                    file.display(),
-                    camera.index()
-                )),
+        fold_warnings(&mut scene, first_warning, 10);
+        cameras.sort_by_key(|(index, _)| *index);
+        scene.cameras = cameras.into_iter().map(|(_, c)| c).collect();
+        // A glTF camera has a direction, not a target: put `at` level with the
+        // scene's centre, the default zero-parallax distance of a stereo pair.
+        let bounds = scene.bounds();
+        if bounds.min.x <= bounds.max.x {
+            let center = (bounds.min + bounds.max) * 0.5;
+            for c in &mut scene.cameras {
+                let vp = &mut c.viewpoint;
+                let forward = vp.at - vp.from;
+                let depth = (center - vp.from).dot(forward);
+                if depth > 0.0 && depth.is_finite() {
+                    vp.at = vp.from + forward * depth;
+                }
             }
         }
-        if let Some(light) = node.light() {
-            scene.lights.push(light_at(&light, world));
+        match scene.cameras.first() {
+            Some(c) => {
+                scene.viewpoint = c.viewpoint.clone();
+                scene.viewpoint_given = true;
+            }
+            None => scene.frame_bounds(),
         }
+        Ok(Posed {
+            scene,
+            instances: posed,
+            made_triangles,
+        })
     }
-    fold_warnings(&mut scene, first_warning, 10);
-    cameras.sort_by_key(|(index, _)| *index);
-    scene.cameras = cameras.into_iter().map(|(_, c)| c).collect();
-    // A glTF camera has a direction, not a target: put `at` level with the
-    // scene's centre, the default zero-parallax distance of a stereo pair.
-    let bounds = scene.bounds();
-    if bounds.min.x <= bounds.max.x {
-        let center = (bounds.min + bounds.max) * 0.5;
-        for c in &mut scene.cameras {
-            let vp = &mut c.viewpoint;
-            let forward = vp.at - vp.from;
-            let depth = (center - vp.from).dot(forward);
-            if depth > 0.0 && depth.is_finite() {
-                vp.at = vp.from + forward * depth;
+}
+
+/// What a mesh instance's triangles are made from, as bits: its node and
+/// mesh, its world transform and its morph weights.
+fn instance_key(node: &gltf::Node, mesh: &gltf::Mesh, world: &Mat4, weights: &[f32]) -> Vec<u32> {
+    let mut key = vec![node.index() as u32, mesh.index() as u32];
+    key.extend(world.to_cols_array().map(f32::to_bits));
+    key.extend(weights.iter().map(|w| w.to_bits()));
+    key
+}
+
+/// Instance `q` of the previous pose's scene `from`, appended to `scene`
+/// as group `group`: its triangles (their corner indices moved to where
+/// the corners now start) and the warnings making them gave.
+fn copy_instance(scene: &mut Scene, from: &Scene, q: &PosedInstance, group: u32) {
+    let (old, new) = (q.corners.start as u32, scene.corners.len() as u32);
+    scene
+        .corners
+        .extend_from_slice(&from.corners[q.corners.clone()]);
+    for i in q.shapes.clone() {
+        let mut shape = from.shapes[i].clone();
+        if let Shape::Triangle(t) = &mut shape {
+            if let TriangleNormals::Patch(c) = &mut t.normals {
+                *c = *c - old + new;
             }
         }
+        scene.shapes.push(shape);
+        scene.shape_material.push(from.shape_material[i]);
+        scene.shape_group.push(group);
     }
-    match scene.cameras.first() {
-        Some(c) => {
-            scene.viewpoint = c.viewpoint.clone();
-            scene.viewpoint_given = true;
-        }
-        None => scene.frame_bounds(),
-    }
-    Ok(scene)
+    scene.warnings.extend(q.warnings.iter().cloned());
 }
 
 /// The crate's schema validation, after a check it lacks: gltf-json 1.4.1's
@@ -273,6 +390,13 @@ struct Loader<'a> {
     doc: &'a gltf::Document,
 }
 
+/// A morph target with its weight: displacements of positions and normals.
+struct MorphTarget<'a> {
+    weight: f32,
+    positions: Option<AccessorView<'a>>,
+    normals: Option<AccessorView<'a>>,
+}
+
 /// Checked view of an accessor's elements in a buffer.
 struct AccessorView<'a> {
     bytes: &'a [u8],
@@ -314,6 +438,50 @@ impl AccessorView<'_> {
 }
 
 impl Loader<'_> {
+    /// The file's materials and their textures, and a default material
+    /// after them (its index returned) for primitives without one.
+    fn materials(&self, buffers: &[Vec<u8>]) -> Result<(Scene, u32)> {
+        let (loader, doc) = (self, self.doc);
+        let mut scene = Scene::new();
+        scene.format = SceneFormat::Gltf;
+        scene.viewpoint.width = 640;
+        scene.viewpoint.height = 480;
+        let mut textures = HashMap::new();
+        for m in doc.materials() {
+            let mut texture = |t: Option<gltf::Texture>, kind: Texels| {
+                t.and_then(|t| loader.texture(&mut scene, &mut textures, &t, kind, buffers))
+            };
+            let base_texture = || {
+                m.pbr_metallic_roughness()
+                    .base_color_texture()
+                    .map(|i| i.texture())
+            };
+            let uses_alpha = m.alpha_mode() != gltf::material::AlphaMode::Opaque;
+            let alpha = texture(base_texture().filter(|_| uses_alpha), Texels::Alpha);
+            let normal = texture(m.normal_texture().map(|n| n.texture()), Texels::Data);
+            let maps = MaterialTextures {
+                base: texture(base_texture(), Texels::Colour),
+                emission: texture(m.emissive_texture().map(|i| i.texture()), Texels::Colour),
+                occlusion: texture(m.occlusion_texture().map(|o| o.texture()), Texels::Data),
+                metal_rough_mean: texture(
+                    m.pbr_metallic_roughness()
+                        .metallic_roughness_texture()
+                        .map(|i| i.texture()),
+                    Texels::Data,
+                )
+                .map(|t| mean_texel(&scene.textures[t as usize])),
+                alpha,
+                normal,
+            };
+            scene.add_material(material_from_pbr(&m, maps));
+        }
+        let default_material = scene.add_material(Material {
+            kd: 0.8,
+            ..Material::default()
+        });
+        Ok((scene, default_material))
+    }
+
     fn err(&self, message: String) -> Error {
         Error::Invalid(format!("{}: {message}", self.file.display()))
     }
@@ -472,6 +640,37 @@ impl Loader<'_> {
         Ok(out)
     }
 
+    /// The morph targets of `prim` with a weight other than 0 (glTF:
+    /// position = base + sum of weight × target displacement; so the
+    /// normal).
+    fn morph_targets<'b>(
+        &self,
+        prim: &gltf::Primitive,
+        weights: &[f32],
+        buffers: &'b [Vec<u8>],
+        what: &str,
+    ) -> Result<Vec<MorphTarget<'b>>> {
+        let read = |a: Option<gltf::Accessor>| {
+            a.map(|a| self.accessor(&a, buffers, Dimensions::Vec3, &[DataType::F32]))
+                .transpose()
+        };
+        let mut out = Vec::new();
+        for (t, &weight) in prim.morph_targets().zip(weights) {
+            if weight == 0.0 {
+                continue;
+            }
+            if !weight.is_finite() {
+                return Err(self.err(format!("{what}: morph weight {weight} is not finite")));
+            }
+            out.push(MorphTarget {
+                weight,
+                positions: read(t.positions())?,
+                normals: read(t.normals())?,
+            });
+        }
+        Ok(out)
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn primitive(
         &self,
@@ -482,6 +681,7 @@ impl Loader<'_> {
         material: u32,
         group: u32,
         buffers: &[Vec<u8>],
+        weights: &[f32],
     ) -> Result<()> {
         let what = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
         if prim.mode() != gltf::mesh::Mode::Triangles {
@@ -528,10 +728,18 @@ impl Loader<'_> {
             })
             .transpose()?;
         let n = positions.count;
+        let targets = self.morph_targets(prim, weights, buffers, &what)?;
         for (name, count) in [
             ("NORMAL", normals.as_ref().map(|a| a.count)),
             ("TEXCOORD", uvs.as_ref().map(|a| a.count)),
-        ] {
+        ]
+        .into_iter()
+        .chain(targets.iter().flat_map(|t| {
+            [
+                ("target POSITION", t.positions.as_ref().map(|a| a.count)),
+                ("target NORMAL", t.normals.as_ref().map(|a| a.count)),
+            ]
+        })) {
             if count.is_some_and(|c| c != n) {
                 return Err(self.err(format!(
                     "{what}: {name} has {} elements, POSITION {n}",
@@ -557,9 +765,21 @@ impl Loader<'_> {
         for tri in 0..corner_count / 3 {
             for k in 0..3 {
                 let i = corner(tri * 3 + k)?;
-                vertices[k] = world.transform_point3(positions.vec3(i));
+                let mut p = positions.vec3(i);
+                for t in &targets {
+                    if let Some(d) = &t.positions {
+                        p += d.vec3(i) * t.weight;
+                    }
+                }
+                vertices[k] = world.transform_point3(p);
                 if let Some(a) = &normals {
-                    ns[k] = normal_matrix * a.vec3(i);
+                    let mut normal = a.vec3(i);
+                    for t in &targets {
+                        if let Some(d) = &t.normals {
+                            normal += d.vec3(i) * t.weight;
+                        }
+                    }
+                    ns[k] = normal_matrix * normal;
                 }
                 if let Some(a) = &uvs {
                     ts[k] = Uv::new(a.float(i, 0), a.float(i, 1));

@@ -33,6 +33,9 @@ pub struct LoadOptions {
     /// glTF: the animations' node transforms at this time in seconds
     /// (`None`: the nodes' own transforms).
     pub animation_time: Option<f32>,
+    /// glTF: the one animation that plays, by name or index (`None`: all of
+    /// them at once).
+    pub animation: Option<String>,
 }
 
 impl Default for LoadOptions {
@@ -42,6 +45,7 @@ impl Default for LoadOptions {
             max_vertices: 1_000_000,
             max_triangles: 100_000_000,
             animation_time: None,
+            animation: None,
         }
     }
 }
