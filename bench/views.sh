@@ -64,12 +64,12 @@ for scene in "${scenes[@]}"; do
       wall=$(cat "$tmp/wall")
       worst=inf; maxabs=0
       if [[ $mode == shared* ]]; then
-        for e in "$tmp"/exact_*.pfm; do  # exact_0.pfm ... (a pair: exact_L.pfm, exact_R.pfm)
-          read -r p m < <("$bin" compare "$e" "$tmp/${mode}_${e#"$tmp"/exact_}" \
-            | sed 's/^psnr_db \([^ ]*\) *max_abs \([^ ]*\).*/\1 \2/')
-          worst=$(python3 -c "print(min(float('$worst'), float('$p')))")
-          maxabs=$(python3 -c "print(max($maxabs, $m))")
-        done
+        # exact_0.pfm ... (a pair: exact_L.pfm, exact_R.pfm); one line per view.
+        for e in "$tmp"/exact_*.pfm; do
+          "$bin" compare "$e" "$tmp/${mode}_${e#"$tmp"/exact_}"
+        done > "$tmp/compare"
+        read -r worst maxabs < <(sed 's/^psnr_db \([^ ]*\) *max_abs \([^ ]*\).*/\1 \2/' "$tmp/compare" \
+          | python3 -c "import sys; r=[l.split() for l in sys.stdin]; print(min(float(a) for a, _ in r), max(float(b) for _, b in r))")
       fi
       shadow=$(shadow_rays "$tmp/$mode.json")
       hits=$(counter "$tmp/$mode.json" cache_hits)
