@@ -6,14 +6,12 @@
 //! materials, camera or lights: the job frames and lights it as an OBJ.
 //!
 //! Vertex colours (`red`, `green`, `blue`: 0–255 integers, or 0–1 floats)
-//! are taken as sRGB, as scanners and Meshlab write them. The scene model has
-//! no per-corner colour, so each face gets the average of its vertices'
-//! colours (averaged in the file's encoding, rounded to 8 bits, then made
-//! linear) as its own material, one material per distinct colour.
+//! are taken as sRGB, as scanners and Meshlab write them, made linear, and
+//! interpolated across each triangle (`Scene::corner_colors`) over a white
+//! material: a face whose vertices differ shows a gradient.
 //! Without colours, faces get the same grey default material as OBJ faces
 //! without `usemtl`.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use ply_rs_bw::parser::Parser;
@@ -62,18 +60,29 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
         };
         positions.push(Vec3::new(coord("x")?, coord("y")?, coord("z")?));
         if has_color {
-            let channel = |k: &str| v.get(k).and_then(color_channel).unwrap_or(0.0);
-            colors.push([channel("red"), channel("green"), channel("blue")]);
+            let channel = |k: &str| srgb_to_linear(v.get(k).and_then(color_channel).unwrap_or(0.0));
+            colors.push(Color::new(
+                channel("red"),
+                channel("green"),
+                channel("blue"),
+            ));
         }
     }
 
     let mut scene = Scene::new();
     scene.format = SceneFormat::Ply;
     let group = scene.new_group();
-    let default_material = scene.add_material(super::default_mesh_material());
-    let mut color_materials: HashMap<[u8; 3], u32> = HashMap::new();
+    let material = if has_color {
+        scene.add_material(Material {
+            color: Color::ONE,
+            ..super::default_mesh_material()
+        })
+    } else {
+        scene.add_material(super::default_mesh_material())
+    };
     let first_warning = scene.warnings.len();
     let mut polygon = Vec::new();
+    let mut polygon_colors = Vec::new();
     for (f, face) in faces.iter().enumerate() {
         let indices = face
             .get("vertex_indices")
@@ -81,6 +90,7 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
             .and_then(index_list)
             .ok_or_else(|| invalid(format!("face {f}: no integer list 'vertex_indices'")))?;
         polygon.clear();
+        polygon_colors.clear();
         for &i in &indices {
             let p = positions.get(i).ok_or_else(|| {
                 invalid(format!(
@@ -89,6 +99,9 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
                 ))
             })?;
             polygon.push(*p);
+            if has_color {
+                polygon_colors.push(colors[i]);
+            }
         }
         if polygon.len() < 3 {
             scene.warnings.push(format!(
@@ -107,18 +120,7 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
                 opts.max_triangles
             )));
         }
-        let material = if has_color {
-            let key = average_color(indices.iter().map(|&i| colors[i]));
-            *color_materials.entry(key).or_insert_with(|| {
-                scene.add_material(Material {
-                    color: Color::from(key.map(srgb_to_linear)),
-                    ..super::default_mesh_material()
-                })
-            })
-        } else {
-            default_material
-        };
-        scene.add_mesh_polygon(
+        scene.add_colored_mesh_polygon(
             &MeshPolygon {
                 vertices: &polygon,
                 normals: None,
@@ -126,6 +128,7 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
                 material,
                 group,
             },
+            has_color.then_some(&polygon_colors[..]),
             &|| format!("{}: face {f}", file.display()),
         );
     }
@@ -176,22 +179,8 @@ fn index_list(p: &Property) -> Option<Vec<usize>> {
     }
 }
 
-/// The mean of sRGB colours in 0–1, rounded to 8 bits a channel (so that
-/// faces of one colour share one material).
-fn average_color(colors: impl Iterator<Item = [f32; 3]>) -> [u8; 3] {
-    let (mut sum, mut n) = ([0.0f32; 3], 0.0f32);
-    for c in colors {
-        for k in 0..3 {
-            sum[k] += c[k];
-        }
-        n += 1.0;
-    }
-    sum.map(|s| (s / n.max(1.0) * 255.0).round().clamp(0.0, 255.0) as u8)
-}
-
-/// The sRGB transfer function undone: an 8-bit code to a linear value.
-fn srgb_to_linear(code: u8) -> f32 {
-    let c = f32::from(code) / 255.0;
+/// The sRGB transfer function undone: an encoded value in 0–1 to a linear one.
+fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {
         c / 12.92
     } else {
@@ -209,12 +198,13 @@ mod tests {
         0 0 0 255 0 0\n1 0 0 255 0 0\n1 1 0 255 0 0\n0 1 0 255 0 0\n4 0 1 2 3\n";
 
     #[test]
-    fn a_coloured_quad_is_two_red_triangles() {
+    fn a_coloured_quad_is_two_triangles_with_red_corners() {
         let scene =
             parse_ply(QUAD.as_bytes(), Path::new("q.ply"), &LoadOptions::default()).unwrap();
         assert_eq!(scene.shapes.len(), 2);
         let m = &scene.materials[scene.shape_material[0] as usize];
-        assert_eq!(m.color, Color::new(1.0, 0.0, 0.0));
+        assert_eq!(m.color, Color::ONE);
+        assert_eq!(scene.corner_colors, vec![[Color::X; 3]; 2]);
     }
 
     #[test]
@@ -232,8 +222,8 @@ mod tests {
 
     #[test]
     fn srgb_decoding_matches_the_standard() {
-        assert_eq!(srgb_to_linear(0), 0.0);
-        assert_eq!(srgb_to_linear(255), 1.0);
-        assert!((srgb_to_linear(188) - 0.5029).abs() < 1e-3);
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert_eq!(srgb_to_linear(1.0), 1.0);
+        assert!((srgb_to_linear(188.0 / 255.0) - 0.5029).abs() < 1e-3);
     }
 }

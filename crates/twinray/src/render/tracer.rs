@@ -111,12 +111,33 @@ pub struct Donor {
     pub tree_coefficient: f32,
 }
 
+/// The colour of a reflected ray of weight `mirror`: the material's own
+/// mirror (`material.mirror`) tinted by its specular colour (a metal's base
+/// colour), and what total internal reflection hands over of the
+/// transmission (the rest) untinted. White, exactly, for every material
+/// without a coloured specular (NFF's, OBJ's): their images do not change.
+fn mirror_tint(material: &crate::scene::Material, mirror: f32) -> Color {
+    let spec = material.specular_color;
+    if spec == Color::ONE {
+        return Color::ONE;
+    }
+    let own = material.mirror;
+    if mirror <= own {
+        return spec;
+    }
+    (spec * own + Color::splat(mirror - own)) / mirror
+}
+
 /// A secondary ray one lane wants traced, and its weight in the lane's colour.
 #[derive(Clone, Copy)]
 struct Spawn {
     origin: Vec3,
     dir: Vec3,
     coefficient: f32,
+    /// Colour the ray's light is multiplied by (with `coefficient`): a
+    /// metal's mirror takes its base colour, as a conductor's Fresnel
+    /// reflectance at normal incidence is; white otherwise.
+    tint: Color,
 }
 
 impl<'a> Tracer<'a> {
@@ -367,6 +388,7 @@ impl<'a> Tracer<'a> {
             let l = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;
             if !hits.has_hit(l) {
+                s.ambient[l] = scene.background_toward(packet.dirs[l]);
                 continue;
             }
             let prim = hits.prim[l] as usize;
@@ -387,7 +409,10 @@ impl<'a> Tracer<'a> {
                 material,
                 color: surface.color,
             };
-            s.ambient[l] = surface.ambient();
+            s.ambient[l] = match &scene.environment {
+                None => surface.ambient(),
+                Some(env) => surface.ambient_under(env, facing),
+            };
             s.prims[l] = prim as u32;
             s.points[l] = Some(sp);
             if material.kd > 0.0 || material.ks > 0.0 {
@@ -413,6 +438,7 @@ impl<'a> Tracer<'a> {
                                 origin: offset_point(point, -facing, hit.t),
                                 dir,
                                 coefficient: material.t,
+                                tint: Color::ONE,
                             });
                         }
                     }
@@ -425,6 +451,7 @@ impl<'a> Tracer<'a> {
                     origin: offset_point(point, facing, hit.t),
                     dir: reflect(d, facing),
                     coefficient: mirror,
+                    tint: mirror_tint(material, mirror),
                 });
             }
         }
@@ -576,7 +603,7 @@ impl<'a> Tracer<'a> {
                     } else {
                         self.counts.rays.refracted += 1;
                     }
-                    let add = c[l] * sp.coefficient;
+                    let add = c[l] * sp.coefficient * sp.tint;
                     out[l] += add;
                     if l == 0 {
                         if let Some(r) = record.as_deref_mut() {
