@@ -158,16 +158,7 @@ fn footprint(shapes: &[Shape], bounds: &Aabb, axis: UpAxis, slab: f32) -> f32 {
                 take(t.v0 + t.e2);
             }
             // Spheres and cones (NFF only): their boxes' low corners.
-            other => {
-                let bb = other.bounds();
-                for i in 0..8 {
-                    take(Vec3::new(
-                        if i & 1 == 0 { bb.min.x } else { bb.max.x },
-                        if i & 2 == 0 { bb.min.y } else { bb.max.y },
-                        if i & 4 == 0 { bb.min.z } else { bb.max.z },
-                    ));
-                }
-            }
+            other => super::framing::box_corners(other.bounds()).for_each(&mut take),
         }
     }
     if rect[0] > rect[1] {
@@ -187,14 +178,12 @@ mod tests {
         scene.format = format;
         let m = scene.add_material(Default::default());
         for &(lo, hi) in list {
-            let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
-            let corner = |i: usize| {
-                Vec3::new(
-                    if i & 1 == 0 { lo.x } else { hi.x },
-                    if i & 2 == 0 { lo.y } else { hi.y },
-                    if i & 4 == 0 { lo.z } else { hi.z },
-                )
-            };
+            let corners: Vec<Vec3> = super::super::framing::box_corners(Aabb {
+                min: Vec3::from(lo),
+                max: Vec3::from(hi),
+            })
+            .collect();
+            let corner = |i: usize| corners[i];
             let g = scene.new_group();
             for face in [
                 [0, 2, 3, 1],
