@@ -14,8 +14,8 @@
 
 use std::path::Path;
 
-use ply_rs_bw::parser::Parser;
-use ply_rs_bw::ply::{DefaultElement, Property};
+use ply_rs_bw::parser::{Parser, Reader};
+use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult};
 
 use super::{read_file, reserve_triangles, LoadOptions};
 use crate::error::{Error, Result};
@@ -32,14 +32,37 @@ pub fn load_ply(path: &Path, opts: &LoadOptions) -> Result<Scene> {
 pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {
     let invalid =
         |what: String| Error::Invalid(format!("{}: not a valid PLY file: {what}", file.display()));
-    let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut &bytes[..])
+    // Elements are read in the header's order, each into a type of ours
+    // that keeps only what twinray uses (not ply-rs-bw's map of named
+    // properties per element, five times slower: docs/decisions.md).
+    let mut reader = Reader::new(bytes);
+    let header = Parser::<PlyVertex>::new()
+        .read_header(&mut reader)
         .map_err(|e| invalid(e.to_string()))?;
-    let vertices = ply
-        .payload
-        .get("vertex")
-        .ok_or_else(|| invalid("no 'vertex' element".into()))?;
-    let faces = ply.payload.get("face").map_or(&[][..], |f| &f[..]);
+    let (mut vertices, mut faces) = (None, Vec::new());
+    for element in header.elements.values() {
+        match element.name.as_str() {
+            "vertex" => {
+                vertices = Some(
+                    Parser::<PlyVertex>::new()
+                        .read_payload_for_element(&mut reader, element, &header)
+                        .map_err(|e| invalid(e.to_string()))?,
+                )
+            }
+            "face" => {
+                faces = Parser::<PlyFace>::new()
+                    .read_payload_for_element(&mut reader, element, &header)
+                    .map_err(|e| invalid(e.to_string()))?
+            }
+            // Read past (every property ignored).
+            _ => {
+                Parser::<PlyFace>::new()
+                    .read_payload_for_element(&mut reader, element, &header)
+                    .map_err(|e| invalid(e.to_string()))?;
+            }
+        }
+    }
+    let vertices = vertices.ok_or_else(|| invalid("no 'vertex' element".into()))?;
     if faces.is_empty() {
         return Err(invalid(
             "no faces (a point cloud has no surface to render)".into(),
@@ -48,24 +71,21 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
 
     let mut positions = Vec::with_capacity(vertices.len());
     let mut colors = Vec::new();
-    let has_color = vertices
-        .first()
-        .is_some_and(|v| ["red", "green", "blue"].iter().all(|k| v.contains_key(*k)));
+    let has_color = header.elements.values().any(|e| {
+        e.name == "vertex"
+            && ["red", "green", "blue"]
+                .iter()
+                .all(|k| e.properties.contains_key(*k))
+    });
     for (i, v) in vertices.iter().enumerate() {
-        let coord = |k: &str| {
-            v.get(k)
-                .and_then(scalar)
-                .map(|x| x as f32)
-                .ok_or_else(|| invalid(format!("vertex {i}: no number '{k}'")))
+        let coord = |k: usize| {
+            v.xyz[k]
+                .ok_or_else(|| invalid(format!("vertex {i}: no number '{}'", ["x", "y", "z"][k])))
         };
-        positions.push(Vec3::new(coord("x")?, coord("y")?, coord("z")?));
+        positions.push(Vec3::new(coord(0)?, coord(1)?, coord(2)?));
         if has_color {
-            let channel = |k: &str| srgb_to_linear(v.get(k).and_then(color_channel).unwrap_or(0.0));
-            colors.push(Color::new(
-                channel("red"),
-                channel("green"),
-                channel("blue"),
-            ));
+            let channel = |k: usize| srgb_to_linear(v.rgb[k].unwrap_or(0.0));
+            colors.push(Color::new(channel(0), channel(1), channel(2)));
         }
     }
 
@@ -85,13 +105,12 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
     let mut polygon_colors = Vec::new();
     for (f, face) in faces.iter().enumerate() {
         let indices = face
-            .get("vertex_indices")
-            .or_else(|| face.get("vertex_index"))
-            .and_then(index_list)
+            .indices
+            .as_ref()
             .ok_or_else(|| invalid(format!("face {f}: no integer list 'vertex_indices'")))?;
         polygon.clear();
         polygon_colors.clear();
-        for &i in &indices {
+        for &i in indices {
             let p = positions.get(i).ok_or_else(|| {
                 invalid(format!(
                     "face {f} refers to vertex {i}, but there are {} vertices",
@@ -135,6 +154,55 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
     super::fold_warnings(&mut scene, first_warning, 10);
     scene.frame_bounds();
     Ok(scene)
+}
+
+/// A vertex as read: its position and colour channels, where the file has them.
+#[derive(Default)]
+struct PlyVertex {
+    xyz: [Option<f32>; 3],
+    rgb: [Option<f32>; 3],
+}
+
+impl PropertyAccess for PlyVertex {
+    fn new() -> Self {
+        PlyVertex::default()
+    }
+
+    fn set_property(&mut self, name: &str, p: Property) -> PropertyAccessResult {
+        let (slot, value) = match name {
+            "x" => (&mut self.xyz[0], scalar(&p).map(|x| x as f32)),
+            "y" => (&mut self.xyz[1], scalar(&p).map(|x| x as f32)),
+            "z" => (&mut self.xyz[2], scalar(&p).map(|x| x as f32)),
+            "red" => (&mut self.rgb[0], color_channel(&p)),
+            "green" => (&mut self.rgb[1], color_channel(&p)),
+            "blue" => (&mut self.rgb[2], color_channel(&p)),
+            _ => return PropertyAccessResult::Ignored,
+        };
+        *slot = value;
+        PropertyAccessResult::Set
+    }
+}
+
+/// A face as read: its vertex indices (`vertex_indices`, or `vertex_index`).
+#[derive(Default)]
+struct PlyFace {
+    indices: Option<Vec<usize>>,
+}
+
+impl PropertyAccess for PlyFace {
+    fn new() -> Self {
+        PlyFace::default()
+    }
+
+    fn set_property(&mut self, name: &str, p: Property) -> PropertyAccessResult {
+        let preferred = name == "vertex_indices";
+        if preferred || (name == "vertex_index" && self.indices.is_none()) {
+            self.indices = index_list(&p);
+            PropertyAccessResult::Set
+        } else {
+            PropertyAccessResult::Ignored
+        }
+    }
 }
 
 /// A scalar property as a number.
