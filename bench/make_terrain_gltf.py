@@ -5,7 +5,9 @@ each (1000 x 500 = 1,000,000 triangles by default), indexed, with normals.
     python3 bench/make_terrain_gltf.py OUT.glb [NX NZ] [--animated]
 
 .glb gives one binary glTF file; .gltf gives JSON with an external .bin next
-to it; .obj gives the same triangles as Wavefront OBJ (v, vn, f v//vn).
+to it; .obj gives the same triangles as Wavefront OBJ (v, vn, f v//vn); .stl
+gives them as binary STL (a face normal and three vertices per triangle);
+.ply as binary little-endian PLY (float x y z vertices, uchar/int index lists).
 --animated (glTF only) adds a small cube (12 triangles) on a second node
 that slides across the terrain and turns over 2 seconds (animation "slide"):
 a large static scene with one small moving node, for
@@ -107,6 +109,36 @@ if out.endswith(".obj"):
         f.write("".join("vn %.6f %.6f %.6f\n" % tuple(nor[k:k + 3]) for k in range(0, len(nor), 3)))
         f.write("".join("f %d//%d %d//%d %d//%d\n" % (idx[k] + 1, idx[k] + 1, idx[k + 1] + 1, idx[k + 1] + 1, idx[k + 2] + 1, idx[k + 2] + 1)
                         for k in range(0, len(idx), 3)))
+elif out.endswith(".stl"):
+    with open(out, "wb") as f:
+        f.write(b"twinray bench/make_terrain_gltf.py".ljust(80, b" "))
+        f.write(struct.pack("<I", len(idx) // 3))
+        tri = struct.Struct("<12fH")
+        chunk = []
+        for k in range(0, len(idx), 3):
+            a, b, c = (idx[k + j] * 3 for j in range(3))
+            pa, pb, pc = pos[a:a + 3], pos[b:b + 3], pos[c:c + 3]
+            u = [pb[j] - pa[j] for j in range(3)]
+            v = [pc[j] - pa[j] for j in range(3)]
+            nx_, ny_, nz_ = u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]
+            l = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_) or 1.0
+            chunk.append(tri.pack(nx_ / l, ny_ / l, nz_ / l, *pa, *pb, *pc, 0))
+            if len(chunk) == 65536:
+                f.write(b"".join(chunk))
+                chunk = []
+        f.write(b"".join(chunk))
+elif out.endswith(".ply"):
+    with open(out, "wb") as f:
+        f.write(("ply\nformat binary_little_endian 1.0\ncomment twinray bench/make_terrain_gltf.py\n"
+                 "element vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+                 "element face %d\nproperty list uchar int vertex_indices\nend_header\n"
+                 % (n, len(idx) // 3)).encode())
+        f.write(pos.tobytes())
+        faces = bytearray()
+        face = struct.Struct("<B3i")
+        for k in range(0, len(idx), 3):
+            faces += face.pack(3, idx[k], idx[k + 1], idx[k + 2])
+        f.write(faces)
 elif out.endswith(".glb"):
     js = json.dumps(doc).encode()
     js += b" " * (-len(js) % 4)

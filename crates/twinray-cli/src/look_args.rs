@@ -13,9 +13,11 @@ pub struct StudioArgs {
     /// Background colour R,G,B, linear (default: the file's; black for OBJ and glTF).
     #[arg(long, value_name = "R,G,B", value_parser = parse_vec3)]
     pub background: Option<Vec3>,
-    /// Which axis is up in a file without a camera: y (glTF's, the default) or z
-    /// (CAD and robotics models: pybullet's, STL files).
-    #[arg(long, value_enum, default_value_t = UpAxisArg::Y)]
+    /// Which axis is up in a file without a camera: y (glTF's), z (CAD and
+    /// robotics models: pybullet's, most STL files) or auto: y for glTF; for
+    /// OBJ, STL and PLY the axis along which the model's base is widest,
+    /// said in a note.
+    #[arg(long, value_enum, default_value_t = UpAxisArg::Auto)]
     pub up_axis: UpAxisArg,
     /// A point light at X,Y,Z (scene units), white or of colour R,G,B (linear),
     /// without falloff; repeat for more. For a file without lights they
@@ -31,6 +33,12 @@ pub struct StudioArgs {
     /// its shadows show. Framing still fits the model alone.
     #[arg(long)]
     pub ground: bool,
+    /// An equirectangular environment image (.hdr or .exr, linear): seen
+    /// where rays leave the scene (the background, mirrors, glass) and
+    /// lighting surfaces as ambient light (no shadows). Its top is up
+    /// (--up-axis), its centre is what the default camera looks toward.
+    #[arg(long, value_name = "FILE", conflicts_with = "background")]
+    pub env: Option<std::path::PathBuf>,
 }
 
 /// `X,Y,Z` or `X,Y,Z:R,G,B`.
@@ -52,9 +60,10 @@ fn parse_light(s: &str) -> Result<LightSpec, String> {
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
 pub enum UpAxisArg {
-    #[default]
     Y,
     Z,
+    #[default]
+    Auto,
 }
 
 impl StudioArgs {
@@ -64,9 +73,11 @@ impl StudioArgs {
             up_axis: match self.up_axis {
                 UpAxisArg::Y => UpAxisSpec::Y,
                 UpAxisArg::Z => UpAxisSpec::Z,
+                UpAxisArg::Auto => UpAxisSpec::Auto,
             },
             lights: self.lights.clone(),
             ground: self.ground,
+            env: self.env.clone(),
         }
     }
 }

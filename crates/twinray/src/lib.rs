@@ -7,6 +7,7 @@
 
 pub mod animation;
 pub mod bvh;
+pub mod environment;
 pub mod error;
 pub mod image;
 pub mod job;

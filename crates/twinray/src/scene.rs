@@ -204,6 +204,14 @@ pub struct Scene {
     /// Degenerate geometry skipped and missing textures, with where they were.
     pub warnings: Vec<String>,
     next_group: u32,
+    /// An environment image (`--env`): what rays leaving the scene see, and
+    /// ambient light; `background` is unused with it.
+    pub environment: Option<std::sync::Arc<crate::environment::Environment>>,
+    /// Per-corner colours (PLY vertex colours, linear), multiplying the
+    /// material's colour: entry `i` belongs to `corners[i]`. Empty for a
+    /// scene without them (no cost), and only as long as the last coloured
+    /// record: corner records past its end have none.
+    pub corner_colors: Vec<[Color; 3]>,
 }
 
 /// What the tracer needs of a hit: the unit shading normal (not yet turned
@@ -226,6 +234,16 @@ pub struct SurfaceSample<'a> {
 }
 
 impl SurfaceSample<'_> {
+    /// The ambient term under an environment image, seen with unit normal
+    /// `facing`: the colour times the occlusion times (the ambient
+    /// coefficient × the image's mean + `Kd` × its diffuse light there),
+    /// plus the light emitted.
+    pub fn ambient_under(&self, env: &crate::environment::Environment, facing: Vec3) -> Color {
+        let m = self.material;
+        let light = env.mean() * m.ambient() + env.diffuse(facing) * m.kd;
+        self.color * light * self.occlusion + self.emission
+    }
+
     /// The ambient term here, with the light emitted: Whitted's ambient
     /// (colour × the material's ambient coefficient) darkened by the
     /// occlusion texture.
@@ -302,6 +320,14 @@ impl Scene {
             coverage: 1.0,
             offset_normal: normal,
         };
+        // Per-corner colours (PLY) on a triangle with a corner record.
+        if let Shape::Triangle(t) = shape {
+            if let TriangleNormals::Patch(i) = t.normals {
+                if let Some([a, b, c]) = self.corner_colors.get(i as usize) {
+                    sample.color *= *a * (1.0 - hit.u - hit.v) + *b * hit.u + *c * hit.v;
+                }
+            }
+        }
         let blend = material.alpha_mode == AlphaMode::Blend;
         if blend {
             sample.coverage = material.alpha;
@@ -337,6 +363,16 @@ impl Scene {
             sample.occlusion = 1.0 + material.occlusion_strength * (texel(tex).x - 1.0);
         }
         sample
+    }
+
+    /// What a ray going along `dir` that hits nothing sees: the background
+    /// colour, or the environment image.
+    #[inline]
+    pub fn background_toward(&self, dir: Vec3) -> Color {
+        match &self.environment {
+            None => self.background,
+            Some(env) => env.radiance(dir),
+        }
     }
 
     /// Bounds of every shape (empty for an empty scene).
@@ -421,6 +457,18 @@ impl Scene {
     /// cut into triangles exactly as NFF's polygons are.
     /// `where_` locates the polygon for a warning (made only when one is given).
     pub fn add_mesh_polygon(&mut self, poly: &MeshPolygon, where_: &dyn Fn() -> String) {
+        self.add_colored_mesh_polygon(poly, None, where_);
+    }
+
+    /// [`Scene::add_mesh_polygon`] with a linear colour per vertex
+    /// (`colors[i]` for `poly.vertices[i]`), interpolated across each
+    /// triangle and multiplying the material's colour.
+    pub fn add_colored_mesh_polygon(
+        &mut self,
+        poly: &MeshPolygon,
+        colors: Option<&[Color]>,
+        where_: &dyn Fn() -> String,
+    ) {
         let vertices = poly.vertices;
         if !within_range(vertices) {
             self.warnings.push(out_of_range("polygon", &where_()));
@@ -482,10 +530,17 @@ impl Scene {
                 [pick(a), pick(b), pick(c)]
             });
             let uv = poly.uv.map(|uv| [uv[a], uv[b], uv[c]]);
-            let tri_normals = if normals.is_none() && uv.is_none() {
+            let corner_colors = colors.map(|cs| [cs[a], cs[b], cs[c]]);
+            let tri_normals = if normals.is_none() && uv.is_none() && corner_colors.is_none() {
                 TriangleNormals::Flat
             } else {
                 self.corners.push(Corners { normals, uv });
+                if let Some(cs) = corner_colors {
+                    // Records before this one without colours: white.
+                    self.corner_colors
+                        .resize(self.corners.len() - 1, [Color::ONE; 3]);
+                    self.corner_colors.push(cs);
+                }
                 TriangleNormals::Patch((self.corners.len() - 1) as u32)
             };
             self.push_with(

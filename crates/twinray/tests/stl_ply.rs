@@ -205,3 +205,50 @@ fn truncated_stl_and_malformed_ply_are_errors_naming_the_file() {
     check("short.ply", &bin[..bin.len() - 5], "PLY");
     check("empty.ply", b"", "PLY");
 }
+
+#[test]
+fn ply_vertex_colours_are_interpolated_across_a_face() {
+    // One quad facing +z: red on its left side, blue on its right.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("gradient.ply");
+    std::fs::write(
+        &path,
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+         element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+         -1 -1 0 255 0 0\n1 -1 0 0 0 255\n1 1 0 0 0 255\n-1 1 0 255 0 0\n4 0 1 2 3\n",
+    )
+    .unwrap();
+    let mut spec = JobSpec::new(&path, dir.path().join("gradient.exr"));
+    spec.camera.size = Some([64, 64]);
+    spec.camera.from = Some([0.0, 0.0, 4.0]);
+    spec.camera.at = Some([0.0, 0.0, 0.0]);
+    spec.camera.up = Some([0.0, 1.0, 0.0]);
+    spec.camera.fov = Some(40.0);
+    spec.sampling.samples = Some(1);
+    let job = Job::check(spec).unwrap();
+    let loaded = job.load().unwrap();
+    let plan = job.plan(&loaded).unwrap();
+    let img = &job
+        .render(&plan, &|_, _| {}, &CancelToken::new())
+        .unwrap()
+        .output
+        .images[0];
+    // Along the middle row, across the quad: red falls and blue rises
+    // steadily, with many shades between (not one flat face colour, and not
+    // two: the quad is cut into two triangles along a diagonal).
+    let row: Vec<_> = (12..52).map(|x| img.get(x, 32)).collect();
+    let share = |c: twinray::math::Vec3| c.z / (c.x + c.z);
+    let shares: Vec<f32> = row.iter().map(|&c| share(c)).collect();
+    assert!(
+        shares[0] < 0.2 && shares[shares.len() - 1] > 0.8,
+        "{shares:?}"
+    );
+    assert!(
+        shares.windows(2).all(|w| w[1] >= w[0]),
+        "not a gradient: {shares:?}"
+    );
+    let mut distinct: Vec<u32> = shares.iter().map(|s| (s * 1000.0) as u32).collect();
+    distinct.dedup();
+    assert!(distinct.len() > 20, "{} shades", distinct.len());
+}

@@ -49,6 +49,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
+use crate::environment::Environment;
 use crate::loaders::{load_scene, LoadOptions};
 use crate::math::Vec3;
 use crate::output::{self, DepthChannels, QuiltSpec};
@@ -62,6 +63,7 @@ use crate::rig::choice::RigRequest;
 use crate::rig::choice::{self as rig_choice, Interaxial, RigFlags};
 use crate::rig::framing;
 use crate::rig::report::{self as rig_report, Settled};
+use crate::rig::up_axis::{self, UpAxis};
 use crate::rig::Camera;
 use crate::rig::Rig;
 use crate::scene::{SceneFormat, Viewpoint};
@@ -136,6 +138,8 @@ pub struct Loaded {
     /// How many of the scene's shapes are the model's: those after them are
     /// the `--ground` floor, which framing leaves out.
     model_shapes: usize,
+    /// The model's up axis: `--up-axis`, or detected.
+    up: UpAxis,
 }
 
 impl Loaded {
@@ -233,6 +237,12 @@ impl Job {
             }
         }
         studio::check_lights(&spec.studio.lights)?;
+        if let (Some(_), Some(env)) = (spec.studio.background, &spec.studio.env) {
+            return Err(invalid(format!(
+                "--background and --env {} conflict: the environment image is the background (give one of them)",
+                env.display()
+            )));
+        }
         Ok(Job {
             spec,
             views: checked.views,
@@ -313,10 +323,11 @@ impl Job {
         if !given && self.spec.camera.from.is_none() {
             supplied.push("no camera: framed the whole scene from the front (--from, --at, --up, --fov set one)");
         }
+        let up = self.resolve_up_axis(&scene, given, &mut messages);
         let viewpoint = if given {
             viewpoint
         } else {
-            self.up_axis(viewpoint)
+            self.up_axis(viewpoint, up)
         };
         let given_lights = &self.spec.studio.lights;
         if scene.format != SceneFormat::Nff && scene.lights.is_empty() && given_lights.is_empty() {
@@ -328,7 +339,7 @@ impl Job {
         let model_shapes = scene.shapes.len();
         if self.spec.studio.ground {
             let model = scene.bounds();
-            studio::add_ground(&mut scene, model, self.spec.studio.up_axis);
+            studio::add_ground(&mut scene, model, up);
         }
         if !supplied.is_empty() {
             messages.push(Message::info(format!("{path}: {}", supplied.join("; "))));
@@ -336,20 +347,56 @@ impl Job {
         if let Some(rgb) = self.spec.studio.background {
             scene.background = Vec3::from(rgb);
         }
+        if let Some(path) = &self.spec.studio.env {
+            let env = Environment::load(path, up == UpAxis::Z)?;
+            scene.environment = Some(Arc::new(env));
+        }
         Ok(Loaded {
             scene: Arc::new(scene),
             world: OnceLock::new(),
             load_seconds: 0.0,
             messages,
             model_shapes,
+            up,
         })
+    }
+
+    /// The up axis of a file without a camera: `--up-axis`, glTF's y, or
+    /// for OBJ, STL and PLY the model's base (`rig::up_axis`), with a note
+    /// saying what was chosen.
+    fn resolve_up_axis(&self, scene: &Scene, given: bool, messages: &mut Vec<Message>) -> UpAxis {
+        match self.spec.studio.up_axis {
+            UpAxisSpec::Y => return UpAxis::Y,
+            UpAxisSpec::Z => return UpAxis::Z,
+            UpAxisSpec::Auto => {}
+        }
+        let guessed = matches!(
+            scene.format,
+            SceneFormat::Obj | SceneFormat::Stl | SceneFormat::Ply
+        );
+        if given || !guessed {
+            return UpAxis::Y;
+        }
+        let d = up_axis::detect(scene, scene.shapes.len());
+        let other = match d.axis {
+            UpAxis::Y => UpAxis::Z,
+            UpAxis::Z => UpAxis::Y,
+        };
+        messages.push(Message::note(format!(
+            "{}: up axis {} ({}); --up-axis {} to override",
+            self.spec.scene.display(),
+            d.axis.name(),
+            d.reason(),
+            other.name()
+        )));
+        d.axis
     }
 
     /// The framing of a file without a camera turned for `--up-axis z`: the
     /// loader frames y-up models, so (x, y, z) becomes (x, −z, y) about the
     /// target, and z is up (unless `--up` says otherwise).
-    fn up_axis(&self, vp: Viewpoint) -> Viewpoint {
-        if self.spec.studio.up_axis == UpAxisSpec::Y {
+    fn up_axis(&self, vp: Viewpoint, up: UpAxis) -> Viewpoint {
+        if up == UpAxis::Y {
             return vp;
         }
         let turn = |v: Vec3| Vec3::new(v.x, -v.z, v.y);
@@ -405,7 +452,7 @@ impl Job {
         let viewpoint = if given {
             viewpoint
         } else {
-            self.up_axis(viewpoint)
+            self.up_axis(viewpoint, loaded.up)
         };
         let viewpoint = if given || camera_spec.from.is_some() || camera_spec.at.is_some() {
             viewpoint

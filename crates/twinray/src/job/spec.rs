@@ -45,7 +45,7 @@ pub struct JobSpec {
 pub struct StudioSpec {
     /// Background colour, linear RGB (default: the file's; black for OBJ and glTF).
     pub background: Option<[f32; 3]>,
-    /// Which axis is up in a file without a camera (default y, glTF's).
+    /// Which axis is up in a file without a camera (default: auto).
     pub up_axis: UpAxisSpec,
     /// Point lights added to the scene (`--light`); for a model file without
     /// lights they replace the default key/fill/rim rig.
@@ -54,6 +54,11 @@ pub struct StudioSpec {
     /// A diffuse grey floor under the model (`--ground`), so that its shadows show.
     #[serde(default)]
     pub ground: bool,
+    /// An equirectangular environment image, `.hdr` or `.exr` (`--env`):
+    /// seen by rays that leave the scene, and ambient light
+    /// ([`crate::environment`]). Conflicts with `background`.
+    #[serde(default)]
+    pub env: Option<PathBuf>,
 }
 
 /// A point light of the command line, in scene units; no falloff with distance.
@@ -74,9 +79,12 @@ fn white() -> [f32; 3] {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum UpAxisSpec {
-    #[default]
     Y,
     Z,
+    /// y for glTF (its specification's); for OBJ, STL and PLY, which do not
+    /// say, guessed from the model's base ([`crate::rig::up_axis`]).
+    #[default]
+    Auto,
 }
 
 /// The viewpoint and the image size; `None` keeps the file's.

@@ -11,7 +11,8 @@ use crate::error::{Error, Result};
 use crate::math::{Aabb, Color, Vec3};
 use crate::scene::{Light, Material, MeshPolygon, Scene};
 
-use super::spec::{LightSpec, UpAxisSpec};
+use super::spec::LightSpec;
+use crate::rig::up_axis::UpAxis;
 
 /// Grey of the floor (linear): light enough for shadows to read, neutral so
 /// that it does not tint the model's reflections.
@@ -53,7 +54,7 @@ pub(super) fn point_lights(lights: &[LightSpec]) -> Vec<Light> {
 /// Appends a square grey floor just below `model` along the up axis, a few
 /// times the model's extent across, centred under it. Returns the number of
 /// shapes (triangles) added; none for an empty model.
-pub(super) fn add_ground(scene: &mut Scene, model: Aabb, up: UpAxisSpec) -> usize {
+pub(super) fn add_ground(scene: &mut Scene, model: Aabb, up: UpAxis) -> usize {
     if model.min.x > model.max.x {
         return 0;
     }
@@ -63,12 +64,12 @@ pub(super) fn add_ground(scene: &mut Scene, model: Aabb, up: UpAxisSpec) -> usiz
     let gap = extent * GROUND_GAP;
     // Two axes across the floor, in counter-clockwise order seen from above.
     let (height, across, along) = match up {
-        UpAxisSpec::Y => (
+        UpAxis::Y => (
             Vec3::new(center.x, model.min.y - gap, center.z),
             Vec3::Z,
             Vec3::X,
         ),
-        UpAxisSpec::Z => (
+        UpAxis::Z => (
             Vec3::new(center.x, center.y, model.min.z - gap),
             Vec3::X,
             Vec3::Y,

@@ -6,18 +6,16 @@
 //! materials, camera or lights: the job frames and lights it as an OBJ.
 //!
 //! Vertex colours (`red`, `green`, `blue`: 0–255 integers, or 0–1 floats)
-//! are taken as sRGB, as scanners and Meshlab write them. The scene model has
-//! no per-corner colour, so each face gets the average of its vertices'
-//! colours (averaged in the file's encoding, rounded to 8 bits, then made
-//! linear) as its own material, one material per distinct colour.
+//! are taken as sRGB, as scanners and Meshlab write them, made linear, and
+//! interpolated across each triangle (`Scene::corner_colors`) over a white
+//! material: a face whose vertices differ shows a gradient.
 //! Without colours, faces get the same grey default material as OBJ faces
 //! without `usemtl`.
 
-use std::collections::HashMap;
 use std::path::Path;
 
-use ply_rs_bw::parser::Parser;
-use ply_rs_bw::ply::{DefaultElement, Property};
+use ply_rs_bw::parser::{Parser, Reader};
+use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult};
 
 use super::{read_file, reserve_triangles, LoadOptions};
 use crate::error::{Error, Result};
@@ -34,14 +32,37 @@ pub fn load_ply(path: &Path, opts: &LoadOptions) -> Result<Scene> {
 pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {
     let invalid =
         |what: String| Error::Invalid(format!("{}: not a valid PLY file: {what}", file.display()));
-    let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut &bytes[..])
+    // Elements are read in the header's order, each into a type of ours
+    // that keeps only what twinray uses (not ply-rs-bw's map of named
+    // properties per element, five times slower: docs/decisions.md).
+    let mut reader = Reader::new(bytes);
+    let header = Parser::<PlyVertex>::new()
+        .read_header(&mut reader)
         .map_err(|e| invalid(e.to_string()))?;
-    let vertices = ply
-        .payload
-        .get("vertex")
-        .ok_or_else(|| invalid("no 'vertex' element".into()))?;
-    let faces = ply.payload.get("face").map_or(&[][..], |f| &f[..]);
+    let (mut vertices, mut faces) = (None, Vec::new());
+    for element in header.elements.values() {
+        match element.name.as_str() {
+            "vertex" => {
+                vertices = Some(
+                    Parser::<PlyVertex>::new()
+                        .read_payload_for_element(&mut reader, element, &header)
+                        .map_err(|e| invalid(e.to_string()))?,
+                )
+            }
+            "face" => {
+                faces = Parser::<PlyFace>::new()
+                    .read_payload_for_element(&mut reader, element, &header)
+                    .map_err(|e| invalid(e.to_string()))?
+            }
+            // Read past (every property ignored).
+            _ => {
+                Parser::<PlyFace>::new()
+                    .read_payload_for_element(&mut reader, element, &header)
+                    .map_err(|e| invalid(e.to_string()))?;
+            }
+        }
+    }
+    let vertices = vertices.ok_or_else(|| invalid("no 'vertex' element".into()))?;
     if faces.is_empty() {
         return Err(invalid(
             "no faces (a point cloud has no surface to render)".into(),
@@ -50,38 +71,46 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
 
     let mut positions = Vec::with_capacity(vertices.len());
     let mut colors = Vec::new();
-    let has_color = vertices
-        .first()
-        .is_some_and(|v| ["red", "green", "blue"].iter().all(|k| v.contains_key(*k)));
+    let has_color = header.elements.values().any(|e| {
+        e.name == "vertex"
+            && ["red", "green", "blue"]
+                .iter()
+                .all(|k| e.properties.contains_key(*k))
+    });
     for (i, v) in vertices.iter().enumerate() {
-        let coord = |k: &str| {
-            v.get(k)
-                .and_then(scalar)
-                .map(|x| x as f32)
-                .ok_or_else(|| invalid(format!("vertex {i}: no number '{k}'")))
+        let coord = |k: usize| {
+            v.xyz[k]
+                .ok_or_else(|| invalid(format!("vertex {i}: no number '{}'", ["x", "y", "z"][k])))
         };
-        positions.push(Vec3::new(coord("x")?, coord("y")?, coord("z")?));
+        positions.push(Vec3::new(coord(0)?, coord(1)?, coord(2)?));
         if has_color {
-            let channel = |k: &str| v.get(k).and_then(color_channel).unwrap_or(0.0);
-            colors.push([channel("red"), channel("green"), channel("blue")]);
+            let channel = |k: usize| srgb_to_linear(v.rgb[k].unwrap_or(0.0));
+            colors.push(Color::new(channel(0), channel(1), channel(2)));
         }
     }
 
     let mut scene = Scene::new();
     scene.format = SceneFormat::Ply;
     let group = scene.new_group();
-    let default_material = scene.add_material(super::default_mesh_material());
-    let mut color_materials: HashMap<[u8; 3], u32> = HashMap::new();
+    let material = if has_color {
+        scene.add_material(Material {
+            color: Color::ONE,
+            ..super::default_mesh_material()
+        })
+    } else {
+        scene.add_material(super::default_mesh_material())
+    };
     let first_warning = scene.warnings.len();
     let mut polygon = Vec::new();
+    let mut polygon_colors = Vec::new();
     for (f, face) in faces.iter().enumerate() {
         let indices = face
-            .get("vertex_indices")
-            .or_else(|| face.get("vertex_index"))
-            .and_then(index_list)
+            .indices
+            .as_ref()
             .ok_or_else(|| invalid(format!("face {f}: no integer list 'vertex_indices'")))?;
         polygon.clear();
-        for &i in &indices {
+        polygon_colors.clear();
+        for &i in indices {
             let p = positions.get(i).ok_or_else(|| {
                 invalid(format!(
                     "face {f} refers to vertex {i}, but there are {} vertices",
@@ -89,6 +118,9 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
                 ))
             })?;
             polygon.push(*p);
+            if has_color {
+                polygon_colors.push(colors[i]);
+            }
         }
         if polygon.len() < 3 {
             scene.warnings.push(format!(
@@ -107,18 +139,7 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
                 opts.max_triangles
             )));
         }
-        let material = if has_color {
-            let key = average_color(indices.iter().map(|&i| colors[i]));
-            *color_materials.entry(key).or_insert_with(|| {
-                scene.add_material(Material {
-                    color: Color::from(key.map(srgb_to_linear)),
-                    ..super::default_mesh_material()
-                })
-            })
-        } else {
-            default_material
-        };
-        scene.add_mesh_polygon(
+        scene.add_colored_mesh_polygon(
             &MeshPolygon {
                 vertices: &polygon,
                 normals: None,
@@ -126,12 +147,62 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
                 material,
                 group,
             },
+            has_color.then_some(&polygon_colors[..]),
             &|| format!("{}: face {f}", file.display()),
         );
     }
     super::fold_warnings(&mut scene, first_warning, 10);
     scene.frame_bounds();
     Ok(scene)
+}
+
+/// A vertex as read: its position and colour channels, where the file has them.
+#[derive(Default)]
+struct PlyVertex {
+    xyz: [Option<f32>; 3],
+    rgb: [Option<f32>; 3],
+}
+
+impl PropertyAccess for PlyVertex {
+    fn new() -> Self {
+        PlyVertex::default()
+    }
+
+    fn set_property(&mut self, name: &str, p: Property) -> PropertyAccessResult {
+        let (slot, value) = match name {
+            "x" => (&mut self.xyz[0], scalar(&p).map(|x| x as f32)),
+            "y" => (&mut self.xyz[1], scalar(&p).map(|x| x as f32)),
+            "z" => (&mut self.xyz[2], scalar(&p).map(|x| x as f32)),
+            "red" => (&mut self.rgb[0], color_channel(&p)),
+            "green" => (&mut self.rgb[1], color_channel(&p)),
+            "blue" => (&mut self.rgb[2], color_channel(&p)),
+            _ => return PropertyAccessResult::Ignored,
+        };
+        *slot = value;
+        PropertyAccessResult::Set
+    }
+}
+
+/// A face as read: its vertex indices (`vertex_indices`, or `vertex_index`).
+#[derive(Default)]
+struct PlyFace {
+    indices: Option<Vec<usize>>,
+}
+
+impl PropertyAccess for PlyFace {
+    fn new() -> Self {
+        PlyFace::default()
+    }
+
+    fn set_property(&mut self, name: &str, p: Property) -> PropertyAccessResult {
+        let preferred = name == "vertex_indices";
+        if preferred || (name == "vertex_index" && self.indices.is_none()) {
+            self.indices = index_list(&p);
+            PropertyAccessResult::Set
+        } else {
+            PropertyAccessResult::Ignored
+        }
+    }
 }
 
 /// A scalar property as a number.
@@ -176,22 +247,8 @@ fn index_list(p: &Property) -> Option<Vec<usize>> {
     }
 }
 
-/// The mean of sRGB colours in 0–1, rounded to 8 bits a channel (so that
-/// faces of one colour share one material).
-fn average_color(colors: impl Iterator<Item = [f32; 3]>) -> [u8; 3] {
-    let (mut sum, mut n) = ([0.0f32; 3], 0.0f32);
-    for c in colors {
-        for k in 0..3 {
-            sum[k] += c[k];
-        }
-        n += 1.0;
-    }
-    sum.map(|s| (s / n.max(1.0) * 255.0).round().clamp(0.0, 255.0) as u8)
-}
-
-/// The sRGB transfer function undone: an 8-bit code to a linear value.
-fn srgb_to_linear(code: u8) -> f32 {
-    let c = f32::from(code) / 255.0;
+/// The sRGB transfer function undone: an encoded value in 0–1 to a linear one.
+fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {
         c / 12.92
     } else {
@@ -209,12 +266,13 @@ mod tests {
         0 0 0 255 0 0\n1 0 0 255 0 0\n1 1 0 255 0 0\n0 1 0 255 0 0\n4 0 1 2 3\n";
 
     #[test]
-    fn a_coloured_quad_is_two_red_triangles() {
+    fn a_coloured_quad_is_two_triangles_with_red_corners() {
         let scene =
             parse_ply(QUAD.as_bytes(), Path::new("q.ply"), &LoadOptions::default()).unwrap();
         assert_eq!(scene.shapes.len(), 2);
         let m = &scene.materials[scene.shape_material[0] as usize];
-        assert_eq!(m.color, Color::new(1.0, 0.0, 0.0));
+        assert_eq!(m.color, Color::ONE);
+        assert_eq!(scene.corner_colors, vec![[Color::X; 3]; 2]);
     }
 
     #[test]
@@ -232,8 +290,8 @@ mod tests {
 
     #[test]
     fn srgb_decoding_matches_the_standard() {
-        assert_eq!(srgb_to_linear(0), 0.0);
-        assert_eq!(srgb_to_linear(255), 1.0);
-        assert!((srgb_to_linear(188) - 0.5029).abs() < 1e-3);
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert_eq!(srgb_to_linear(1.0), 1.0);
+        assert!((srgb_to_linear(188.0 / 255.0) - 0.5029).abs() < 1e-3);
     }
 }

@@ -118,12 +118,33 @@ pub struct Donor {
     pub tree_coefficient: f32,
 }
 
+/// The colour of a reflected ray of weight `mirror`: the material's own
+/// mirror (`material.mirror`) tinted by its specular colour (a metal's base
+/// colour), and what total internal reflection hands over of the
+/// transmission (the rest) untinted. White, exactly, for every material
+/// without a coloured specular (NFF's, OBJ's): their images do not change.
+fn mirror_tint(material: &crate::scene::Material, mirror: f32) -> Color {
+    let spec = material.specular_color;
+    if spec == Color::ONE {
+        return Color::ONE;
+    }
+    let own = material.mirror;
+    if mirror <= own {
+        return spec;
+    }
+    (spec * own + Color::splat(mirror - own)) / mirror
+}
+
 /// A secondary ray one lane wants traced, and its weight in the lane's colour.
 #[derive(Clone, Copy)]
 struct Spawn {
     origin: Vec3,
     dir: Vec3,
     coefficient: f32,
+    /// Colour the ray's light is multiplied by (with `coefficient`): a
+    /// metal's mirror takes its base colour, as a conductor's Fresnel
+    /// reflectance at normal incidence is; white otherwise.
+    tint: Color,
 }
 
 impl<'a> Tracer<'a> {
@@ -429,6 +450,7 @@ impl<'a> Tracer<'a> {
             let l = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;
             if !hits.has_hit(l) {
+                s.ambient[l] = scene.background_toward(packet.dirs[l]);
                 continue;
             }
             let prim = hits.prim[l] as usize;
@@ -455,10 +477,14 @@ impl<'a> Tracer<'a> {
                 color: surface.color,
                 offset_normal: off,
             };
+            let ambient = match &scene.environment {
+                None => surface.ambient(),
+                Some(env) => surface.ambient_under(env, facing),
+            };
             s.ambient[l] = if coverage < 1.0 {
-                surface.ambient() * coverage
+                ambient * coverage
             } else {
-                surface.ambient()
+                ambient
             };
             s.coverage[l] = coverage;
             s.prims[l] = prim as u32;
@@ -474,6 +500,7 @@ impl<'a> Tracer<'a> {
                     origin: offset_point(point, -off, hit.t),
                     dir: d,
                     coefficient: 1.0 - coverage,
+                    tint: Color::ONE,
                 });
             }
             // Transmission first: total internal reflection hands its weight to the mirror.
@@ -494,6 +521,7 @@ impl<'a> Tracer<'a> {
                                 origin: offset_point(point, -off, hit.t),
                                 dir,
                                 coefficient: transmission,
+                                tint: Color::ONE,
                             });
                         }
                     }
@@ -506,6 +534,7 @@ impl<'a> Tracer<'a> {
                     origin: offset_point(point, off, hit.t),
                     dir: reflect(d, facing),
                     coefficient: mirror,
+                    tint: mirror_tint(material, mirror),
                 });
             }
         }
@@ -662,7 +691,7 @@ impl<'a> Tracer<'a> {
                     } else {
                         self.counts.rays.refracted += 1;
                     }
-                    let add = c[l] * sp.coefficient;
+                    let add = c[l] * sp.coefficient * sp.tint;
                     out[l] += add;
                     if l == 0 {
                         if let Some(r) = record.as_deref_mut() {

@@ -384,7 +384,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         if missed {
             for (v, sample) in group.iter().enumerate() {
                 if let Some(i) = *sample {
-                    out[v][i] = self.world.scene.background;
+                    out[v][i] = self.world.scene.background_toward(self.dir(scratch, v, i));
                 }
             }
             return;
@@ -534,7 +534,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             let hits = tracer.eye_hits(&packet, &[self.first_view]);
             scratch.hits[0][i] = (hits.prim[0], hits.hit[0]);
             if !hits.has_hit(0) {
-                *sample_out = self.world.scene.background;
+                *sample_out = self.world.scene.background_toward(packet.dirs[0]);
                 continue;
             }
             let diffuse = self.diffuse_hit(scratch, 0, i, threshold);
@@ -571,7 +571,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
                 *sample_out = if hits.has_hit(0) {
                     tracer.shade_eye(&packet, &hits, self.secondary)[0]
                 } else {
-                    self.world.scene.background
+                    self.world.scene.background_toward(packet.dirs[0])
                 };
                 tracer.counts.hole_samples += 1;
             }

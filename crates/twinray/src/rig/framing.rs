@@ -92,17 +92,18 @@ struct Fit {
     centre_v: f32,
 }
 
-impl Frame {
-    fn corners(b: Aabb) -> impl Iterator<Item = Vec3> {
-        (0..8).map(move |i| {
-            Vec3::new(
-                if i & 1 == 0 { b.min.x } else { b.max.x },
-                if i & 2 == 0 { b.min.y } else { b.max.y },
-                if i & 4 == 0 { b.min.z } else { b.max.z },
-            )
-        })
-    }
+/// The eight corners of `b`.
+pub(crate) fn box_corners(b: Aabb) -> impl Iterator<Item = Vec3> {
+    (0..8).map(move |i| {
+        Vec3::new(
+            if i & 1 == 0 { b.min.x } else { b.max.x },
+            if i & 2 == 0 { b.min.y } else { b.max.y },
+            if i & 4 == 0 { b.min.z } else { b.max.z },
+        )
+    })
+}
 
+impl Frame {
     fn fit(&self, at: Vec3, boxes: impl IntoIterator<Item = Aabb> + Clone) -> Option<Fit> {
         let finite = |b: &Aabb| b.min.is_finite() && b.max.is_finite() && b.min.x <= b.max.x;
         let points = || {
@@ -110,7 +111,7 @@ impl Frame {
                 .clone()
                 .into_iter()
                 .filter(finite)
-                .flat_map(Frame::corners)
+                .flat_map(box_corners)
                 .map(move |p| p - at)
         };
         // A corner's depth is distance − corner·back; it must be at least

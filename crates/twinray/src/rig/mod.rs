@@ -15,6 +15,7 @@ pub mod depth_pass;
 pub mod framing;
 pub mod histogram;
 pub mod report;
+pub mod up_axis;
 pub mod window;
 
 pub use camera::Camera;
