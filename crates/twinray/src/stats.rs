@@ -218,6 +218,8 @@ pub struct Report {
     /// budget, window violations (see `disparity::DisparityReport`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub disparity: Option<crate::rig::report::DisparityReport>,
+    /// Rays traced on past a cut-away hit (alpha MASK), one per layer.
+    pub cutout_continuations: u64,
 }
 
 impl Report {
@@ -238,6 +240,7 @@ impl Report {
         self.reprojected_samples = c.reprojected;
         self.reproject_rejected = c.reproject_rejected;
         self.hole_samples = c.hole_samples;
+        self.cutout_continuations = c.cutout_continuations;
         if c.eye_pass_ns > 0 {
             self.time.eye_pass_cpu_s = Some(c.eye_pass_ns as f64 * 1e-9);
             self.time.shading_pass_cpu_s = Some(c.shading_pass_ns as f64 * 1e-9);

@@ -1228,6 +1228,28 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn alpha_modes_and_their_alpha() {
+        let mut doc = one_mesh(
+            &QUAD,
+            &QUAD_INDICES,
+            &data_uri(&mesh_bytes(&QUAD, &QUAD_INDICES)),
+        );
+        doc["materials"] = json!([
+            {"alphaMode": "BLEND", "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.25]}},
+            {"alphaMode": "MASK"},
+            {"alphaMode": "MASK", "alphaCutoff": 0.8},
+            {"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.25]}}
+        ]);
+        let s = parse(&doc).unwrap();
+        let m = &s.materials;
+        assert_eq!((m[0].alpha_mode, m[0].alpha), (AlphaMode::Blend, 0.25));
+        assert_eq!(m[1].alpha_mode, AlphaMode::Mask { cutoff: 0.5 });
+        assert_eq!(m[2].alpha_mode, AlphaMode::Mask { cutoff: 0.8 });
+        assert_eq!(m[3].alpha_mode, AlphaMode::Opaque, "OPAQUE ignores alpha");
+        assert!(s.has_alpha());
+    }
+
+    #[test]
     fn textured_material_samples_its_image() {
         let png = crate::texture::tests::png(2, 2, [0, 255, 0]);
         let uv: [[f32; 2]; 4] = [[0., 0.], [1., 0.], [1., 1.], [0., 1.]];
