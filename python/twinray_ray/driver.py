@@ -139,16 +139,21 @@ def render_share(
     said: List[str] = []
     assert proc.stderr is not None
     reported = set()
+
+    def report(frame: Optional[int]) -> None:
+        if progress is not None and frame is not None and frame not in reported:
+            reported.add(frame)
+            ray.get(progress.done.remote(f"frame {frame}"))
+
     for line in proc.stderr:
         line = line.rstrip("\n")
         m = FRAME_LINE.match(line)
+        frame = None
         if m:  # a frame: `frame N: wrote PATH` or `frame N: done already`
             frame, path = int(m.group(1)), m.group(3)
-            if progress is not None and frame not in reported:
-                reported.add(frame)
-                ray.get(progress.done.remote(f"frame {frame}"))
             if path is None:
                 skipped.append(frame)
+                report(frame)
                 continue
         elif line.startswith("wrote "):  # a tile: its files
             path = line[len("wrote ") :]
@@ -162,6 +167,9 @@ def render_share(
         if fault and not os.path.exists(fault):
             Path(fault).write_text(f"worker {os.getpid()} killed mid-run\n")
             os._exit(1)  # the worker dies; Ray retries the task
+        # After the journal and the fault: the actor call takes a moment
+        # in which twinray goes on writing frames.
+        report(frame)
     code = proc.wait()
     if code != 0:
         message = " / ".join(l for l in said if l.strip()) or f"exit status {code}"

@@ -94,6 +94,33 @@ const STEREO: [&str; 7] = [
     "--frames", "0..5", "--orbit", "60", "--stereo", "--size", "64x48",
 ];
 
+/// Checks a side-by-side MP4 of `STEREO` (6 frames, 64x48 a view) made
+/// with `codec`: frames, size, the Stereo 3D side data and the `st3d` box
+/// itself, as players that read MP4 stereo metadata look for it. Returns
+/// what ffprobe said.
+fn assert_side_by_side_mp4(out: &Path, codec: &str) -> String {
+    let p = probe(out);
+    assert_eq!(value(&p, "codec_name"), codec, "{p}");
+    assert_eq!(value(&p, "nb_read_frames"), "6", "{p}");
+    assert_eq!((value(&p, "width"), value(&p, "height")), ("128", "48"));
+    assert_eq!(value(&p, "side_data_type"), "Stereo 3D", "{p}");
+    assert_eq!(value(&p, "type"), "side by side");
+    let bytes = std::fs::read(out).unwrap();
+    assert!(bytes.windows(4).any(|w| w == b"st3d"), "no st3d box");
+    p
+}
+
+/// Checks a top-bottom Matroska file of `STEREO` made with `codec`.
+fn assert_top_bottom_mkv(out: &Path, codec: &str) {
+    let p = probe(out);
+    assert_eq!(value(&p, "codec_name"), codec, "{p}");
+    assert_eq!((value(&p, "width"), value(&p, "height")), ("64", "96"));
+    assert_eq!(value(&p, "TAG:stereo_mode"), "top_bottom", "{p}");
+    assert_eq!(value(&p, "type"), "top and bottom");
+    // Matroska counts frames only by decoding them.
+    assert_eq!(value(&p, "nb_read_frames"), "6");
+}
+
 #[test]
 fn side_by_side_mp4_has_its_frames_size_and_st3d() {
     if !ffmpeg_present() {
@@ -104,22 +131,13 @@ fn side_by_side_mp4_has_its_frames_size_and_st3d() {
     let mut flags = STEREO.to_vec();
     flags.extend(["--layout", "sbs", "--fps", "30"]);
     render_video(&out, &flags);
-    let p = probe(&out);
-    assert_eq!(value(&p, "nb_read_frames"), "6", "{p}");
-    assert_eq!(value(&p, "width"), "128");
-    assert_eq!(value(&p, "height"), "48");
-    assert_eq!(value(&p, "codec_name"), "h264");
+    let p = assert_side_by_side_mp4(&out, "h264");
     // Remuxed from Matroska, the frames keep its millisecond timestamps:
     // 30 fps within them.
     let rate = value(&p, "avg_frame_rate");
     let (num, den) = rate.split_once('/').unwrap();
     let fps = num.parse::<f64>().unwrap() / den.parse::<f64>().unwrap();
     assert!((fps - 30.0).abs() < 0.3, "{rate}");
-    assert_eq!(value(&p, "side_data_type"), "Stereo 3D", "{p}");
-    assert_eq!(value(&p, "type"), "side by side");
-    // The box itself, as players that read MP4 stereo metadata look for it.
-    let bytes = std::fs::read(&out).unwrap();
-    assert!(bytes.windows(4).any(|w| w == b"st3d"), "no st3d box");
     assert_eq!(files_in(dir.path()), vec!["sbs.mp4"]);
 }
 
@@ -133,13 +151,7 @@ fn top_bottom_mkv_has_stereo_mode() {
     let mut flags = STEREO.to_vec();
     flags.extend(["--layout", "tb"]);
     render_video(&out, &flags);
-    let p = probe(&out);
-    assert_eq!(value(&p, "width"), "64");
-    assert_eq!(value(&p, "height"), "96");
-    assert_eq!(value(&p, "TAG:stereo_mode"), "top_bottom", "{p}");
-    assert_eq!(value(&p, "type"), "top and bottom");
-    // Matroska counts frames only by decoding them.
-    assert_eq!(value(&p, "nb_read_frames"), "6");
+    assert_top_bottom_mkv(&out, "h264");
 }
 
 #[test]
@@ -248,29 +260,15 @@ fn hevc_videos_have_their_codec_frames_size_and_stereo_metadata() {
     let mut flags = STEREO.to_vec();
     flags.extend(["--layout", "sbs", "--codec", "hevc"]);
     render_video(&out, &flags);
-    let p = probe(&out);
-    assert_eq!(value(&p, "codec_name"), "hevc", "{p}");
+    let p = assert_side_by_side_mp4(&out, "hevc");
     // hvc1: the parameter sets in the sample entry, as Apple's players need.
     assert_eq!(value(&p, "codec_tag_string"), "hvc1");
-    assert_eq!(value(&p, "nb_read_frames"), "6");
-    assert_eq!((value(&p, "width"), value(&p, "height")), ("128", "48"));
-    assert_eq!(value(&p, "side_data_type"), "Stereo 3D", "{p}");
-    assert_eq!(value(&p, "type"), "side by side");
-    assert!(std::fs::read(&out)
-        .unwrap()
-        .windows(4)
-        .any(|w| w == b"st3d"));
 
     let out = dir.path().join("tb.mkv");
     let mut flags = STEREO.to_vec();
     flags.extend(["--layout", "tb", "--codec", "hevc", "--crf", "28"]);
     render_video(&out, &flags);
-    let p = probe(&out);
-    assert_eq!(value(&p, "codec_name"), "hevc");
-    assert_eq!(value(&p, "nb_read_frames"), "6");
-    assert_eq!((value(&p, "width"), value(&p, "height")), ("64", "96"));
-    assert_eq!(value(&p, "TAG:stereo_mode"), "top_bottom", "{p}");
-    assert_eq!(value(&p, "type"), "top and bottom");
+    assert_top_bottom_mkv(&out, "hevc");
     assert_eq!(files_in(dir.path()), vec!["sbs.mp4", "tb.mkv"]);
 }
 
