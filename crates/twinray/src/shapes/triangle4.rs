@@ -192,7 +192,7 @@ impl LeafTriangles {
             if leaf.is_empty() || leaf.len() > BLOCK {
                 continue;
             }
-            let tris: Vec<&Triangle> = leaf
+            let tris: arrayvec::ArrayVec<&Triangle, BLOCK> = leaf
                 .iter()
                 .filter_map(|&p| match shapes.get(p as usize) {
                     Some(Shape::Triangle(t)) => Some(t),
