@@ -311,12 +311,14 @@ struct PacketEntry<const K: usize> {
 }
 
 impl Bvh {
-    /// Nearest hit per lane (see `closest_binary` for the contract). A ray
-    /// alone (one active lane) descends the four-wide tree when there is one,
-    /// packets the binary tree: both give the same hits, and with leaves of
-    /// triangles tested four at a time the wide descent measured 1.3-1.7x
-    /// faster for single rays and 0.7-0.8x for stereo pairs
-    /// (docs/benchmarks.md, "SIMD triangle leaves").
+    /// Nearest hit per lane (see `closest_binary` for the contract). On the
+    /// four-wide tree when there is one, a ray alone and each ray of a stereo
+    /// pair descending it by itself; wider packets on the binary tree. All
+    /// give the same hits. With leaves of triangles tested four at a time the
+    /// wide descent of a single ray measured 1.3-1.7x the binary one, and two
+    /// single wide descents beat one binary pair descent, 1.2-1.7x; the wide
+    /// pair descent was slower, 0.73-0.77x (docs/benchmarks.md, "SIMD triangle
+    /// leaves").
     #[inline]
     pub fn closest<const K: usize>(
         &self,
@@ -324,11 +326,47 @@ impl Bvh {
         stats: &mut TraversalStats,
         test: impl NearestTest,
     ) -> PacketHits<K> {
-        if !self.wide.is_empty() && (K == 1 || packet.mask.count_ones() == 1) {
+        if self.wide.is_empty() {
+            self.closest_binary(packet, stats, test)
+        } else if K <= 2 {
+            self.closest_each_wide(packet, stats, test)
+        } else if packet.mask.count_ones() == 1 {
             self.closest_wide(packet, stats, test)
         } else {
             self.closest_binary(packet, stats, test)
         }
+    }
+
+    /// `closest` with each active lane traced alone on the four-wide tree
+    /// (which must exist): lane by lane what `closest_wide` gives.
+    #[inline]
+    pub fn closest_each_wide<const K: usize>(
+        &self,
+        packet: &Packet<K>,
+        stats: &mut TraversalStats,
+        mut test: impl NearestTest,
+    ) -> PacketHits<K> {
+        let mut out = PacketHits::<K>::none();
+        for l in 0..K {
+            if packet.mask & (1 << l) == 0 {
+                continue;
+            }
+            let ray = SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min);
+            let mut state = LaneHit {
+                best: packet.t_max[l],
+                prim: PacketHits::<K>::NO_HIT,
+                hit: NO_SURFACE,
+            };
+            let root = Entry {
+                child: 0,
+                count: 0,
+                tn: packet.t_min,
+            };
+            self.wide_single(root, &ray, &mut state, stats, &mut test, l);
+            out.prim[l] = state.prim;
+            out.hit[l] = state.hit;
+        }
+        out
     }
 
     /// Any-hit per lane (see `occlusion_binary` for the contract), on the
