@@ -328,10 +328,8 @@ impl Bvh {
     ) -> PacketHits<K> {
         if self.wide.is_empty() {
             self.closest_binary(packet, stats, test)
-        } else if K <= 2 {
+        } else if K <= 2 || packet.mask.count_ones() == 1 {
             self.closest_each_wide(packet, stats, test)
-        } else if packet.mask.count_ones() == 1 {
-            self.closest_wide(packet, stats, test)
         } else {
             self.closest_binary(packet, stats, test)
         }
@@ -397,30 +395,12 @@ impl Bvh {
         if self.wide.is_empty() || packet.mask == 0 {
             return out;
         }
+        if K == 1 || packet.mask.count_ones() == 1 {
+            return self.closest_each_wide(packet, stats, test);
+        }
         let rays: [SingleRay; K] = std::array::from_fn(|l| {
             SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min)
         });
-        if K == 1 || packet.mask.count_ones() == 1 {
-            let l = if K == 1 {
-                0
-            } else {
-                packet.mask.trailing_zeros() as usize
-            };
-            let mut state = LaneHit {
-                best: packet.t_max[l],
-                prim: PacketHits::<K>::NO_HIT,
-                hit: NO_SURFACE,
-            };
-            let root = Entry {
-                child: 0,
-                count: 0,
-                tn: packet.t_min,
-            };
-            self.wide_single(root, &rays[l], &mut state, stats, &mut test, l);
-            out.prim[l] = state.prim;
-            out.hit[l] = state.hit;
-            return out;
-        }
         let wide_rays: [WideRay; K] = std::array::from_fn(|l| WideRay::new(&rays[l]));
         let pair = (K == 2).then(|| WidePair::new([&wide_rays[0], &wide_rays[1 % K]]));
         let mut best = packet.t_max;
