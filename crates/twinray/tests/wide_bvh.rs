@@ -579,3 +579,111 @@ fn block_leaves_agree_on_shared_edges_vertices_and_degenerate_triangles() {
     });
     run_blocks(&shapes, &bvh, &blocks, pairs);
 }
+
+/// Clusters of four triangles over one another, too close for the builder to
+/// split (leaves of four: every lane of a block in use), each cluster in a
+/// random order of height, so that the nearest is sometimes in the last lane.
+#[test]
+fn every_lane_of_a_full_block_can_give_the_nearest_hit() {
+    let mut rng = fastrand::Rng::with_seed(41);
+    let mut shapes = Vec::new();
+    for c in 0..200 {
+        let base = Vec3::new((c % 20) as f32 * 3.0, (c / 20) as f32 * 3.0, 0.0);
+        let mut heights = [0.0f32, 0.01, 0.02, 0.03];
+        rng.shuffle(&mut heights);
+        for h in heights {
+            let a = base + Vec3::new(0.0, 0.0, h);
+            let (b, d) = (a + Vec3::X * 2.0, a + Vec3::Y * 2.0);
+            let nrm = (b - a).cross(d - a).normalize();
+            shapes.push(Shape::Triangle(Triangle::new(
+                a,
+                b,
+                d,
+                nrm,
+                TriangleNormals::Flat,
+            )));
+        }
+    }
+    let bvh = hierarchy(&shapes);
+    let blocks = LeafTriangles::new(&shapes, bvh.leaves());
+    let full = bvh.leaves().filter(|l| l.len() == 4).count();
+    assert!(full >= 100, "{full} leaves of four");
+    // Per lane of a block: how often the nearest hit came from it.
+    let mut from_lane = [0u32; 4];
+    for c in 0..200 {
+        let at = Vec3::new(
+            (c % 20) as f32 * 3.0 + 0.4,
+            (c / 20) as f32 * 3.0 + 0.3,
+            0.0,
+        );
+        let p = Packet {
+            origins: [at + Vec3::Z * 5.0],
+            dirs: [Vec3::NEG_Z],
+            t_min: 0.0,
+            t_max: [f32::INFINITY],
+            mask: 1,
+        };
+        let (hits, tested) = check_blocks(&shapes, &bvh, &blocks, &p);
+        assert_eq!((hits, tested > 0), (2, true), "cluster {c}");
+        let prim = brute(
+            &shapes,
+            &Ray::new(p.origins[0], p.dirs[0]),
+            0.0,
+            f32::INFINITY,
+        )
+        .map(|(prim, _)| prim);
+        if let Some(leaf) = bvh.leaves().find(|l| prim.is_some_and(|p| l.contains(&p))) {
+            if leaf.len() == 4 {
+                from_lane[leaf.iter().position(|&q| Some(q) == prim).unwrap_or(0)] += 1;
+            }
+        }
+    }
+    assert!(
+        from_lane.iter().all(|&n| n > 0),
+        "nearest hits per lane {from_lane:?}"
+    );
+}
+
+/// A stereo pair in one leaf, each ray with its own t_max: the first ray's
+/// ends short of the triangle, the second's does not. The pair's block test
+/// must bound each ray by its own.
+#[test]
+fn a_pair_in_a_block_keeps_each_rays_own_t_max() {
+    // Two large slanted triangles (their boxes begin at z = 1, the rays meet
+    // them near z = 10.5 and 15.5) in one leaf, and small ones elsewhere.
+    let tri = |z: f32| {
+        let a = Vec3::new(-50.0, -50.0, 1.0);
+        let (b, d) = (Vec3::new(50.0, -50.0, 1.0), Vec3::new(-50.0, 50.0, 2.0 * z));
+        let nrm = (b - a).cross(d - a).normalize();
+        Shape::Triangle(Triangle::new(a, b, d, nrm, TriangleNormals::Flat))
+    };
+    let mut shapes = vec![tri(20.0), tri(30.0)];
+    shapes.extend((0..30).map(|i| {
+        let a = Vec3::new(200.0 + i as f32 * 3.0, 0.0, 0.0);
+        Shape::Triangle(Triangle::new(
+            a,
+            a + Vec3::X,
+            a + Vec3::Y,
+            Vec3::Z,
+            TriangleNormals::Flat,
+        ))
+    }));
+    let bvh = hierarchy(&shapes);
+    let blocks = LeafTriangles::new(&shapes, bvh.leaves());
+    for (t0, t1) in [
+        (5.0, f32::INFINITY),
+        (12.0, 30.0),
+        (f32::INFINITY, 5.0),
+        (45.0, 12.0),
+    ] {
+        let p = Packet {
+            origins: [Vec3::new(-10.0, 0.0, 0.0), Vec3::new(-9.5, 0.0, 0.0)],
+            dirs: [Vec3::Z, Vec3::Z],
+            t_min: 0.0,
+            t_max: [t0, t1],
+            mask: 0b11,
+        };
+        let (hits, tested) = check_blocks(&shapes, &bvh, &blocks, &p);
+        assert!(tested > 0 && hits > 0, "t_max {t0}, {t1}");
+    }
+}

@@ -25,6 +25,11 @@ impl Default for BuildOptions {
 
 /// Subtrees smaller than this are built on the current thread.
 const PARALLEL_THRESHOLD: usize = 8192;
+/// Nodes with more primitives than this are binned by several threads.
+const PARALLEL_BINNING: usize = 65536;
+/// Most SAH bins per axis (`BuildOptions::bins` is clamped to it), so that
+/// the bins live on the stack.
+const MAX_BINS: usize = 32;
 
 /// Builds a hierarchy over primitives with the given boxes. Boxes are padded so
 /// that the slab test stays conservative under rounding.
@@ -32,8 +37,9 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     if boxes.is_empty() {
         return Bvh::default();
     }
+    use rayon::prelude::*;
     let refs: Vec<PrimRef> = boxes
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, b)| {
             let b = primitive_box(b);
@@ -114,7 +120,7 @@ fn build_range(
     depth: usize,
     opts: &BuildOptions,
 ) -> BuildNode {
-    let bounds = refs.iter().fold(Aabb::EMPTY, |b, r| b.union(r.bounds));
+    let (bounds, centroid_bounds) = bounds_of(refs);
     let leaf = || BuildNode::Leaf {
         bounds,
         first: offset,
@@ -123,7 +129,6 @@ fn build_range(
     if refs.len() <= 2 {
         return leaf();
     }
-    let centroid_bounds = refs.iter().fold(Aabb::EMPTY, |b, r| b.grow(r.centroid));
     if depth >= MAX_SAH_DEPTH {
         return median_split(refs, offset, depth, bounds, &centroid_bounds, opts);
     }
@@ -139,17 +144,31 @@ fn build_range(
         return leaf();
     }
     let mid = partition(refs, |r| {
-        bin_of(
-            r.centroid[split.axis],
-            &centroid_bounds,
-            split.axis,
-            opts.bins,
-        ) < split.bin
+        split.binning.bin(r.centroid[split.axis], split.axis) < split.bin
     });
     if mid == 0 || mid == refs.len() {
         return median_split(refs, offset, depth, bounds, &centroid_bounds, opts);
     }
     split_and_recurse(refs, offset, depth, mid, bounds, split.axis, opts)
+}
+
+/// The union of the boxes of `refs` and the bounds of their centroids, in
+/// one pass (on several threads for large nodes).
+fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
+    let fold = |c: &[PrimRef]| {
+        c.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, cb), r| {
+            (b.union(r.bounds), cb.grow(r.centroid))
+        })
+    };
+    if refs.len() > PARALLEL_BINNING {
+        use rayon::prelude::*;
+        refs.par_chunks(PARALLEL_BINNING / 4).map(fold).reduce(
+            || (Aabb::EMPTY, Aabb::EMPTY),
+            |a, b| (a.0.union(b.0), a.1.union(b.1)),
+        )
+    } else {
+        fold(refs)
+    }
 }
 
 fn split_and_recurse(
@@ -199,34 +218,101 @@ struct Split {
     axis: usize,
     bin: usize,
     cost: f32,
+    binning: Binning,
 }
 
-#[inline]
-fn bin_of(c: f32, cb: &Aabb, axis: usize, bins: usize) -> usize {
-    let lo = cb.min[axis];
-    let ext = cb.max[axis] - lo;
-    let b = ((c - lo) / ext * bins as f32) as usize;
-    b.min(bins - 1)
+/// Which of `bins` equal slices of the centroid bounds, per axis, a
+/// centroid falls in: one multiply per axis (the binning and the partition
+/// use this same arithmetic, so they agree on every primitive).
+#[derive(Clone, Copy)]
+struct Binning {
+    lo: [f32; 3],
+    scale: [f32; 3],
+    bins: usize,
+}
+
+impl Binning {
+    fn new(cb: &Aabb, bins: usize) -> Binning {
+        let scale = |a: usize| {
+            let ext = cb.max[a] - cb.min[a];
+            if ext > 0.0 {
+                bins as f32 / ext
+            } else {
+                0.0
+            }
+        };
+        Binning {
+            lo: cb.min.into(),
+            scale: [scale(0), scale(1), scale(2)],
+            bins,
+        }
+    }
+
+    #[inline(always)]
+    fn bin(&self, c: f32, axis: usize) -> usize {
+        (((c - self.lo[axis]) * self.scale[axis]) as usize).min(self.bins - 1)
+    }
+}
+
+/// Per axis and bin, the union of the boxes and the count of primitives
+/// whose centroids fall there.
+#[derive(Clone, Copy)]
+struct Bins {
+    bounds: [[Aabb; MAX_BINS]; 3],
+    count: [[u32; MAX_BINS]; 3],
+}
+
+impl Bins {
+    const EMPTY: Bins = Bins {
+        bounds: [[Aabb::EMPTY; MAX_BINS]; 3],
+        count: [[0; MAX_BINS]; 3],
+    };
+
+    /// All three axes in one pass over `refs`.
+    fn of(refs: &[PrimRef], binning: &Binning) -> Bins {
+        let mut b = Bins::EMPTY;
+        for r in refs {
+            for axis in 0..3 {
+                let i = binning.bin(r.centroid[axis], axis);
+                b.bounds[axis][i] = b.bounds[axis][i].union(r.bounds);
+                b.count[axis][i] += 1;
+            }
+        }
+        b
+    }
+
+    fn merge(mut self, o: &Bins) -> Bins {
+        for axis in 0..3 {
+            for i in 0..MAX_BINS {
+                self.bounds[axis][i] = self.bounds[axis][i].union(o.bounds[axis][i]);
+                self.count[axis][i] += o.count[axis][i];
+            }
+        }
+        self
+    }
 }
 
 fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -> Option<Split> {
-    let n = opts.bins;
+    let n = opts.bins.clamp(2, MAX_BINS);
+    let binning = Binning::new(cb, n);
+    let bins = if refs.len() > PARALLEL_BINNING {
+        use rayon::prelude::*;
+        refs.par_chunks(PARALLEL_BINNING / 4)
+            .map(|c| Bins::of(c, &binning))
+            .reduce(|| Bins::EMPTY, |a, b| a.merge(&b))
+    } else {
+        Bins::of(refs, &binning)
+    };
     let mut best: Option<Split> = None;
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
     for axis in 0..3 {
         if cb.max[axis] <= cb.min[axis] || cb.max[axis].is_nan() {
             continue;
         }
-        let mut bin_box = vec![Aabb::EMPTY; n];
-        let mut bin_count = vec![0u32; n];
-        for r in refs {
-            let b = bin_of(r.centroid[axis], cb, axis, n);
-            bin_box[b] = bin_box[b].union(r.bounds);
-            bin_count[b] += 1;
-        }
+        let (bin_box, bin_count) = (&bins.bounds[axis], &bins.count[axis]);
         // Sweep from the right, then from the left.
-        let mut right_area = vec![0f32; n];
-        let mut right_count = vec![0u32; n];
+        let mut right_area = [0f32; MAX_BINS];
+        let mut right_count = [0u32; MAX_BINS];
         let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
         for i in (1..n).rev() {
             acc = acc.union(bin_box[i]);
@@ -245,7 +331,12 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
                 + (acc.half_area() * cnt as f32 + right_area[i] * right_count[i] as f32)
                     / parent_area;
             if best.as_ref().is_none_or(|b| cost < b.cost) {
-                best = Some(Split { axis, bin: i, cost });
+                best = Some(Split {
+                    axis,
+                    bin: i,
+                    cost,
+                    binning,
+                });
             }
         }
     }

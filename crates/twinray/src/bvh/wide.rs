@@ -312,8 +312,13 @@ struct PacketEntry<const K: usize> {
 
 impl Bvh {
     /// Nearest hit per lane (see `closest_binary` for the contract). On the
-    /// binary tree: the four-wide descent gives the same hits but did not
-    /// measure faster for eye rays and stereo pairs (docs/benchmarks.md).
+    /// four-wide tree when there is one, a ray alone and each ray of a stereo
+    /// pair descending it by itself; wider packets on the binary tree. All
+    /// give the same hits. With leaves of triangles tested four at a time the
+    /// wide descent of a single ray measured 1.3-1.7x the binary one, and two
+    /// single wide descents beat one binary pair descent, 1.2-1.7x; the wide
+    /// pair descent was slower, 0.73-0.77x (docs/benchmarks.md, "SIMD triangle
+    /// leaves").
     #[inline]
     pub fn closest<const K: usize>(
         &self,
@@ -321,7 +326,45 @@ impl Bvh {
         stats: &mut TraversalStats,
         test: impl NearestTest,
     ) -> PacketHits<K> {
-        self.closest_binary(packet, stats, test)
+        if self.wide.is_empty() {
+            self.closest_binary(packet, stats, test)
+        } else if K <= 2 || packet.mask.count_ones() == 1 {
+            self.closest_each_wide(packet, stats, test)
+        } else {
+            self.closest_binary(packet, stats, test)
+        }
+    }
+
+    /// `closest` with each active lane traced alone on the four-wide tree
+    /// (which must exist): lane by lane what `closest_wide` gives.
+    #[inline]
+    pub fn closest_each_wide<const K: usize>(
+        &self,
+        packet: &Packet<K>,
+        stats: &mut TraversalStats,
+        mut test: impl NearestTest,
+    ) -> PacketHits<K> {
+        let mut out = PacketHits::<K>::none();
+        for l in 0..K {
+            if packet.mask & (1 << l) == 0 {
+                continue;
+            }
+            let ray = SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min);
+            let mut state = LaneHit {
+                best: packet.t_max[l],
+                prim: PacketHits::<K>::NO_HIT,
+                hit: NO_SURFACE,
+            };
+            let root = Entry {
+                child: 0,
+                count: 0,
+                tn: packet.t_min,
+            };
+            self.wide_single(root, &ray, &mut state, stats, &mut test, l);
+            out.prim[l] = state.prim;
+            out.hit[l] = state.hit;
+        }
+        out
     }
 
     /// Any-hit per lane (see `occlusion_binary` for the contract), on the
@@ -352,30 +395,12 @@ impl Bvh {
         if self.wide.is_empty() || packet.mask == 0 {
             return out;
         }
+        if K == 1 || packet.mask.count_ones() == 1 {
+            return self.closest_each_wide(packet, stats, test);
+        }
         let rays: [SingleRay; K] = std::array::from_fn(|l| {
             SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min)
         });
-        if K == 1 || packet.mask.count_ones() == 1 {
-            let l = if K == 1 {
-                0
-            } else {
-                packet.mask.trailing_zeros() as usize
-            };
-            let mut state = LaneHit {
-                best: packet.t_max[l],
-                prim: PacketHits::<K>::NO_HIT,
-                hit: NO_SURFACE,
-            };
-            let root = Entry {
-                child: 0,
-                count: 0,
-                tn: packet.t_min,
-            };
-            self.wide_single(root, &rays[l], &mut state, stats, &mut test, l);
-            out.prim[l] = state.prim;
-            out.hit[l] = state.hit;
-            return out;
-        }
         let wide_rays: [WideRay; K] = std::array::from_fn(|l| WideRay::new(&rays[l]));
         let pair = (K == 2).then(|| WidePair::new([&wide_rays[0], &wide_rays[1 % K]]));
         let mut best = packet.t_max;

@@ -1,6 +1,57 @@
 use super::{RayPair, SurfaceHit};
 use crate::math::{Aabb, Ray, Vec3};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 use wide::f32x4;
+
+/// `Triangle::intersect`'s arithmetic on SIMD registers (`f32x4`, `f32x8`),
+/// lane by lane: the same IEEE operations in the same order (glam's `dot` and
+/// `cross` written out, no fused multiply-add), so each lane is bit for bit
+/// the scalar test. Rays `dir`, `org` and triangles `v0`, `e1`, `e2`, plane
+/// normal `n`, per axis; returns `det`, `u`, `v`, `t`.
+#[inline(always)]
+pub(super) fn intersect_lanes<V>(dir: [V; 3], org: [V; 3], tri: [[V; 3]; 4], one: V) -> [V; 4]
+where
+    V: Copy
+        + Add<Output = V>
+        + Sub<Output = V>
+        + Mul<Output = V>
+        + Div<Output = V>
+        + Neg<Output = V>,
+{
+    let ([dx, dy, dz], [ox, oy, oz]) = (dir, org);
+    let [[v0x, v0y, v0z], [e1x, e1y, e1z], [e2x, e2y, e2z], [nx, ny, nz]] = tri;
+    // p = dir x e2
+    let px = dy * e2z - e2y * dz;
+    let py = dz * e2x - e2z * dx;
+    let pz = dx * e2y - e2x * dy;
+    let det = e1x * px + e1y * py + e1z * pz;
+    let inv = one / det;
+    let (sx, sy, sz) = (ox - v0x, oy - v0y, oz - v0z);
+    let u = (sx * px + sy * py + sz * pz) * inv;
+    // q = s x e1
+    let qx = sy * e1z - e1y * sz;
+    let qy = sz * e1x - e1z * sx;
+    let qz = sx * e1y - e1x * sy;
+    let v = (dx * qx + dy * qy + dz * qz) * inv;
+    let t = -(nx * sx + ny * sy + nz * sz) / (nx * dx + ny * dy + nz * dz);
+    [det, u, v, t]
+}
+
+/// The lanes of `intersect_lanes`' answer that `Triangle::intersect` keeps,
+/// (`[det, u, v, t]`), as a bit mask: the scalar tests lane by lane (NaN fails
+/// `contains` and the t range, passes the v test, as there). `$lo`, `$hi`: the
+/// t range per lane.
+macro_rules! kept_lanes {
+    ($ty:ty, $found:expr, $lo:expr, $hi:expr) => {{
+        let (zero, one) = (<$ty>::ZERO, <$ty>::ONE);
+        let [det, u, v, t]: [$ty; 4] = $found;
+        !det.simd_eq(zero).to_bitmask()
+            & (u.simd_ge(zero) & u.simd_le(one)).to_bitmask()
+            & !(v.simd_lt(zero) | (u + v).simd_gt(one)).to_bitmask()
+            & (t.simd_gt($lo) & t.simd_lt($hi)).to_bitmask()
+    }};
+}
+pub(super) use kept_lanes;
 
 /// Texture coordinates of a point on a surface.
 pub type Uv = glam::Vec2;
@@ -97,35 +148,12 @@ impl Triangle {
         t_min: f32,
         t_max: [f32; 2],
     ) -> [Option<SurfaceHit>; 2] {
-        let ([dx, dy, dz], [ox, oy, oz]) = (rays.dir, rays.origin);
-        let sp = |v: Vec3| (f32x4::splat(v.x), f32x4::splat(v.y), f32x4::splat(v.z));
-        let ((e1x, e1y, e1z), (e2x, e2y, e2z), (v0x, v0y, v0z)) =
-            (sp(self.e1), sp(self.e2), sp(self.v0));
-        let (nx, ny, nz) = sp(self.plane_normal);
-        // p = dir x e2
-        let px = dy * e2z - e2y * dz;
-        let py = dz * e2x - e2z * dx;
-        let pz = dx * e2y - e2x * dy;
-        let det = e1x * px + e1y * py + e1z * pz;
-        let inv = f32x4::ONE / det;
-        let (sx, sy, sz) = (ox - v0x, oy - v0y, oz - v0z);
-        let u = (sx * px + sy * py + sz * pz) * inv;
-        // q = s x e1
-        let qx = sy * e1z - e1y * sz;
-        let qy = sz * e1x - e1z * sx;
-        let qz = sx * e1y - e1x * sy;
-        let v = (dx * qx + dy * qy + dz * qz) * inv;
-        let t = -(nx * sx + ny * sy + nz * sz) / (nx * dx + ny * dy + nz * dz);
-        let zero = f32x4::ZERO;
-        let one = f32x4::ONE;
-        // The scalar tests, lane by lane (NaN fails `contains` and the t range,
-        // passes the v test, as there).
-        let keep = !det.simd_eq(zero).to_bitmask()
-            & (u.simd_ge(zero) & u.simd_le(one)).to_bitmask()
-            & !(v.simd_lt(zero) | (u + v).simd_gt(one)).to_bitmask()
-            & (t.simd_gt(f32x4::splat(t_min))
-                & t.simd_lt(f32x4::from([t_max[0], t_max[1], 0.0, 0.0])))
-            .to_bitmask();
+        let sp = |v: Vec3| [v.x, v.y, v.z].map(f32x4::splat);
+        let tri = [self.v0, self.e1, self.e2, self.plane_normal].map(sp);
+        let found = intersect_lanes(rays.dir, rays.origin, tri, f32x4::ONE);
+        let hi = f32x4::from([t_max[0], t_max[1], 0.0, 0.0]);
+        let keep = kept_lanes!(f32x4, found, f32x4::splat(t_min), hi);
+        let [_, u, v, t] = found;
         let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
         std::array::from_fn(|l| {
             (keep & (1 << l) != 0).then_some(SurfaceHit {

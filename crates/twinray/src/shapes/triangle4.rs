@@ -8,6 +8,7 @@
 //! `t`, `u`, `v` are bit for bit what `intersect` gives for the block's
 //! triangle `i`. Every method (mono, twin, shared, quilt) calls this one routine.
 
+use super::triangle::{intersect_lanes, kept_lanes};
 use super::{Shape, Triangle};
 use crate::math::Ray;
 use wide::{f32x4, f32x8};
@@ -67,33 +68,11 @@ impl Triangle4 {
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> BlockHits {
         let sp = f32x4::splat;
-        let (dx, dy, dz) = (sp(ray.dir.x), sp(ray.dir.y), sp(ray.dir.z));
-        let (ox, oy, oz) = (sp(ray.origin.x), sp(ray.origin.y), sp(ray.origin.z));
-        let [e1x, e1y, e1z] = self.e1;
-        let [e2x, e2y, e2z] = self.e2;
-        let [nx, ny, nz] = self.n;
-        // p = dir x e2
-        let px = dy * e2z - e2y * dz;
-        let py = dz * e2x - e2z * dx;
-        let pz = dx * e2y - e2x * dy;
-        let det = e1x * px + e1y * py + e1z * pz;
-        let inv = f32x4::ONE / det;
-        let (sx, sy, sz) = (ox - self.v0[0], oy - self.v0[1], oz - self.v0[2]);
-        let u = (sx * px + sy * py + sz * pz) * inv;
-        // q = s x e1
-        let qx = sy * e1z - e1y * sz;
-        let qy = sz * e1x - e1z * sx;
-        let qz = sx * e1y - e1x * sy;
-        let v = (dx * qx + dy * qy + dz * qz) * inv;
-        let t = -(nx * sx + ny * sy + nz * sz) / (nx * dx + ny * dy + nz * dz);
-        let (zero, one) = (f32x4::ZERO, f32x4::ONE);
-        // The scalar tests, lane by lane (NaN fails `contains` and the t range,
-        // passes the v test, as there).
-        let mask = self.lanes
-            & !det.simd_eq(zero).to_bitmask()
-            & (u.simd_ge(zero) & u.simd_le(one)).to_bitmask()
-            & !(v.simd_lt(zero) | (u + v).simd_gt(one)).to_bitmask()
-            & (t.simd_gt(sp(t_min)) & t.simd_lt(sp(t_max))).to_bitmask();
+        let dir = [ray.dir.x, ray.dir.y, ray.dir.z].map(sp);
+        let org = [ray.origin.x, ray.origin.y, ray.origin.z].map(sp);
+        let found = intersect_lanes(dir, org, [self.v0, self.e1, self.e2, self.n], f32x4::ONE);
+        let mask = self.lanes & kept_lanes!(f32x4, found, sp(t_min), sp(t_max));
+        let [_, u, v, t] = found;
         BlockHits {
             mask,
             t: t.to_array(),
@@ -115,38 +94,14 @@ impl Triangle4 {
         };
         let each = |a: f32, b: f32| f32x8::from([a, a, a, a, b, b, b, b]);
         let (r0, r1) = (&rays[0], &rays[1]);
-        let (dx, dy, dz) = (
-            each(r0.dir.x, r1.dir.x),
-            each(r0.dir.y, r1.dir.y),
-            each(r0.dir.z, r1.dir.z),
-        );
-        let (ox, oy, oz) = (
-            each(r0.origin.x, r1.origin.x),
-            each(r0.origin.y, r1.origin.y),
-            each(r0.origin.z, r1.origin.z),
-        );
-        let [e1x, e1y, e1z] = self.e1.map(twice);
-        let [e2x, e2y, e2z] = self.e2.map(twice);
-        let [nx, ny, nz] = self.n.map(twice);
-        let [v0x, v0y, v0z] = self.v0.map(twice);
-        let px = dy * e2z - e2y * dz;
-        let py = dz * e2x - e2z * dx;
-        let pz = dx * e2y - e2x * dy;
-        let det = e1x * px + e1y * py + e1z * pz;
-        let inv = f32x8::ONE / det;
-        let (sx, sy, sz) = (ox - v0x, oy - v0y, oz - v0z);
-        let u = (sx * px + sy * py + sz * pz) * inv;
-        let qx = sy * e1z - e1y * sz;
-        let qy = sz * e1x - e1z * sx;
-        let qz = sx * e1y - e1x * sy;
-        let v = (dx * qx + dy * qy + dz * qz) * inv;
-        let t = -(nx * sx + ny * sy + nz * sz) / (nx * dx + ny * dy + nz * dz);
-        let (zero, one) = (f32x8::ZERO, f32x8::ONE);
-        let mask = (self.lanes | self.lanes << BLOCK)
-            & !det.simd_eq(zero).to_bitmask()
-            & (u.simd_ge(zero) & u.simd_le(one)).to_bitmask()
-            & !(v.simd_lt(zero) | (u + v).simd_gt(one)).to_bitmask()
-            & (t.simd_gt(f32x8::splat(t_min)) & t.simd_lt(each(t_max[0], t_max[1]))).to_bitmask();
+        let dir = [0, 1, 2].map(|a| each(r0.dir[a], r1.dir[a]));
+        let org = [0, 1, 2].map(|a| each(r0.origin[a], r1.origin[a]));
+        let tri = [self.v0, self.e1, self.e2, self.n].map(|c| c.map(twice));
+        let found = intersect_lanes(dir, org, tri, f32x8::ONE);
+        let hi = each(t_max[0], t_max[1]);
+        let mask =
+            (self.lanes | self.lanes << BLOCK) & kept_lanes!(f32x8, found, f32x8::splat(t_min), hi);
+        let [_, u, v, t] = found;
         let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
         let half = |h: usize| {
             let at = |a: &[f32; 8]| [a[4 * h], a[4 * h + 1], a[4 * h + 2], a[4 * h + 3]];
@@ -192,7 +147,7 @@ impl LeafTriangles {
             if leaf.is_empty() || leaf.len() > BLOCK {
                 continue;
             }
-            let tris: Vec<&Triangle> = leaf
+            let tris: arrayvec::ArrayVec<&Triangle, BLOCK> = leaf
                 .iter()
                 .filter_map(|&p| match shapes.get(p as usize) {
                     Some(Shape::Triangle(t)) => Some(t),
