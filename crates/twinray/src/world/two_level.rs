@@ -143,3 +143,56 @@ impl World {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+    use crate::scene::{AlphaMode, Material, MeshPolygon};
+
+    /// Two triangles of a MASK material, one instance.
+    fn masked_scene() -> Scene {
+        let mut scene = Scene::new();
+        let material = scene.add_material(Material {
+            alpha_mode: AlphaMode::Mask { cutoff: 0.5 },
+            ..Material::default()
+        });
+        let group = scene.new_group();
+        let quad = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        scene.add_mesh_polygon(
+            &MeshPolygon {
+                vertices: &quad,
+                normals: None,
+                uv: None,
+                material,
+                group,
+            },
+            &|| "quad".to_string(),
+        );
+        scene
+    }
+
+    /// A two-level world is traced like a whole build's: it knows the
+    /// scene's alpha (or cut-outs would be solid in an animation's frames)
+    /// and has the triangle blocks of its leaves.
+    #[test]
+    fn a_two_level_world_knows_alpha_and_has_triangle_blocks() {
+        let scene = masked_scene();
+        let whole = World::new(scene.clone());
+        let n = scene.shapes.len();
+        let instances = [Instance {
+            shapes: 0..n,
+            key: Some(vec![1]),
+        }];
+        let two = World::two_level(scene, &instances, &mut InstanceTrees::default());
+        assert!(whole.has_alpha);
+        assert_eq!(two.has_alpha, whole.has_alpha);
+        assert!(!two.leaf_triangles.is_empty());
+        assert_eq!(two.leaf_triangles.len(), whole.leaf_triangles.len());
+    }
+}
