@@ -5,8 +5,10 @@
 use std::process::Command;
 
 use twinray::job::{
-    AnaglyphSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec, MethodSpec, ReprojectModeSpec,
+    AnaglyphSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec, LightSpec, MethodSpec,
+    ReprojectModeSpec, ShotRigSpec, TileSpec, TonemapSpec, UpAxisSpec,
 };
+use twinray::video::Codec;
 
 /// The spec `twinray render ARGS --print-job` prints.
 fn printed(args: &[String]) -> JobSpec {
@@ -84,7 +86,55 @@ fn specs() -> Vec<JobSpec> {
     depth.approximations.merge_secondary = true;
     depth.approximations.cut_parallax = Some(0.75);
 
-    vec![base, stereo, views, interlaced, depth]
+    // The look of the render, the surroundings and the shared shading.
+    let mut studio = base.clone();
+    studio.rig.views = Some(6);
+    studio.approximations.share_shading = true;
+    studio.approximations.share_tolerance = 0.005;
+    studio.output.linear = true;
+    studio.output.exposure = -1.5;
+    studio.output.tonemap = TonemapSpec::Agx;
+    studio.studio.background = Some([0.25, 0.5, 1.0]);
+    studio.studio.up_axis = UpAxisSpec::Z;
+    studio.studio.lights = vec![
+        LightSpec {
+            position: [-4.0, 2.0, 1.0],
+            color: [1.0; 3],
+        },
+        LightSpec {
+            position: [1.0, 2.0, 3.0],
+            color: [0.5, 0.25, 1.0],
+        },
+    ];
+    studio.studio.ground = true;
+
+    let mut env = base.clone();
+    env.studio.env = Some("sky dome.hdr".into());
+    env.output.tonemap = TonemapSpec::Aces;
+
+    // An animation shared across machines, and a tile of a still.
+    let mut shot = base.clone();
+    shot.output.path = "shot.mp4".into();
+    shot.animation.frames = Some("0..47".into());
+    shot.animation.fps = 30.0;
+    shot.animation.orbit = Some(-90.0);
+    shot.animation.rig = ShotRigSpec::PerFrame;
+    shot.animation.skip_existing = true;
+    shot.animation.only = Some("12..23".into());
+    shot.animation.clip = Some("Walk".into());
+    shot.animation.codec = Codec::Hevc;
+    shot.animation.crf = Some(24);
+
+    let mut path = base.clone();
+    path.animation.frames = Some("1..10".into());
+    path.animation.path = Some("keys.txt".into());
+
+    let mut tile = base.clone();
+    tile.tile = Some(TileSpec { index: 2, count: 5 });
+
+    vec![
+        base, stereo, views, interlaced, depth, studio, env, shot, path, tile,
+    ]
 }
 
 #[test]

@@ -128,8 +128,11 @@ pub struct Timings {
     pub build_s: f64,
     pub render_s: f64,
     pub write_s: f64,
-    /// Twin method: CPU seconds (all threads) of the eye-ray pass and of the
-    /// shading pass (shadow, reflected and refracted rays and their shading).
+    /// Twin method: seconds spent in the eye-ray pass and in the shading pass
+    /// (shadow, reflected and refracted rays and their shading), each thread's
+    /// elapsed time summed over the threads. This is CPU time only while no
+    /// other process takes the cores: on a loaded machine it counts the time a
+    /// thread waited, so compare these between runs on a quiet machine.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub eye_pass_cpu_s: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]

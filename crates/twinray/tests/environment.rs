@@ -299,3 +299,47 @@ fn a_metal_mirror_takes_its_base_colour_and_a_dielectric_stays_white() {
         "dielectric mirror: {plastic}"
     );
 }
+
+/// A BLEND surface of coverage a under an environment shows a of its own
+/// light, the environment's ambient term included, and 1 − a of what is
+/// behind it: the pixel is linear in a between the empty and opaque quads.
+#[test]
+fn a_blended_surface_takes_the_environment_light_by_its_coverage() {
+    let dir = tempfile::tempdir().unwrap();
+    let sky = red_over_blue(dir.path());
+    let pixel = |alpha: f64| {
+        let quad = gltf_quad(
+            dir.path(),
+            json!({"alphaMode": "BLEND",
+                   "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.9, 0.3, alpha],
+                                            "metallicFactor": 0.0, "roughnessFactor": 1.0}}),
+        );
+        let mut s = spec(&quad, Some(&sky));
+        s.camera.size = Some([16, 16]);
+        // No light of the file's default rig: the environment alone lights it.
+        s.studio.lights = vec![twinray::job::LightSpec {
+            position: [0.0, 0.0, 100.0],
+            color: [0.0; 3],
+        }];
+        render(s)[0].get(8, 5)
+    };
+    let (behind, opaque, half) = (pixel(0.0), pixel(1.0), pixel(0.5));
+    // The quad's albedo under the sky's ambient light shows (dimmer than
+    // the sky: at most 0.3 of it), and the sky behind it is full red or blue.
+    assert!(
+        opaque.max_element() > 0.05 && opaque.max_element() < 0.35,
+        "opaque: {opaque}"
+    );
+    // Coverage 0: the sky alone, pure red or pure blue, none of the quad.
+    assert!(
+        [Vec3::X, Vec3::Z]
+            .iter()
+            .any(|sky| (behind - *sky).abs().max_element() < 1e-6),
+        "behind: {behind}"
+    );
+    let mixed = opaque * 0.5 + behind * 0.5;
+    assert!(
+        (half - mixed).abs().max_element() < 2e-3,
+        "half coverage {half}, half of opaque and behind {mixed}"
+    );
+}

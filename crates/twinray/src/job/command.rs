@@ -7,7 +7,10 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::spec::{JobSpec, LayoutSpec, LimitSpec, MethodSpec, ReprojectModeSpec, RigSpec};
+use super::spec::{
+    AnimationSpec, ApproximationSpec, JobSpec, LayoutSpec, LimitSpec, MethodSpec,
+    ReprojectModeSpec, RigSpec, TonemapSpec, UpAxisSpec,
+};
 
 impl JobSpec {
     /// The arguments of `twinray render` (after `render`) that give this
@@ -26,9 +29,7 @@ impl JobSpec {
         }
         a.maybe("--camera", c.camera.clone());
         for (flag, v) in [("--from", c.from), ("--at", c.at), ("--up", c.up)] {
-            if let Some([x, y, z]) = v {
-                a.value(flag, format!("{x},{y},{z}"));
-            }
+            a.maybe(flag, v.map(triple));
         }
         a.maybe("--fov", c.fov);
         self.rig_args(&mut a);
@@ -51,6 +52,10 @@ impl JobSpec {
         }
         a.maybe("--cut-distance", x.cut_distance);
         a.maybe("--cut-parallax", x.cut_parallax);
+        a.flag("--share-shading", x.share_shading);
+        if x.share_tolerance != ApproximationSpec::default().share_tolerance {
+            a.value("--share-tolerance", x.share_tolerance);
+        }
         let t = &self.trace;
         if t.max_depth != super::spec::TraceSpec::default().max_depth {
             a.value("--max-depth", t.max_depth);
@@ -68,6 +73,19 @@ impl JobSpec {
         a.flag("--depth", o.depth);
         a.maybe("--quilt", o.quilt.clone());
         a.maybe("--stats", o.stats.as_deref().map(path));
+        a.flag("--linear", o.linear);
+        if o.exposure != 0.0 {
+            a.value("--exposure", o.exposure);
+        }
+        if o.tonemap != TonemapSpec::Clamp {
+            a.value("--tonemap", name(o.tonemap));
+        }
+        self.studio_args(&mut a);
+        self.animation_args(&mut a);
+        if let Some(tile) = self.tile {
+            a.value("--tiles", tile.count);
+            a.value("--tile", tile.index);
+        }
         let (l, d) = (&self.limits, LimitSpec::default());
         if l.max_resolution != d.max_resolution {
             a.value("--max-resolution", l.max_resolution);
@@ -98,6 +116,48 @@ impl JobSpec {
         }
         a.maybe("--views-per-batch", r.views_per_batch);
     }
+
+    fn studio_args(&self, a: &mut Args) {
+        let s = &self.studio;
+        a.maybe("--background", s.background.map(triple));
+        if s.up_axis != UpAxisSpec::Auto {
+            a.value("--up-axis", name(s.up_axis));
+        }
+        for light in &s.lights {
+            let position = triple(light.position);
+            if light.color == [1.0; 3] {
+                a.value("--light", position);
+            } else {
+                a.value("--light", format!("{position}:{}", triple(light.color)));
+            }
+        }
+        a.flag("--ground", s.ground);
+        a.maybe("--env", s.env.as_deref().map(path));
+    }
+
+    fn animation_args(&self, a: &mut Args) {
+        let (n, d) = (&self.animation, AnimationSpec::default());
+        a.maybe("--frames", n.frames.clone());
+        if n.fps != d.fps {
+            a.value("--fps", n.fps);
+        }
+        a.maybe("--orbit", n.orbit);
+        a.maybe("--path", n.path.as_deref().map(path));
+        if n.rig != d.rig {
+            a.value("--rig", name(n.rig));
+        }
+        a.flag("--skip-existing", n.skip_existing);
+        a.maybe("--only", n.only.clone());
+        a.maybe("--animation", n.clip.clone());
+        if n.codec != d.codec {
+            a.value("--codec", name(n.codec));
+        }
+        a.maybe("--crf", n.crf);
+    }
+}
+
+fn triple([x, y, z]: [f32; 3]) -> String {
+    format!("{x},{y},{z}")
 }
 
 struct Args(Vec<String>);
