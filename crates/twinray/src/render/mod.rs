@@ -33,6 +33,7 @@ mod tracer;
 mod twin;
 
 pub use sampler::{Filter, SampleRow, Sampling};
+pub(crate) use tracer::MAX_CUTOUT_LAYERS;
 pub use tracer::{Donor, SecondaryRays, TraceSettings, Tracer};
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

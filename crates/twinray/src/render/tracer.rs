@@ -102,7 +102,7 @@ struct Surfaces<'a, const K: usize> {
 }
 
 /// A ray goes on past at most this many cut-away hits, then stops at the last.
-const MAX_CUTOUT_LAYERS: u32 = 64;
+pub(crate) const MAX_CUTOUT_LAYERS: u32 = 64;
 
 /// A surface point's shading, kept so that other views' samples that see the
 /// same point can take it (the paper's section 2.5): what reached it from each

@@ -18,6 +18,7 @@ use serde::Serialize;
 use super::{Camera, Rig, View};
 use crate::bvh::{Bvh, Packet, TraversalStats};
 use crate::math::Ray;
+use crate::shapes::SurfaceHit;
 use crate::world::World;
 
 /// Camera depths of one view at a grid of its pixel centres.
@@ -105,16 +106,37 @@ pub fn depth_pass(world: &World, camera: &Camera, view: View, stride: u32) -> De
 }
 
 /// The distance to the nearest surface along `ray` beyond `t_min`, in the
-/// whole world (near hierarchy and, with a cut, the far one);
+/// whole world (near hierarchy and, with a cut, the far one), passing through
+/// the cut-away parts of MASK materials as the renderer's rays do;
 /// `f32::INFINITY` if there is none.
 pub fn nearest_hit(world: &World, ray: &Ray, t_min: f32, stats: &mut TraversalStats) -> f32 {
-    let mut t = nearest_in(world, &world.bvh, ray, t_min, f32::INFINITY, stats);
-    if let Some(far) = &world.far {
-        t = t.min(nearest_in(world, far, ray, t_min, t, stats));
+    let mut from = t_min;
+    for _ in 0..=crate::render::MAX_CUTOUT_LAYERS {
+        let mut nearest = nearest_in(world, &world.bvh, ray, from, f32::INFINITY, stats);
+        if let Some(far) = &world.far {
+            let beyond = nearest_in(
+                world,
+                far,
+                ray,
+                from,
+                nearest.map_or(f32::INFINITY, |(_, h)| h.t),
+                stats,
+            );
+            nearest = beyond.or(nearest);
+        }
+        match nearest {
+            None => return f32::INFINITY,
+            Some((prim, hit)) if world.has_alpha && world.scene.cut_away(prim as usize, &hit) => {
+                from = hit.t
+            }
+            Some((_, hit)) => return hit.t,
+        }
     }
-    t
+    // As the renderer's rays, stop at the last layer reached.
+    from
 }
 
+/// The nearest primitive and hit along `ray` in `bvh` within (`t_min`, `t_max`).
 fn nearest_in(
     world: &World,
     bvh: &Bvh,
@@ -122,7 +144,7 @@ fn nearest_in(
     t_min: f32,
     t_max: f32,
     stats: &mut TraversalStats,
-) -> f32 {
+) -> Option<(u32, SurfaceHit)> {
     let packet = Packet::<1> {
         origins: [ray.origin],
         dirs: [ray.dir],
@@ -134,11 +156,7 @@ fn nearest_in(
     let hits = bvh.closest(&packet, stats, |prim: u32, _lane: usize, t_max: f32| {
         shapes[prim as usize].intersect(ray, t_min, t_max)
     });
-    if hits.has_hit(0) {
-        hits.hit[0].t
-    } else {
-        f32::INFINITY
-    }
+    hits.has_hit(0).then(|| (hits.prim[0], hits.hit[0]))
 }
 
 /// Percentiles of the visible depths (scene units, along the view direction).
@@ -285,6 +303,51 @@ mod tests {
         assert_eq!((s.p95, s.p99, s.farthest), (95.0, 99.0, 100.0));
         assert_eq!(s.hit_fraction, 0.5);
         assert!(DepthStats::of([f32::INFINITY]).is_none());
+    }
+
+    /// A MASK screen at distance 3 in front of a wall at 5: where its alpha is
+    /// under the cut-off the depth pass sees through it, as the renderer's
+    /// rays do; where it is over, the screen is what is nearest.
+    #[test]
+    fn the_depth_pass_sees_through_cut_away_parts() {
+        let depth_with_screen = |alpha: f32| {
+            let mut scene = Scene::new();
+            scene.viewpoint = Viewpoint {
+                from: Vec3::ZERO,
+                at: Vec3::Y,
+                up: Vec3::Z,
+                angle_deg: 60.0,
+                angle_span: Default::default(),
+                hither: 0.0,
+                width: 5,
+                height: 5,
+            };
+            let plane = |y: f32| {
+                [(-50.0, -50.0), (50.0, -50.0), (50.0, 50.0), (-50.0, 50.0)]
+                    .map(|(x, z)| Vec3::new(x, y, z))
+            };
+            scene.add_polygon(&plane(5.0), "wall");
+            scene.add_material(crate::scene::Material {
+                alpha_mode: crate::surface_maps::AlphaMode::Mask { cutoff: 0.5 },
+                alpha,
+                ..Default::default()
+            });
+            scene.add_polygon(&plane(3.0), "screen");
+            let world = World::new(scene);
+            let cam = Camera::new(&world.scene.viewpoint, 5, 5);
+            let view = View {
+                offset: 0.0,
+                shift: 0,
+            };
+            let pass = depth_pass(&world, &cam, view, 1);
+            pass.samples().map(|(_, _, d)| d).collect::<Vec<f32>>()
+        };
+        for d in depth_with_screen(0.2) {
+            assert!((d - 5.0).abs() < 1e-4, "cut away: {d}");
+        }
+        for d in depth_with_screen(0.8) {
+            assert!((d - 3.0).abs() < 1e-4, "kept: {d}");
+        }
     }
 
     /// A wall facing the camera at distance 5 fills the frame: every sample
