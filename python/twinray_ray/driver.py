@@ -116,6 +116,13 @@ POLL_S = 0.2
 FRAME_LINE = re.compile(r"frame (\d+): (wrote (.*)|done already)")
 
 
+def write_journal(journal: Optional[str], path: str) -> None:
+    """Appends `wrote PATH` to the journal, if there is one."""
+    if journal:
+        with open(journal, "a", encoding="utf-8") as j:
+            j.write(f"wrote {path}\n")
+
+
 @ray.remote
 def render_share(
     twinray: str,
@@ -161,11 +168,19 @@ def render_share(
             said.append(line)
             continue
         wrote.append(path)
-        if journal:
-            with open(journal, "a", encoding="utf-8") as j:
-                j.write(f"wrote {path}\n")
+        write_journal(journal, path)
         if fault and not os.path.exists(fault):
             Path(fault).write_text(f"worker {os.getpid()} killed mid-run\n")
+            # The injected death, made deterministic: twinray gets the
+            # SIGTERM it would get from the worker's death, and whatever it
+            # finished writing before it stopped is journaled, as a real
+            # death can leave finished files behind for the retry to skip.
+            proc.terminate()
+            for rest in proc.stderr:
+                late = FRAME_LINE.match(rest.rstrip("\n"))
+                if late and late.group(3) is not None:
+                    write_journal(journal, late.group(3))
+            proc.wait()
             os._exit(1)  # the worker dies; Ray retries the task
         # After the journal and the fault: the actor call takes a moment
         # in which twinray goes on writing frames.
