@@ -212,6 +212,11 @@ pub struct Scene {
     /// scene without them (no cost), and only as long as the last coloured
     /// record: corner records past its end have none.
     pub corner_colors: Vec<[Color; 3]>,
+    /// Per-corner tangents of normal maps (glTF `TANGENT`: xyz in world
+    /// space, w = ±1 the bitangent's sign), aligned with `corners` as
+    /// `corner_colors` is. Without them a normal map's frame comes from the
+    /// triangle's uv.
+    pub corner_tangents: Vec<[[f32; 4]; 3]>,
 }
 
 /// What the tracer needs of a hit: the unit shading normal (not yet turned
@@ -305,6 +310,25 @@ impl Scene {
         self.shape_group.push(group);
     }
 
+    /// The normal map's tangent at a hit on a triangle with given tangents:
+    /// its corners' interpolated, and the bitangent's sign; `None` where the
+    /// file gave none (w = 0).
+    fn tangent_at(&self, prim: usize, hit: &SurfaceHit) -> Option<(Vec3, f32)> {
+        let Shape::Triangle(t) = &self.shapes[prim] else {
+            return None;
+        };
+        let TriangleNormals::Patch(i) = t.normals else {
+            return None;
+        };
+        let [a, b, c] = self.corner_tangents.get(i as usize)?;
+        if a[3] == 0.0 {
+            return None;
+        }
+        let xyz = |t: &[f32; 4]| Vec3::new(t[0], t[1], t[2]);
+        let tangent = xyz(a) * (1.0 - hit.u - hit.v) + xyz(b) * hit.u + xyz(c) * hit.v;
+        Some((tangent, a[3].signum()))
+    }
+
     /// The shading normal, colour and material where a ray met primitive `prim`.
     #[inline]
     pub fn surface_at(&self, prim: usize, hit: &SurfaceHit, point: Vec3) -> SurfaceSample<'_> {
@@ -346,8 +370,9 @@ impl Scene {
         let texel = |tex: u32| self.textures[tex as usize].sample(uv.x, uv.y);
         if let Some(map) = &material.normal_map {
             let texture = &self.textures[map.texture as usize];
+            let tangent = self.tangent_at(prim, hit);
             sample.normal =
-                crate::surface_maps::mapped_normal(t, corners, uv, normal, map, texture);
+                crate::surface_maps::mapped_normal(t, corners, uv, normal, tangent, map, texture);
         }
         if let (true, Some(tex)) = (blend, material.alpha_texture) {
             sample.coverage *= texel(tex).x;
@@ -469,6 +494,28 @@ impl Scene {
         colors: Option<&[Color]>,
         where_: &dyn Fn() -> String,
     ) {
+        self.add_mesh_polygon_with(poly, colors, None, where_);
+    }
+
+    /// [`Scene::add_mesh_polygon`] with a normal map's tangent per vertex
+    /// (`tangents[i]` for `poly.vertices[i]`: xyz in world space, w = ±1),
+    /// interpolated across each triangle (see `corner_tangents`).
+    pub fn add_tangent_mesh_polygon(
+        &mut self,
+        poly: &MeshPolygon,
+        tangents: Option<&[[f32; 4]]>,
+        where_: &dyn Fn() -> String,
+    ) {
+        self.add_mesh_polygon_with(poly, None, tangents, where_);
+    }
+
+    fn add_mesh_polygon_with(
+        &mut self,
+        poly: &MeshPolygon,
+        colors: Option<&[Color]>,
+        tangents: Option<&[[f32; 4]]>,
+        where_: &dyn Fn() -> String,
+    ) {
         let vertices = poly.vertices;
         if !within_range(vertices) {
             self.warnings.push(out_of_range("polygon", &where_()));
@@ -531,6 +578,7 @@ impl Scene {
             });
             let uv = poly.uv.map(|uv| [uv[a], uv[b], uv[c]]);
             let corner_colors = colors.map(|cs| [cs[a], cs[b], cs[c]]);
+            let corner_tangents = tangents.map(|ts| [ts[a], ts[b], ts[c]]);
             let tri_normals = if normals.is_none() && uv.is_none() && corner_colors.is_none() {
                 TriangleNormals::Flat
             } else {
@@ -540,6 +588,12 @@ impl Scene {
                     self.corner_colors
                         .resize(self.corners.len() - 1, [Color::ONE; 3]);
                     self.corner_colors.push(cs);
+                }
+                if let Some(ts) = corner_tangents {
+                    // Records before this one without tangents: none (w = 0).
+                    self.corner_tangents
+                        .resize(self.corners.len() - 1, [[0.0; 4]; 3]);
+                    self.corner_tangents.push(ts);
                 }
                 TriangleNormals::Patch((self.corners.len() - 1) as u32)
             };

@@ -121,14 +121,17 @@ impl Scene {
 
 /// The shading normal `normal` (unit) bent by `map` at `uv` on triangle `t`
 /// whose corners have texture coordinates `corners`. The tangent frame is the
-/// triangle's own, from its edges and texture coordinates (tangent along +u,
-/// bitangent up the image, i.e. along −v since v runs down the rows).
-/// Unchanged where the frame is degenerate (all corners at one u or v).
+/// file's where it gave tangents (`given_tangent`: the tangent and the
+/// bitangent's sign, glTF `TANGENT`), else the triangle's own, from its
+/// edges and texture coordinates (tangent along +u, bitangent up the image,
+/// i.e. along −v since v runs down the rows). Unchanged where the frame is
+/// degenerate (all corners at one u or v).
 pub(crate) fn mapped_normal(
     t: &Triangle,
     corners: [Uv; 3],
     uv: Uv,
     normal: Vec3,
+    given_tangent: Option<(Vec3, f32)>,
     map: &NormalMap,
     texture: &Texture,
 ) -> Vec3 {
@@ -144,10 +147,22 @@ pub(crate) fn mapped_normal(
     let dpdv = (t.e2 * d1.x - t.e1 * d2.x) / r;
     let bent = match map.kind {
         NormalMapKind::Tangent => {
-            let tangent = (dpdu - normal * normal.dot(dpdu)).normalize_or_zero();
-            let up = -dpdv;
-            let bitangent =
-                (up - normal * normal.dot(up) - tangent * tangent.dot(up)).normalize_or_zero();
+            let (tangent, bitangent) = match given_tangent {
+                // glTF's rule: bitangent = normal × tangent × w.
+                Some((t, w)) => {
+                    let tangent = (t - normal * normal.dot(t)).normalize_or_zero();
+                    (tangent, normal.cross(tangent) * w)
+                }
+                // The triangle's own frame: u to the right, v down the image
+                // (glTF's and OBJ's texture convention), so up is −v.
+                None => {
+                    let tangent = (dpdu - normal * normal.dot(dpdu)).normalize_or_zero();
+                    let up = -dpdv;
+                    let bitangent = (up - normal * normal.dot(up) - tangent * tangent.dot(up))
+                        .normalize_or_zero();
+                    (tangent, bitangent)
+                }
+            };
             if tangent == Vec3::ZERO || bitangent == Vec3::ZERO {
                 return normal;
             }

@@ -202,6 +202,7 @@ impl World {
             + s.shape_group.len() * 4
             + s.corners.len() * std::mem::size_of::<crate::scene::Corners>()
             + s.corner_colors.len() * std::mem::size_of::<[crate::math::Color; 3]>()
+            + s.corner_tangents.len() * std::mem::size_of::<[[f32; 4]; 3]>()
             + s.materials.len() * std::mem::size_of::<crate::scene::Material>()
             + s.textures.iter().map(|t| t.memory_bytes()).sum::<usize>()
             + self.bvh.memory_bytes()

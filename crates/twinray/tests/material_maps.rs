@@ -484,3 +484,88 @@ fn map_ke_multiplies_ke() {
 fn gltf_quad(dir: &Path, material: serde_json::Value) -> std::path::PathBuf {
     common::gltf_quad(dir, material, &["leaf.png"])
 }
+
+/// The glTF quad with NORMAL (+z) and TANGENT (`tangent`, the same at
+/// every corner) attributes, in a second buffer.
+fn gltf_quad_with_tangents(dir: &Path, material: serde_json::Value, tangent: [f32; 4]) -> Scene {
+    use base64::Engine as _;
+    let path = gltf_quad(dir, material);
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let mut bytes = Vec::new();
+    for _ in 0..6 {
+        for v in [0.0f32, 0.0, 1.0] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    for _ in 0..6 {
+        for v in tangent {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&bytes)
+    );
+    doc["buffers"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"byteLength": bytes.len(), "uri": uri}));
+    let views = doc["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({"buffer": 1, "byteOffset": 0, "byteLength": 72}));
+    views.push(json!({"buffer": 1, "byteOffset": 72, "byteLength": 96}));
+    let accessors = doc["accessors"].as_array_mut().unwrap();
+    accessors.push(json!({"bufferView": 2, "componentType": 5126, "count": 6, "type": "VEC3"}));
+    accessors.push(json!({"bufferView": 3, "componentType": 5126, "count": 6, "type": "VEC4"}));
+    let attributes = &mut doc["meshes"][0]["primitives"][0]["attributes"];
+    attributes["NORMAL"] = json!(2);
+    attributes["TANGENT"] = json!(3);
+    std::fs::write(&path, doc.to_string()).unwrap();
+    load_scene(&path, &LoadOptions::default()).expect("loads")
+}
+
+/// glTF `TANGENT` sets the normal map's frame (bitangent = normal × tangent
+/// × w): along +u it gives the frame the uv would; turned a quarter turn
+/// (tangent +y), the map's tilt turns with it; w = −1 mirrors the bitangent.
+#[test]
+fn gltf_tangents_set_the_normal_maps_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let tilt = Vec3::new(0.35, -0.25, 1.0);
+    normal_png(&dir.path().join("leaf.png"), tilt);
+    let material = json!({"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1],
+                                                  "metallicFactor": 0, "roughnessFactor": 1},
+                          "normalTexture": {"index": 0}});
+    let mtl = "Kd 1 1 1\nKs 0 0 0\nillum 1";
+    let worst = |a: &Image, b: &Image| {
+        a.pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(p, q)| (*p - *q).abs().max_element())
+            .fold(0.0, f32::max)
+    };
+    let lit = |s: Scene| mono(&three_lights(s), &front());
+    let tilted = |n: Vec3, name: &str| lit(obj_quad(dir.path(), name, mtl, Some(n)));
+    let with = |t: [f32; 4]| lit(gltf_quad_with_tangents(dir.path(), material.clone(), t));
+
+    // Tangent +x, w = 1: the uv's own frame (tangent-space x, y = world x, y).
+    let along_u = with([1.0, 0.0, 0.0, 1.0]);
+    let same = tilted(tilt, "same");
+    assert!(worst(&along_u, &same) < 0.01, "{}", worst(&along_u, &same));
+    // Tangent +y: x → +y and y → normal × tangent = −x.
+    let turned = with([0.0, 1.0, 0.0, 1.0]);
+    let expect = tilted(Vec3::new(-tilt.y, tilt.x, tilt.z), "turned");
+    assert!(
+        worst(&turned, &expect) < 0.01,
+        "{}",
+        worst(&turned, &expect)
+    );
+    assert!(worst(&turned, &same) > 0.05, "the tangent changed nothing");
+    // w = −1: the bitangent flips, y → −y.
+    let mirrored = with([1.0, 0.0, 0.0, -1.0]);
+    let expect = tilted(Vec3::new(tilt.x, -tilt.y, tilt.z), "mirrored");
+    assert!(
+        worst(&mirrored, &expect) < 0.01,
+        "{}",
+        worst(&mirrored, &expect)
+    );
+}

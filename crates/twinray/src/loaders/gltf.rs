@@ -700,6 +700,12 @@ impl Loader<'_> {
             .get(&gltf::Semantic::Normals)
             .map(|a| self.accessor(&a, buffers, Dimensions::Vec3, &[DataType::F32]))
             .transpose()?;
+        // Tangents serve only a normal map, and need normals (glTF's rule).
+        let tangents = prim
+            .get(&gltf::Semantic::Tangents)
+            .filter(|_| normals.is_some() && prim.material().normal_texture().is_some())
+            .map(|a| self.accessor(&a, buffers, Dimensions::Vec4, &[DataType::F32]))
+            .transpose()?;
         let uv_set = prim
             .material()
             .pbr_metallic_roughness()
@@ -732,6 +738,7 @@ impl Loader<'_> {
         for (name, count) in [
             ("NORMAL", normals.as_ref().map(|a| a.count)),
             ("TEXCOORD", uvs.as_ref().map(|a| a.count)),
+            ("TANGENT", tangents.as_ref().map(|a| a.count)),
         ]
         .into_iter()
         .chain(targets.iter().flat_map(|t| {
@@ -747,7 +754,10 @@ impl Loader<'_> {
                 )));
             }
         }
-        let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
+        let linear = Mat3::from_mat4(*world);
+        let normal_matrix = linear.inverse().transpose();
+        // A mirroring transform turns the bitangent's side too.
+        let handedness = linear.determinant().signum();
         let corner_count = indices.as_ref().map_or(n, |a| a.count);
         let corner = |c: usize| -> Result<usize> {
             let i = indices.as_ref().map_or(c, |a| a.index(c) as usize);
@@ -762,6 +772,7 @@ impl Loader<'_> {
         let mut vertices = [Vec3::ZERO; 3];
         let mut ns = [Vec3::ZERO; 3];
         let mut ts = [Uv::ZERO; 3];
+        let mut tangent = [[0.0f32; 4]; 3];
         for tri in 0..corner_count / 3 {
             for k in 0..3 {
                 let i = corner(tri * 3 + k)?;
@@ -784,6 +795,11 @@ impl Loader<'_> {
                 if let Some(a) = &uvs {
                     ts[k] = Uv::new(a.float(i, 0), a.float(i, 1));
                 }
+                if let Some(a) = &tangents {
+                    let t = linear * a.vec3(i);
+                    let w = if a.float(i, 3) < 0.0 { -1.0 } else { 1.0 };
+                    tangent[k] = [t.x, t.y, t.z, w * handedness];
+                }
             }
             if vertices.iter().any(|v| !v.is_finite()) {
                 return Err(self.err(format!(
@@ -791,7 +807,7 @@ impl Loader<'_> {
                     pos.index()
                 )));
             }
-            scene.add_mesh_polygon(
+            scene.add_tangent_mesh_polygon(
                 &MeshPolygon {
                     vertices: &vertices,
                     normals: normals.is_some().then_some(&ns[..]),
@@ -799,6 +815,7 @@ impl Loader<'_> {
                     material,
                     group,
                 },
+                tangents.is_some().then_some(&tangent[..]),
                 &|| format!("{}: {what}, triangle {tri}", self.file.display()),
             );
         }
