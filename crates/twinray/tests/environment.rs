@@ -343,3 +343,19 @@ fn a_blended_surface_takes_the_environment_light_by_its_coverage() {
         "half coverage {half}, half of opaque and behind {mixed}"
     );
 }
+
+/// The environment image is read once per job: an animation readies a
+/// scene per frame, and every frame shares the first one's image.
+#[test]
+fn a_job_reads_its_environment_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let sky = red_over_blue(dir.path());
+    let scene = sphere_scene(dir.path(), "1 1 1 1 0 0 0 1");
+    let job = Job::check(spec(&scene, Some(&sky))).unwrap();
+    let (first, second) = (job.load().unwrap(), job.load().unwrap());
+    let (a, b) = (
+        first.scene.environment.as_ref().expect("an environment"),
+        second.scene.environment.as_ref().expect("an environment"),
+    );
+    assert!(std::sync::Arc::ptr_eq(a, b), "read twice");
+}

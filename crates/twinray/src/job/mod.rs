@@ -125,6 +125,10 @@ pub struct Job {
     options: RenderOptions,
     pool: Arc<rayon::ThreadPool>,
     messages: Vec<Message>,
+    /// `--env` as read, for y up and z up: an animation readies a scene
+    /// per frame, and decoding a large HDR image each time would cost more
+    /// than some frames' rendering.
+    environments: std::sync::Mutex<[Option<Arc<Environment>>; 2]>,
 }
 
 /// A scene read and ready to plan: its hierarchy is built by the first plan
@@ -252,6 +256,7 @@ impl Job {
             options: checked.options,
             pool,
             messages,
+            environments: Default::default(),
         })
     }
 
@@ -348,8 +353,7 @@ impl Job {
             scene.background = Vec3::from(rgb);
         }
         if let Some(path) = &self.spec.studio.env {
-            let env = Environment::load(path, up == UpAxis::Z)?;
-            scene.environment = Some(Arc::new(env));
+            scene.environment = Some(self.environment(path, up)?);
         }
         Ok(Loaded {
             scene: Arc::new(scene),
@@ -359,6 +363,22 @@ impl Job {
             model_shapes,
             up,
         })
+    }
+
+    /// The environment image `path` turned for `up`, read once per job.
+    fn environment(&self, path: &std::path::Path, up: UpAxis) -> Result<Arc<Environment>> {
+        let z_up = up == UpAxis::Z;
+        // A poisoned lock only means another thread panicked mid-read: read again.
+        let mut read = self
+            .environments
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(env) = &read[z_up as usize] {
+            return Ok(Arc::clone(env));
+        }
+        let env = Arc::new(Environment::load(path, z_up)?);
+        read[z_up as usize] = Some(Arc::clone(&env));
+        Ok(env)
     }
 
     /// The up axis of a file without a camera: `--up-axis`, glTF's y, or
