@@ -305,23 +305,29 @@ mod tests {
         assert!(DepthStats::of([f32::INFINITY]).is_none());
     }
 
+    /// An empty scene whose camera at the origin looks along +y, z up.
+    fn looking_along_y(width: u32, height: u32) -> Scene {
+        let mut scene = Scene::new();
+        scene.viewpoint = Viewpoint {
+            from: Vec3::ZERO,
+            at: Vec3::Y,
+            up: Vec3::Z,
+            angle_deg: 60.0,
+            angle_span: Default::default(),
+            hither: 0.0,
+            width,
+            height,
+        };
+        scene
+    }
+
     /// A MASK screen at distance 3 in front of a wall at 5: where its alpha is
     /// under the cut-off the depth pass sees through it, as the renderer's
     /// rays do; where it is over, the screen is what is nearest.
     #[test]
     fn the_depth_pass_sees_through_cut_away_parts() {
         let depth_with_screen = |alpha: f32| {
-            let mut scene = Scene::new();
-            scene.viewpoint = Viewpoint {
-                from: Vec3::ZERO,
-                at: Vec3::Y,
-                up: Vec3::Z,
-                angle_deg: 60.0,
-                angle_span: Default::default(),
-                hither: 0.0,
-                width: 5,
-                height: 5,
-            };
+            let mut scene = looking_along_y(5, 5);
             let plane = |y: f32| {
                 [(-50.0, -50.0), (50.0, -50.0), (50.0, 50.0), (-50.0, 50.0)]
                     .map(|(x, z)| Vec3::new(x, y, z))
@@ -354,17 +360,7 @@ mod tests {
     /// reads depth 5, the plane's depth, not the slant distance along the ray.
     #[test]
     fn a_facing_wall_reads_its_distance_everywhere() {
-        let mut scene = Scene::new();
-        scene.viewpoint = Viewpoint {
-            from: Vec3::ZERO,
-            at: Vec3::Y,
-            up: Vec3::Z,
-            angle_deg: 60.0,
-            angle_span: Default::default(),
-            hither: 0.0,
-            width: 9,
-            height: 7,
-        };
+        let mut scene = looking_along_y(9, 7);
         scene.add_polygon(
             &[
                 Vec3::new(-50.0, 5.0, -50.0),
