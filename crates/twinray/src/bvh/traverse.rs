@@ -299,7 +299,7 @@ pub(super) struct LaneHit {
 impl LaneHit {
     /// Takes hit `h` on `prim` if it is nearer, or as near on a lower index.
     #[inline(always)]
-    fn offer(&mut self, prim: u32, h: SurfaceHit) {
+    pub(super) fn offer(&mut self, prim: u32, h: SurfaceHit) {
         if h.t < self.best || (h.t == self.best && prim < self.prim) {
             self.best = h.t;
             self.prim = prim;

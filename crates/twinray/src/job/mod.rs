@@ -1005,6 +1005,7 @@ impl Checked {
                 sampling,
                 approx,
                 views_per_batch: rig.views_per_batch.unwrap_or(0),
+                strip: rig.strip,
             },
         })
     }
