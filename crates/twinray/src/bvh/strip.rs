@@ -16,18 +16,22 @@
 //!
 //! Exactness is by construction, never by the family's arithmetic: the family
 //! tests only *exclude* rays, conservatively (boxes padded, intervals widened
-//! by a bound on the single-ray routine's rounding); each ray that remains is
-//! tested with the ordinary single-ray routine (`FamilyTest::exact`), and its
-//! hits are offered with the single-ray traversal's rule (nearer, or as near on
-//! a lower primitive index). Culling a box for a ray uses that ray's own
-//! nearest hit so far with `CULL_SLACK`, as the single-ray descent does. So a
-//! ray's nearest hit, its `t`, `u` and `v`, are those of the ray traced alone.
+//! by a bound on the single-ray routine's rounding). A ray that remains at a
+//! leaf enters it only if the single-ray descent's own slab test of the leaf's
+//! box, with the ray's own nearest hit so far, lets it in (a box holds its
+//! ancestors' tests, which are monotone in the box); then it is tested with
+//! the ordinary single-ray routine (`FamilyTest::exact`) and its hits offered
+//! with the single-ray rule (nearer, or as near on a lower primitive index).
+//! The descent visits the nodes in the single-ray descent's order (near child
+//! first, by the direction's sign, which every ray shares), so each ray meets
+//! the same leaves with the same nearest hit so far as when traced alone on
+//! the binary tree: its `prim`, `t`, `u` and `v` are that descent's.
 //!
 //! The descent runs over the binary tree (`Bvh::nodes`); its stack entries
 //! carry the interval (a range of ray indices) still alive in the node, which
 //! is trimmed at both ends by the rays' own nearest hits.
 
-use super::traverse::{LaneHit, CULL_SLACK, NO_SURFACE};
+use super::traverse::{LaneHit, SingleRay, CULL_SLACK, NO_SURFACE};
 use super::{Bvh, Node};
 use crate::math::Vec3;
 use crate::shapes::SurfaceHit;
@@ -39,7 +43,7 @@ pub const FAMILY_EPS: f64 = 256.0 * f32::EPSILON as f64 * 0.5;
 
 /// The family `E + s_k·R + t·d`, `t > t_min`, for ascending `s_k`, in double
 /// precision, with the per-ray data the exact tests need.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Default)]
 pub struct Family {
     pub dir: DVec3,
     pub base: DVec3,
@@ -52,34 +56,34 @@ pub struct Family {
     pub pad: f64,
     /// Largest `|s|·|R| + |E|`: the scale of the origins' rounding.
     pub origin_scale: f64,
+    /// Each ray as the single-ray descent sees it (its own origin).
+    rays: Vec<SingleRay>,
+    origins: Vec<Vec3>,
+    dir32: Vec3,
+    t_min32: f32,
 }
 
 impl Family {
     /// The family for ray parameters `s` (ascending), base `base`, step
     /// `step` and direction `dir`; `scene_scale`: the largest coordinate of
     /// the scene's bounds (for the padding).
-    pub fn new(
-        base: Vec3,
-        step: Vec3,
-        dir: Vec3,
-        t_min: f32,
-        s: &[f32],
-        scene_scale: f32,
-    ) -> Family {
-        let mut f = Family::default();
-        f.reset(base, step, dir, t_min, scene_scale);
-        f.s.extend(s.iter().map(|&x| x as f64));
-        f.finish();
-        f
+    /// Adds the ray with parameter `s` (not below the last one's) and
+    /// single-precision origin `origin` (what the single-ray methods use).
+    pub fn push(&mut self, s: f32, origin: Vec3) {
+        self.s.push(s as f64);
+        self.origins.push(origin);
     }
 
-    /// Starts a family anew (the rays' parameters pushed to `s` next, then `finish`).
+    /// Starts a family anew (its rays `push`ed next, then `finish`).
     pub fn reset(&mut self, base: Vec3, step: Vec3, dir: Vec3, t_min: f32, scene_scale: f32) {
         self.dir = dir.as_dvec3();
         self.base = base.as_dvec3();
         self.step = step.as_dvec3();
         self.t_min = t_min as f64;
         self.s.clear();
+        self.origins.clear();
+        self.dir32 = dir;
+        self.t_min32 = t_min;
         self.pad = scene_scale as f64;
     }
 
@@ -90,6 +94,10 @@ impl Family {
             smax * self.step.length() + self.base.abs().max_element() * 3.0_f64.sqrt();
         let scale = self.pad.max(self.origin_scale);
         self.pad = FAMILY_EPS * (scale + 1e-6);
+        let (dir, t_min) = (self.dir32, self.t_min32);
+        self.rays.clear();
+        self.rays
+            .extend(self.origins.iter().map(|&o| SingleRay::new(o, dir, t_min)));
     }
 
     /// The ray `k`'s origin in the family's arithmetic.
@@ -191,6 +199,15 @@ impl StripStats {
 pub struct StripScratch {
     stack: Vec<(u32, u32, u32)>,
     best: Vec<LaneHit>,
+    /// Per ray, at the current leaf: not asked yet, enters, or does not.
+    enters: Vec<Entry>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Entry {
+    Unknown,
+    In,
+    Out,
 }
 
 /// The lines `t = a + b·s` through which the family enters and leaves a box.
@@ -273,6 +290,9 @@ impl Bvh {
             return;
         }
         stats.descents += 1;
+        let enters = &mut scratch.enters;
+        enters.clear();
+        enters.resize(n, Entry::Unknown);
         let best = &mut scratch.best;
         best.clear();
         best.resize(
@@ -312,6 +332,7 @@ impl Bvh {
             stats.nodes += 1;
             if node.is_leaf() {
                 let first = node.first as usize;
+                enters[lo..hi].fill(Entry::Unknown);
                 for &prim in &self.order[first..first + node.count() as usize] {
                     stats.covers += 1;
                     let (a, b) = match test.cover(prim, family) {
@@ -323,6 +344,16 @@ impl Bvh {
                         }
                     };
                     for (k, state) in best.iter_mut().enumerate().take(b).skip(a) {
+                        // The single-ray descent's test of the leaf, with the
+                        // ray's nearest hit from before the leaf.
+                        if enters[k] == Entry::Unknown {
+                            let (tn, tf) = family.rays[k].slabs(node);
+                            let inside = tn <= tf && tn <= state.best * CULL_SLACK;
+                            enters[k] = if inside { Entry::In } else { Entry::Out };
+                        }
+                        if enters[k] == Entry::Out {
+                            continue;
+                        }
                         stats.exact_tests += 1;
                         if let Some(h) = test.exact(prim, k) {
                             stats.exact_hits += 1;
@@ -333,7 +364,7 @@ impl Bvh {
                 continue;
             }
             let (a, b) = (node.first, node.first + 1);
-            let (near, far) = if family.dir[node.axis()] < 0.0 {
+            let (near, far) = if family.dir[node.axis()].is_sign_negative() {
                 (b, a)
             } else {
                 (a, b)

@@ -239,7 +239,7 @@ impl SingleRay {
 
     /// Entry and (robustly widened) exit distance of the ray for `node`.
     #[inline(always)]
-    fn slabs(&self, node: &Node) -> (f32, f32) {
+    pub(super) fn slabs(&self, node: &Node) -> (f32, f32) {
         let ([ix, iy, iz], [ox, oy, oz]) = (self.inv, self.origin);
         let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
         let tn = fmax(

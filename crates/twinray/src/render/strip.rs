@@ -136,7 +136,7 @@ impl<'a> StripEyePass<'a> {
                 if i != u32::MAX {
                     out.members.push((v, i as usize));
                     out.member_origins.push(self.origins[v]);
-                    out.family.s.push(offset as f64);
+                    out.family.push(offset, self.origins[v]);
                 }
             }
             if out.members.is_empty() {
