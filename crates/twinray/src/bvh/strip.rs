@@ -61,6 +61,7 @@ pub struct Family {
     origins: Vec<Vec3>,
     dir32: Vec3,
     t_min32: f32,
+    slopes: SlabSlopes,
 }
 
 impl Family {
@@ -94,6 +95,7 @@ impl Family {
             smax * self.step.length() + self.base.abs().max_element() * 3.0_f64.sqrt();
         let scale = self.pad.max(self.origin_scale);
         self.pad = FAMILY_EPS * (scale + 1e-6);
+        self.slopes = SlabSlopes::new(self);
         let (dir, t_min) = (self.dir32, self.t_min32);
         self.rays.clear();
         self.rays
@@ -135,6 +137,18 @@ impl Interval {
             self.hi = self.hi.min(r / k);
         } else if k < 0.0 {
             self.lo = self.lo.max(r / k);
+        } else if r < 0.0 {
+            self.hi = f64::NEG_INFINITY;
+        }
+    }
+
+    /// `le` with `1/k` given (0 when `k` is 0).
+    #[inline(always)]
+    fn le_inv(&mut self, k: f64, inv_k: f64, r: f64) {
+        if k > 0.0 {
+            self.hi = self.hi.min(r * inv_k);
+        } else if k < 0.0 {
+            self.lo = self.lo.max(r * inv_k);
         } else if r < 0.0 {
             self.hi = f64::NEG_INFINITY;
         }
@@ -212,51 +226,88 @@ enum Entry {
 
 /// The lines `t = a + b·s` through which the family enters and leaves a box.
 struct Slabs {
-    /// Entry lines (one per axis the rays are not parallel to, and `t_min`).
+    /// Entry lines: `t_min`, then one per axis (unused where the rays are
+    /// parallel to it); exit lines, one per axis.
     entry: [(f64, f64); 4],
-    entries: usize,
     exit: [(f64, f64); 3],
-    exits: usize,
     /// Constraints on `s` from the axes the rays are parallel to.
     inside: Interval,
 }
 
+/// What every box test of a family shares, per axis: `1/d`, the slope
+/// `-R/d` of its entry and exit lines, and for each pair of an entry line
+/// and an exit line the difference of their slopes and its inverse.
+#[derive(Clone, Copy, Default)]
+struct SlabSlopes {
+    inv: [f64; 3],
+    slope: [f64; 3],
+    parallel: [bool; 3],
+    /// `[entry line][exit axis]`: (slope difference, its inverse).
+    pairs: [[(f64, f64); 3]; 4],
+}
+
+impl SlabSlopes {
+    fn new(f: &Family) -> SlabSlopes {
+        let mut s = SlabSlopes::default();
+        for a in 0..3 {
+            s.parallel[a] = f.dir[a] == 0.0;
+            if !s.parallel[a] {
+                s.inv[a] = 1.0 / f.dir[a];
+                s.slope[a] = -f.step[a] * s.inv[a];
+            }
+        }
+        for i in 0..4 {
+            let entry_slope = if i == 0 { 0.0 } else { s.slope[i - 1] };
+            for j in 0..3 {
+                let k = entry_slope - s.slope[j];
+                s.pairs[i][j] = (k, if k == 0.0 { 0.0 } else { 1.0 / k });
+            }
+        }
+        s
+    }
+}
+
 impl Slabs {
+    #[inline(always)]
     fn new(f: &Family, node: &Node) -> Slabs {
+        let sl = &f.slopes;
         let mut s = Slabs {
             entry: [(f.t_min - f.pad, 0.0); 4],
-            entries: 1,
             exit: [(0.0, 0.0); 3],
-            exits: 0,
             inside: Interval::ALL,
         };
         for a in 0..3 {
             let (lo, hi) = (node.min[a] as f64 - f.pad, node.max[a] as f64 + f.pad);
-            let (d, e, r) = (f.dir[a], f.base[a], f.step[a]);
-            if d == 0.0 {
+            let (e, r) = (f.base[a], f.step[a]);
+            if sl.parallel[a] {
                 // lo <= e + r s <= hi
                 s.inside.le(r, hi - e);
                 s.inside.le(-r, e - lo);
                 continue;
             }
-            let inv = 1.0 / d;
-            let (near, far) = if d < 0.0 { (hi, lo) } else { (lo, hi) };
-            let slope = -r * inv;
-            s.entry[s.entries] = ((near - e) * inv, slope);
-            s.entries += 1;
-            s.exit[s.exits] = ((far - e) * inv, slope);
-            s.exits += 1;
+            let inv = sl.inv[a];
+            let (near, far) = if inv < 0.0 { (hi, lo) } else { (lo, hi) };
+            s.entry[a + 1] = ((near - e) * inv, sl.slope[a]);
+            s.exit[a] = ((far - e) * inv, sl.slope[a]);
         }
         s
     }
 
     /// The parameters of the rays that enter the box (conservatively).
-    fn interval(&self) -> Interval {
+    #[inline(always)]
+    fn interval(&self, sl: &SlabSlopes) -> Interval {
         let mut iv = self.inside;
-        for &(a, b) in &self.entry[..self.entries] {
-            for &(c, d) in &self.exit[..self.exits] {
-                // a + b s <= c + d s
-                iv.le(b - d, c - a);
+        for (i, &(a, _)) in self.entry.iter().enumerate() {
+            if i > 0 && sl.parallel[i - 1] {
+                continue;
+            }
+            for (j, &(c, _)) in self.exit.iter().enumerate() {
+                if sl.parallel[j] {
+                    continue;
+                }
+                // a + b s <= c + d s, that is (b - d) s <= c - a
+                let (k, inv_k) = sl.pairs[i][j];
+                iv.le_inv(k, inv_k, c - a);
             }
         }
         iv
@@ -264,10 +315,14 @@ impl Slabs {
 
     /// The entry distance of the ray with parameter `s`.
     #[inline(always)]
-    fn entry_at(&self, s: f64) -> f64 {
-        self.entry[..self.entries]
-            .iter()
-            .fold(f64::NEG_INFINITY, |m, &(a, b)| m.max(a + b * s))
+    fn entry_at(&self, s: f64, sl: &SlabSlopes) -> f64 {
+        let mut m = self.entry[0].0;
+        for (a, &(c, b)) in self.entry[1..].iter().enumerate() {
+            if !sl.parallel[a] {
+                m = m.max(c + b * s);
+            }
+        }
+        m
     }
 }
 
@@ -308,12 +363,12 @@ impl Bvh {
         stack.push((0, 0, n as u32));
         let culled = |slabs: &Slabs, k: usize, best: &[LaneHit]| {
             let bound = best[k].best * CULL_SLACK;
-            slabs.entry_at(family.s[k]) > bound as f64 + family.pad
+            slabs.entry_at(family.s[k], &family.slopes) > bound as f64 + family.pad
         };
         while let Some((index, lo, hi)) = stack.pop() {
             let node = &self.nodes[index as usize];
             let slabs = Slabs::new(family, node);
-            let iv = slabs.interval();
+            let iv = slabs.interval(&family.slopes);
             if iv.is_empty() {
                 continue;
             }
