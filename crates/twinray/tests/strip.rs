@@ -119,6 +119,16 @@ fn bits(img: &twinray::Image) -> Vec<[u32; 3]> {
         .collect()
 }
 
+/// Every view of `strip` is `reference`'s, bit for bit.
+fn assert_same_views(reference: &RenderOutput, strip: &RenderOutput, what: &str) {
+    assert_eq!(reference.images.len(), strip.images.len(), "{what}");
+    for (v, (a, b)) in reference.images.iter().zip(&strip.images).enumerate() {
+        let (a, b) = (bits(a), bits(b));
+        let differ = a.iter().zip(&b).filter(|(p, q)| p != q).count();
+        assert_eq!(differ, 0, "{what}: view {v} differs in {differ} pixels");
+    }
+}
+
 /// Bit for bit the independent renders, for 2 to 48 views, converged at
 /// infinity and at 6 units; the strip did the eye pass (one descent per camera
 /// column, fewer than the views' rays) and met what it is made for.
@@ -129,14 +139,8 @@ fn strip_renders_equal_independent_renders() {
             let (world, camera, rig) = scene(views, convergence);
             let reference = render(&world, &camera, &rig, Method::Independent, false);
             let strip = render(&world, &camera, &rig, Method::Twin, true);
-            for v in 0..views {
-                let (a, b) = (bits(&reference.images[v]), bits(&strip.images[v]));
-                let differ = a.iter().zip(&b).filter(|(p, q)| p != q).count();
-                assert_eq!(
-                    differ, 0,
-                    "{views} views, convergence {convergence:?}: view {v} differs in {differ} pixels"
-                );
-            }
+            let what = format!("{views} views, convergence {convergence:?}");
+            assert_same_views(&reference, &strip, &what);
             assert_eq!(reference.counts.rays, strip.counts.rays, "{views} views");
             let s = strip.counts.strip;
             let columns = WIDTH as u64 * HEIGHT as u64;
@@ -207,14 +211,7 @@ fn thin_cones_and_spheres_as_the_single_ray_descent_sees_them() {
         let rig = Rig::multi_view(&camera, views, 0.02, convergence).expect("rig");
         let reference = render(&world, &camera, &rig, Method::Independent, false);
         let strip = render(&world, &camera, &rig, Method::Twin, true);
-        for v in 0..views {
-            let (a, b) = (bits(&reference.images[v]), bits(&strip.images[v]));
-            let differ = a.iter().zip(&b).filter(|(p, q)| p != q).count();
-            assert_eq!(
-                differ, 0,
-                "{views} views: view {v} differs in {differ} pixels"
-            );
-        }
+        assert_same_views(&reference, &strip, &format!("{views} views"));
         assert!(
             strip.counts.strip.unbounded > 0,
             "cones are tested view by view"
@@ -261,9 +258,5 @@ fn rays_grazing_a_box_face_are_decided_by_the_single_ray_slab_test() {
     let world = World::new(scene);
     let reference = render(&world, &camera, &rig, Method::Independent, false);
     let strip = render(&world, &camera, &rig, Method::Twin, true);
-    for v in 0..48 {
-        let (a, b) = (bits(&reference.images[v]), bits(&strip.images[v]));
-        let differ = a.iter().zip(&b).filter(|(p, q)| p != q).count();
-        assert_eq!(differ, 0, "view {v} differs in {differ} pixels");
-    }
+    assert_same_views(&reference, &strip, "grazing spheres");
 }
