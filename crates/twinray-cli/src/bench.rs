@@ -57,6 +57,9 @@ pub struct BenchArgs {
     /// Twin method: most views per packet (default 4).
     #[arg(long, value_name = "N")]
     views_per_batch: Option<usize>,
+    /// Twin method: one eye-pass descent per camera column for all views.
+    #[arg(long)]
+    strip: bool,
     /// Sampling of both methods (default here: one ray per pixel centre, as
     /// the paper's tables).
     #[command(flatten)]
@@ -256,6 +259,7 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
             convergence: args.convergence.clone(),
             method,
             views_per_batch: args.views_per_batch,
+            strip: args.strip,
             ..RigSpec::default()
         },
         trace: TraceSpec {

@@ -163,6 +163,11 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N")]
     pub views_per_batch: Option<usize>,
 
+    /// Twin method: trace the eye rays of all views along a camera column in
+    /// one descent of the hierarchy (the same images; see docs/stereo.md)
+    #[arg(long)]
+    pub strip: bool,
+
     #[command(flatten)]
     pub sampling: SamplingArgs,
 
@@ -378,6 +383,7 @@ impl RenderArgs {
                     MethodArg::Twin => MethodSpec::Twin,
                 },
                 views_per_batch: self.views_per_batch,
+                strip: self.strip,
             },
             sampling: self.sampling.spec(self.spd),
             approximations: ApproximationSpec {

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use crate::bvh::TraversalStats;
+use crate::bvh::{StripStats, TraversalStats};
 use crate::render::MAX_VIEWS;
 
 /// Ray counts. A stereo method counts one eye ray per view and pixel sample, as
@@ -65,6 +65,9 @@ pub struct TraceCounts {
     pub cache_colour_hits: u64,
     /// Rays traced on past a cut-away hit (alpha MASK), one per layer.
     pub cutout_continuations: u64,
+    /// `--strip`: the eye pass's descents for all the views of a camera
+    /// column, their nodes, family and single-ray primitive tests.
+    pub strip: StripStats,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -113,6 +116,7 @@ impl TraceCounts {
         self.cache_fallbacks += o.cache_fallbacks;
         self.cache_colour_hits += o.cache_colour_hits;
         self.cutout_continuations += o.cutout_continuations;
+        self.strip.add(&o.strip);
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -223,6 +227,9 @@ pub struct Report {
     pub disparity: Option<crate::rig::report::DisparityReport>,
     /// Rays traced on past a cut-away hit (alpha MASK), one per layer.
     pub cutout_continuations: u64,
+    /// `--strip`: the eye pass's descents for all the views of a camera
+    /// column, their nodes, family and single-ray primitive tests.
+    pub strip: StripStats,
 }
 
 impl Report {
@@ -244,6 +251,7 @@ impl Report {
         self.reproject_rejected = c.reproject_rejected;
         self.hole_samples = c.hole_samples;
         self.cutout_continuations = c.cutout_continuations;
+        self.strip = c.strip;
         if c.eye_pass_ns > 0 {
             self.time.eye_pass_cpu_s = Some(c.eye_pass_ns as f64 * 1e-9);
             self.time.shading_pass_cpu_s = Some(c.shading_pass_ns as f64 * 1e-9);

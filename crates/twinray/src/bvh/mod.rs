@@ -10,11 +10,13 @@
 pub(crate) mod brute_force;
 mod build;
 mod splice;
+mod strip;
 mod traverse;
 mod wide;
 
 pub use build::{build, primitive_box, BuildOptions};
 pub use splice::{splice, Placed};
+pub use strip::{Cover, Family, FamilyTest, Interval, StripScratch, StripStats, FAMILY_EPS};
 pub use traverse::{
     segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
     TraversalStats,

@@ -239,7 +239,7 @@ impl SingleRay {
 
     /// Entry and (robustly widened) exit distance of the ray for `node`.
     #[inline(always)]
-    fn slabs(&self, node: &Node) -> (f32, f32) {
+    pub(super) fn slabs(&self, node: &Node) -> (f32, f32) {
         let ([ix, iy, iz], [ox, oy, oz]) = (self.inv, self.origin);
         let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
         let tn = fmax(
@@ -299,7 +299,7 @@ pub(super) struct LaneHit {
 impl LaneHit {
     /// Takes hit `h` on `prim` if it is nearer, or as near on a lower index.
     #[inline(always)]
-    fn offer(&mut self, prim: u32, h: SurfaceHit) {
+    pub(super) fn offer(&mut self, prim: u32, h: SurfaceHit) {
         if h.t < self.best || (h.t == self.best && prim < self.prim) {
             self.best = h.t;
             self.prim = prim;

@@ -115,6 +115,7 @@ impl JobSpec {
             a.value("--method", name(r.method));
         }
         a.maybe("--views-per-batch", r.views_per_batch);
+        a.flag("--strip", r.strip);
     }
 
     fn studio_args(&self, a: &mut Args) {

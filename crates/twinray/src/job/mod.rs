@@ -1025,6 +1025,7 @@ impl Checked {
                 sampling,
                 approx,
                 views_per_batch: rig.views_per_batch.unwrap_or(0),
+                strip: rig.strip,
             },
         })
     }

@@ -127,6 +127,9 @@ pub struct RigSpec {
     pub method: MethodSpec,
     /// Twin method: most views traced as one packet (default 4).
     pub views_per_batch: Option<usize>,
+    /// Twin method: the eye pass of every view in one descent per camera
+    /// column (`--strip`); the same images.
+    pub strip: bool,
 }
 
 impl Default for RigSpec {
@@ -142,6 +145,7 @@ impl Default for RigSpec {
             floating_window: false,
             method: MethodSpec::Twin,
             views_per_batch: None,
+            strip: false,
         }
     }
 }

@@ -29,6 +29,7 @@ mod grouping;
 mod independent;
 pub mod sampler;
 mod shading_cache;
+mod strip;
 mod tracer;
 mod twin;
 
@@ -171,6 +172,10 @@ pub struct RenderOptions {
     /// Twin method: most views traced as one packet (0: automatic, see
     /// [`views_per_batch`]).
     pub views_per_batch: usize,
+    /// Twin method (`--strip`): the eye pass traces every view's ray along a
+    /// camera column in one descent (`strip`), where the rig and the sampling
+    /// allow it; the images are the same.
+    pub strip: bool,
 }
 
 impl Default for RenderOptions {
@@ -181,6 +186,7 @@ impl Default for RenderOptions {
             sampling: Sampling::Centers,
             approx: Approximations::default(),
             views_per_batch: 0,
+            strip: false,
         }
     }
 }
@@ -346,9 +352,14 @@ pub fn render_rows(
         }
         Method::Twin => twin_batches(&job, views_per_batch(views, opts.views_per_batch))?,
     };
+    let paper = matches!(opts.approx.reproject, Some(r) if r.mode == ReprojectMode::Paper);
+    let strip = (opts.strip && opts.method == Method::Twin && !paper)
+        .then(|| strip::StripEyePass::new(world, camera, rig))
+        .flatten();
     let run = Run {
         job: &job,
         batches: &batches,
+        strip: strip.as_ref(),
         views,
         width: camera.width as usize,
         height: camera.height as usize,
@@ -428,16 +439,33 @@ trait ViewBatch: Sync {
     fn worker(&self) -> Box<dyn RowWorker + '_>;
 }
 
+/// One thread's strip pass (`--strip`) and its row of hits.
+type RowStrip<'b> = (&'b strip::StripEyePass<'b>, strip::StripRow);
+
 /// Traces rows of samples for the views of its batch.
 trait RowWorker {
     /// `out[v][i]`: the colour of the batch's view `v` through sample `i` of
     /// `row` (`out` has one entry per view of the batch, each `row.len()` long).
     fn trace(&mut self, tracer: &mut Tracer, row: &SampleRow, out: &mut [RowColors]);
+
+    /// `trace`, given every view's eye hits through `row` (the strip pass);
+    /// a worker without an eye pass of its own ignores them.
+    fn trace_with_hits(
+        &mut self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        eye: &strip::StripRow,
+        out: &mut [RowColors],
+    ) {
+        let _ = eye;
+        self.trace(tracer, row, out);
+    }
 }
 
 /// One thread's workers, one per batch: traces a row for every view.
 struct RowContext<'b> {
     workers: Vec<(usize, Box<dyn RowWorker + 'b>)>,
+    strip: Option<RowStrip<'b>>,
 }
 
 impl RowContext<'_> {
@@ -449,9 +477,18 @@ impl RowContext<'_> {
             o.clear();
             o.resize(row.len(), Color::ZERO);
         }
+        if let Some((pass, hits)) = &mut self.strip {
+            let start = Instant::now();
+            pass.trace_row(tracer, row, hits);
+            tracer.counts.eye_pass_ns += start.elapsed().as_nanos() as u64;
+        }
         let mut first = 0;
         for (n, worker) in &mut self.workers {
-            worker.trace(tracer, row, &mut out[first..first + *n]);
+            let out = &mut out[first..first + *n];
+            match &self.strip {
+                Some((_, hits)) if hits.traced => worker.trace_with_hits(tracer, row, hits, out),
+                _ => worker.trace(tracer, row, out),
+            }
             first += *n;
         }
     }
@@ -475,6 +512,8 @@ const BAND_ROWS: usize = 8;
 struct Run<'j, 'a> {
     job: &'j RenderInputs<'a>,
     batches: &'j [Box<dyn ViewBatch + 'a>],
+    /// `--strip`: the eye pass of every view at once, where it applies.
+    strip: Option<&'j strip::StripEyePass<'a>>,
     views: usize,
     width: usize,
     height: usize,
@@ -502,6 +541,7 @@ impl Run<'_, '_> {
                 .iter()
                 .map(|b| (b.view_count(), b.worker()))
                 .collect(),
+            strip: self.strip.map(|p| (p, strip::StripRow::default())),
         };
         let cancel = self.job.cancel;
         let results: Vec<(T, TraceCounts)> = (0..count)

@@ -30,6 +30,7 @@ use std::time::Instant;
 
 use super::grouping::{group_row, nearest_sample, Group};
 use super::sampler::{RowColors, SampleRow};
+use super::strip::StripRow;
 use super::tracer::{Donor, SecondaryRays};
 use super::{
     RenderInputs, ReprojectMode, Reprojection, RowWorker, SharedShading, Tracer, ViewBatch,
@@ -164,8 +165,15 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
     /// for the views' rays through the same sample position. With a cut
     /// (section 2.3), the objects beyond it are tested once per camera column,
     /// by the ray of the rig's centre: every view sees them as the centre does
-    /// (their parallax is that of objects at infinity).
-    fn eye_pass(&self, tracer: &mut Tracer, row: &SampleRow, scratch: &mut RowScratch<K>) {
+    /// (their parallax is that of objects at infinity). With `strip`, the
+    /// strip pass (`--strip`, never with a cut) has found the hits already.
+    fn eye_pass(
+        &self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        scratch: &mut RowScratch<K>,
+        strip: Option<&StripRow>,
+    ) {
         let n = self.views;
         scratch.reset(n, row.len());
         for v in 0..n {
@@ -191,7 +199,16 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
                 t_max: [f32::INFINITY; K],
                 mask: all,
             };
-            let h = if cut {
+            let h = if let Some(strip) = strip {
+                let found = |v: usize| match v < n {
+                    true => strip.hits[self.first_view + v][i],
+                    false => (PacketHits::<K>::NO_HIT, NONE),
+                };
+                PacketHits {
+                    prim: std::array::from_fn(|v| found(v).0),
+                    hit: std::array::from_fn(|v| found(v).1),
+                }
+            } else if cut {
                 let mut far = [(PacketHits::<K>::NO_HIT, NONE); K];
                 for (v, slot) in far.iter_mut().enumerate().take(n) {
                     let (_, prim, hit) = self.far_ray(tracer, row, scratch, v, i);
@@ -586,12 +603,13 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         tracer: &mut Tracer,
         row: &SampleRow,
         scratch: &mut RowScratch<K>,
+        strip: Option<&StripRow>,
         out: &mut [RowColors],
     ) {
         let start = Instant::now();
         let paper = matches!(self.reproject, Some(r) if r.mode == ReprojectMode::Paper);
         if !paper {
-            self.eye_pass(tracer, row, scratch);
+            self.eye_pass(tracer, row, scratch, strip);
         }
         let eye_pass = start.elapsed();
         self.shade_cut(tracer, row, scratch, out);
@@ -630,7 +648,19 @@ struct TwinWorker<'s, 'a, const K: usize> {
 
 impl<const K: usize> RowWorker for TwinWorker<'_, '_, K> {
     fn trace(&mut self, tracer: &mut Tracer, row: &SampleRow, out: &mut [RowColors]) {
-        self.batch.trace_row(tracer, row, &mut self.scratch, out);
+        self.batch
+            .trace_row(tracer, row, &mut self.scratch, None, out);
+    }
+
+    fn trace_with_hits(
+        &mut self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        eye: &StripRow,
+        out: &mut [RowColors],
+    ) {
+        self.batch
+            .trace_row(tracer, row, &mut self.scratch, Some(eye), out);
     }
 }
 
@@ -745,7 +775,7 @@ mod tests {
                     y: y as f32,
                 },
             );
-            batch.eye_pass(&mut tracer, &row, &mut scratch);
+            batch.eye_pass(&mut tracer, &row, &mut scratch, None);
             batch.group(&row, &mut scratch);
             for group in &scratch.groups {
                 if let [Some(i), Some(k)] = *group {
