@@ -426,18 +426,12 @@ impl Bvh {
             if mask & (mask - 1) == 0 {
                 // One lane left in this subtree: finish it as a plain ray.
                 let l = mask.trailing_zeros() as usize;
-                let mut state = LaneHit {
-                    best: best[l],
-                    prim: out.prim[l],
-                    hit: out.hit[l],
-                };
                 let start = Entry {
                     child,
                     count,
                     tn: tn[l],
                 };
-                self.wide_single(start, &rays[l], &mut state, stats, &mut test, l);
-                (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
+                self.finish_lane(start, &rays[l], l, &mut best, &mut out, stats, &mut test);
                 continue;
             }
             stats.nodes += 1;
@@ -553,19 +547,13 @@ impl Bvh {
             if lanes != 0b11 {
                 // One lane left in this subtree: finish it as a plain ray.
                 let i = lanes.trailing_zeros() as usize;
-                let l = [a, b][i];
-                let mut state = LaneHit {
-                    best: best[l],
-                    prim: out.prim[l],
-                    hit: out.hit[l],
-                };
                 let start = Entry {
                     child,
                     count,
                     tn: tn[i],
                 };
-                self.wide_single(start, &rays[i], &mut state, stats, &mut test, l);
-                (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
+                let l = [a, b][i];
+                self.finish_lane(start, &rays[i], l, &mut best, &mut out, stats, &mut test);
             } else if count > 0 {
                 nodes += 1;
                 // Lane bits are packet lanes 0 and 1 for K == 2.
@@ -623,6 +611,30 @@ impl Bvh {
         stats.nodes += nodes;
         stats.box_tests += boxes;
         out
+    }
+
+    /// Packet lane `l` (ray `ray`) alone through the subtree at `start`: the
+    /// packet descents' finish where one lane is left, improving its entry
+    /// in `best` and `out`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn finish_lane<const K: usize, T: NearestTest>(
+        &self,
+        start: Entry,
+        ray: &SingleRay,
+        l: usize,
+        best: &mut [f32; K],
+        out: &mut PacketHits<K>,
+        stats: &mut TraversalStats,
+        test: &mut T,
+    ) {
+        let mut state = LaneHit {
+            best: best[l],
+            prim: out.prim[l],
+            hit: out.hit[l],
+        };
+        self.wide_single(start, ray, &mut state, stats, test, l);
+        (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
     }
 
     /// One ray's descent of the four-wide subtree at `start`, improving `state`.
