@@ -1,7 +1,7 @@
 //! Side-by-side rays/s of the four-wide and the binary traversal, in one
 //! process, rounds interleaved so that the machine's load hits both alike:
 //!
-//! `cargo bench -p twinray-bench --bench wide_vs_binary -- [--size N] [--rounds R] [--leaves] SCENE.nff ...`
+//! `cargo bench -p twinray-bench --bench wide_vs_binary -- [--size N] [--rounds R] [--leaves | --pairs] SCENE.nff ...`
 //!
 //! Prints per scene and ray kind the median Mrays/s of each over the rounds and
 //! the ratio wide / binary, on 1 thread (per second of this thread's CPU time,
@@ -13,7 +13,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use twinray_bench::traversal::{
-    pairs_pass, rays_pass, shadow_pairs_pass, shadow_pass, work, RaySets, Tree,
+    pair_work, pairs_pass, quads_pass, rays_pass, shadow_pairs_pass, shadow_pass, work, RaySets,
+    Tree,
 };
 
 /// This thread's time on a CPU, in seconds (Linux: /proc/thread-self/schedstat),
@@ -65,7 +66,20 @@ fn main() {
         }
         None => false,
     };
-    let compared: &[(Tree, Tree)] = if leaves {
+    // `--pairs`: packets of eye rays only (stereo pairs and four views):
+    // each ray alone on the four-wide tree (first) against one descent for
+    // the packet (second), then the binary packet descent against each ray
+    // alone on the four-wide tree; with the work of each.
+    let pairs = match args.iter().position(|a| a == "--pairs") {
+        Some(i) => {
+            args.remove(i);
+            true
+        }
+        None => false,
+    };
+    let compared: &[(Tree, Tree)] = if pairs {
+        &[(Tree::WideEach, Tree::Wide), (Tree::Binary, Tree::WideEach)]
+    } else if leaves {
         &[
             (Tree::BinaryScalar, Tree::Binary),
             (Tree::WideScalar, Tree::Wide),
@@ -77,28 +91,9 @@ fn main() {
         "{:<10} {:<10} {:>3} {:>11} {:>11} {:>6} agree",
         "scene", "rays", "thr", "first_Mr/s", "second_Mr/s", "ratio"
     );
-    // The build over 1M triangles (a 1000 x 500-cell terrain, as benches/bvh.rs),
-    // and how much of it the four-wide collapse takes.
-    let tris = twinray_bench::terrain(1000, 500, 1.0, 0.5, 1);
-    let boxes: Vec<twinray::math::Aabb> = tris
-        .iter()
-        .map(|t| twinray::math::Aabb::from_points(t))
-        .collect();
-    let (mut build_s, mut collapse_s) = (Vec::new(), Vec::new());
-    for _ in 0..3 {
-        let t0 = Instant::now();
-        let bvh = twinray::bvh::build(&boxes, &twinray::bvh::BuildOptions::default());
-        build_s.push(t0.elapsed().as_secs_f64());
-        let t0 = Instant::now();
-        let wide = twinray::bvh::collapse(&bvh.nodes);
-        collapse_s.push(t0.elapsed().as_secs_f64());
-        assert_eq!(wide, bvh.wide);
+    if !pairs {
+        build_time();
     }
-    println!(
-        "build 1M triangles: {:.3} s (wall, median of 3), of which the four-wide collapse {:.3} s",
-        median(build_s),
-        median(collapse_s)
-    );
     for path in &args {
         let sets = match RaySets::load(Path::new(path), size) {
             Ok(s) => s,
@@ -124,6 +119,18 @@ fn main() {
             println!("{name} {only}: {sum}");
             continue;
         }
+        if pairs {
+            for tree in [Tree::WideEach, Tree::Wide] {
+                let st = pair_work(&sets, tree);
+                let n = 2.0 * sets.pairs.len() as f64;
+                println!(
+                    "{name:<10} pair work, {tree:?}: {:.2} nodes, {:.2} box tests, {:.2} primitive tests per ray",
+                    st.nodes as f64 / n,
+                    st.box_tests as f64 / n,
+                    st.prim_tests as f64 / n
+                );
+            }
+        }
         for tree in [Tree::Binary, Tree::Wide] {
             let st = work(&sets, &sets.eye, tree);
             let n = sets.eye.len() as f64;
@@ -135,7 +142,7 @@ fn main() {
             );
         }
         type Run<'a> = Box<dyn Fn(Tree, usize) -> u64 + 'a>;
-        let kinds: [(&str, usize, Run); 5] = [
+        let kinds: [(&str, usize, Run); 6] = [
             (
                 "eye",
                 sets.eye.len(),
@@ -145,6 +152,11 @@ fn main() {
                 "eye pair",
                 2 * sets.pairs.len(),
                 Box::new(|t, n| pairs_pass(&sets, t, n)),
+            ),
+            (
+                "eye quad",
+                4 * sets.quads.len(),
+                Box::new(|t, n| quads_pass(&sets, t, n)),
             ),
             (
                 "shadow",
@@ -166,6 +178,9 @@ fn main() {
             println!("{name}: {first:?} (first) against {second:?} (second)");
             for threads in [1, 2] {
                 for (kind, count, run) in &kinds {
+                    if pairs && !kind.starts_with("eye ") {
+                        continue;
+                    }
                     if leaves && kind.starts_with("sha") {
                         // Any-hit leaves are tested one by one either way.
                         continue;
@@ -188,4 +203,29 @@ fn main() {
             }
         }
     }
+}
+
+/// The build over 1M triangles (a 1000 x 500-cell terrain, as benches/bvh.rs),
+/// and how much of it the four-wide collapse takes.
+fn build_time() {
+    let tris = twinray_bench::terrain(1000, 500, 1.0, 0.5, 1);
+    let boxes: Vec<twinray::math::Aabb> = tris
+        .iter()
+        .map(|t| twinray::math::Aabb::from_points(t))
+        .collect();
+    let (mut build_s, mut collapse_s) = (Vec::new(), Vec::new());
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        let bvh = twinray::bvh::build(&boxes, &twinray::bvh::BuildOptions::default());
+        build_s.push(t0.elapsed().as_secs_f64());
+        let t0 = Instant::now();
+        let wide = twinray::bvh::collapse(&bvh.nodes);
+        collapse_s.push(t0.elapsed().as_secs_f64());
+        assert_eq!(wide, bvh.wide);
+    }
+    println!(
+        "build 1M triangles: {:.3} s (wall, median of 3), of which the four-wide collapse {:.3} s",
+        median(build_s),
+        median(collapse_s)
+    );
 }

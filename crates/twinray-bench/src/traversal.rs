@@ -27,15 +27,18 @@ pub enum Tree {
     BinaryScalar,
     /// The four-wide tree with every leaf primitive tested one by one.
     WideScalar,
+    /// The four-wide tree, each lane of a packet descending it alone
+    /// (`Bvh::closest_each_wide`), leaves as blocks.
+    WideEach,
 }
 
 impl Tree {
     fn wide(self) -> bool {
-        matches!(self, Tree::Wide | Tree::WideScalar)
+        matches!(self, Tree::Wide | Tree::WideScalar | Tree::WideEach)
     }
 
     fn blocks(self) -> bool {
-        matches!(self, Tree::Binary | Tree::Wide)
+        matches!(self, Tree::Binary | Tree::Wide | Tree::WideEach)
     }
 }
 
@@ -93,7 +96,9 @@ fn nearest<const K: usize>(
         blocks: tree.blocks().then_some(&world.leaf_triangles),
         rays,
     };
-    if tree.wide() {
+    if tree == Tree::WideEach {
+        bvh.closest_each_wide(&p, st, test)
+    } else if tree.wide() {
         bvh.closest_wide(&p, st, test)
     } else {
         bvh.closest_binary(&p, st, test)
@@ -116,6 +121,10 @@ pub struct RaySets {
     /// Shadow segments of the pairs whose two rays both hit: the twin
     /// method's two-lane shadow packets.
     pub shadow_pairs: Vec<[(Vec3, Vec3, f32); 2]>,
+    /// Four views: each eye ray and the same pixel's rays from eyes moved
+    /// along the right axis by 2/3, 4/3 and 2 % of the distance to the
+    /// target (a four-lane twin packet).
+    pub quads: Vec<[Ray; 4]>,
 }
 
 impl RaySets {
@@ -132,6 +141,10 @@ impl RaySets {
         let eye2 = vp.from + right * (0.02 * (vp.at - vp.from).length());
         let mut eye = Vec::with_capacity(size * size);
         let mut pairs = Vec::with_capacity(size * size);
+        let mut quads = Vec::with_capacity(size * size);
+        let eyes: [Vec3; 4] = std::array::from_fn(|k| {
+            vp.from + right * (0.02 * k as f32 / 3.0 * (vp.at - vp.from).length())
+        });
         for j in 0..size {
             for i in 0..size {
                 let x = (i as f32 - (size as f32 - 1.0) * 0.5) * px;
@@ -139,6 +152,7 @@ impl RaySets {
                 let dir = (fwd + right * x + up * y).normalize();
                 eye.push(Ray::new(vp.from, dir));
                 pairs.push([Ray::new(vp.from, dir), Ray::new(eye2, dir)]);
+                quads.push(eyes.map(|e| Ray::new(e, dir)));
             }
         }
         let light = world
@@ -192,6 +206,7 @@ impl RaySets {
             shadow,
             reflected,
             shadow_pairs,
+            quads,
         })
     }
 }
@@ -245,6 +260,24 @@ pub fn pairs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
     pass(&sets.pairs, threads, |pair| {
         let h = nearest(&w.bvh, w, pair, tree, &mut TraversalStats::default());
         checksum(h.prim[0], h.hit[0].t).wrapping_add(checksum(h.prim[1], h.hit[1].t))
+    })
+}
+
+/// The work of tracing the stereo pairs as two-lane packets on `tree`.
+pub fn pair_work(sets: &RaySets, tree: Tree) -> TraversalStats {
+    let mut st = TraversalStats::default();
+    for pair in &sets.pairs {
+        nearest(&sets.world.bvh, &sets.world, pair, tree, &mut st);
+    }
+    st
+}
+
+/// Nearest hits of the four-view packets (`RaySets::quads`).
+pub fn quads_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
+    let w = &sets.world;
+    pass(&sets.quads, threads, |rays| {
+        let h = nearest(&w.bvh, w, rays, tree, &mut TraversalStats::default());
+        (0..4).fold(0u64, |a, l| a.wrapping_add(checksum(h.prim[l], h.hit[l].t)))
     })
 }
 

@@ -204,17 +204,8 @@ impl WidePair {
         }
     }
 
-    /// The children each ray enters before its `best * CULL_SLACK`: bits 0-3
-    /// the first ray's, 4-7 the second's; and the entry distances, alike.
-    #[inline(always)]
-    fn enter(&self, node: &Node4, best: [f32; 2]) -> (u32, [f32; 8]) {
-        let (tn, tf) = self.slabs(node);
-        let bound = halves([best[0] * CULL_SLACK; 4], [best[1] * CULL_SLACK; 4]);
-        let m = (tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask();
-        (m, tn.to_array())
-    }
-
-    /// The children each segment `0 < t < t_max` enters (bits as `enter`'s);
+    /// The children each segment `0 < t < t_max` enters: bits 0-3 the first
+    /// segment's, 4-7 the second's;
     /// per lane `WideRay::enters`' arithmetic.
     #[inline(always)]
     fn enters(&self, node: &Node4, t_max: [f32; 2]) -> u32 {
@@ -253,31 +244,26 @@ struct Entry {
     tn: f32,
 }
 
-/// The children of `node` in `mask` by entry distance `tn`: returns the
-/// nearest and stacks the others so that they pop nearest first.
+/// The children in `mask` by `key` (their entry distances): returns the
+/// nearest's entry and stacks the others' so that they pop nearest first.
 #[inline(always)]
-fn take_nearest(
-    stack: &mut ArrayVec<Entry, STACK>,
-    node: &Node4,
+fn take_nearest<E: Copy>(
+    stack: &mut ArrayVec<E, STACK>,
     mask: u32,
-    tn: &[f32; WIDTH],
-) -> Entry {
-    let entry = |c: usize| Entry {
-        child: node.child[c],
-        count: node.count[c],
-        tn: tn[c],
-    };
-    let a = entry(mask.trailing_zeros() as usize);
+    key: &[f32; WIDTH],
+    entry: impl Fn(usize) -> E,
+) -> E {
+    let a = mask.trailing_zeros() as usize;
     let rest = mask & (mask - 1);
     if rest == 0 {
-        return a;
+        return entry(a);
     }
-    let b = entry(rest.trailing_zeros() as usize);
+    let b = rest.trailing_zeros() as usize;
     let rest = rest & (rest - 1);
-    let (near, far) = if b.tn < a.tn { (b, a) } else { (a, b) };
+    let (near, far) = if key[b] < key[a] { (b, a) } else { (a, b) };
     if rest == 0 {
-        let _ = stack.try_push(far);
-        return near;
+        let _ = stack.try_push(entry(far));
+        return entry(near);
     }
     // Three or four: sorted by insertion, farthest first.
     let mut sorted = [near; WIDTH];
@@ -285,20 +271,30 @@ fn take_nearest(
     let mut n = 2;
     let mut bits = rest;
     while bits != 0 {
-        let e = entry(bits.trailing_zeros() as usize);
+        let c = bits.trailing_zeros() as usize;
         bits &= bits - 1;
         let mut i = n;
-        while i > 0 && sorted[i - 1].tn > e.tn {
+        while i > 0 && key[sorted[i - 1]] > key[c] {
             sorted[i] = sorted[i - 1];
             i -= 1;
         }
-        sorted[i] = e;
+        sorted[i] = c;
         n += 1;
     }
-    for e in sorted[1..n].iter().rev() {
-        let _ = stack.try_push(*e);
+    for &c in sorted[1..n].iter().rev() {
+        let _ = stack.try_push(entry(c));
     }
-    sorted[0]
+    entry(sorted[0])
+}
+
+/// A stereo pair's stack entry: a child, the pair's lanes that entered it
+/// (bit 0: the first ray, bit 1: the second) and their entry distances.
+#[derive(Clone, Copy)]
+struct PairEntry {
+    child: u32,
+    count: u32,
+    lanes: u32,
+    tn: [f32; 2],
 }
 
 /// A packet's stack entry: a child, the lanes that entered it, their entry distances.
@@ -312,13 +308,10 @@ struct PacketEntry<const K: usize> {
 
 impl Bvh {
     /// Nearest hit per lane (see `closest_binary` for the contract). On the
-    /// four-wide tree when there is one, a ray alone and each ray of a stereo
-    /// pair descending it by itself; wider packets on the binary tree. All
-    /// give the same hits. With leaves of triangles tested four at a time the
-    /// wide descent of a single ray measured 1.3-1.7x the binary one, and two
-    /// single wide descents beat one binary pair descent, 1.2-1.7x; the wide
-    /// pair descent was slower, 0.73-0.77x (docs/benchmarks.md, "SIMD triangle
-    /// leaves").
+    /// four-wide tree when there is one: a ray alone descends it by itself,
+    /// a stereo pair in one descent (`closest_pair_wide`); wider packets on
+    /// the binary tree. All give the same hits. Measured in
+    /// docs/benchmarks.md ("Issue 17, third pass: nodes and descent").
     #[inline]
     pub fn closest<const K: usize>(
         &self,
@@ -328,6 +321,8 @@ impl Bvh {
     ) -> PacketHits<K> {
         if self.wide.is_empty() {
             self.closest_binary(packet, stats, test)
+        } else if K == 2 && packet.mask == 0b11 {
+            self.closest_pair_wide(packet, stats, test)
         } else if K <= 2 || packet.mask.count_ones() == 1 {
             self.closest_each_wide(packet, stats, test)
         } else {
@@ -398,11 +393,13 @@ impl Bvh {
         if K == 1 || packet.mask.count_ones() == 1 {
             return self.closest_each_wide(packet, stats, test);
         }
+        if K == 2 {
+            return self.closest_pair_wide(packet, stats, test);
+        }
         let rays: [SingleRay; K] = std::array::from_fn(|l| {
             SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min)
         });
         let wide_rays: [WideRay; K] = std::array::from_fn(|l| WideRay::new(&rays[l]));
-        let pair = (K == 2).then(|| WidePair::new([&wide_rays[0], &wide_rays[1 % K]]));
         let mut best = packet.t_max;
         let mut stack = ArrayVec::<PacketEntry<K>, STACK>::new();
         stack.push(PacketEntry {
@@ -429,18 +426,12 @@ impl Bvh {
             if mask & (mask - 1) == 0 {
                 // One lane left in this subtree: finish it as a plain ray.
                 let l = mask.trailing_zeros() as usize;
-                let mut state = LaneHit {
-                    best: best[l],
-                    prim: out.prim[l],
-                    hit: out.hit[l],
-                };
                 let start = Entry {
                     child,
                     count,
                     tn: tn[l],
                 };
-                self.wide_single(start, &rays[l], &mut state, stats, &mut test, l);
-                (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
+                self.finish_lane(start, &rays[l], l, &mut best, &mut out, stats, &mut test);
                 continue;
             }
             stats.nodes += 1;
@@ -460,36 +451,8 @@ impl Bvh {
             let mut lanes_in = [0u32; WIDTH];
             let mut tn_in = [[0.0f32; K]; WIDTH];
             let mut key = [f32::INFINITY; WIDTH];
-            if let Some(pair) = &pair {
-                // A stereo pair: both rays against the four children in one register.
-                if mask == 0b11 {
-                    stats.box_tests += 2 * WIDTH as u64;
-                    let (m, t) = pair.enter(node, [best[0], best[1 % K]]);
-                    for c in 0..WIDTH {
-                        lanes_in[c] = (m >> c) & 1 | ((m >> (c + WIDTH)) & 1) << 1;
-                        tn_in[c][0] = t[c];
-                        tn_in[c][1 % K] = t[c + WIDTH];
-                        key[c] = fmin(
-                            if m & (1 << c) != 0 {
-                                t[c]
-                            } else {
-                                f32::INFINITY
-                            },
-                            if m & (1 << (c + WIDTH)) != 0 {
-                                t[c + WIDTH]
-                            } else {
-                                f32::INFINITY
-                            },
-                        );
-                    }
-                }
-            }
             // Each lane against the four children in one register.
-            let mut lanes = if pair.is_some() && mask == 0b11 {
-                0
-            } else {
-                mask
-            };
+            let mut lanes = mask;
             while lanes != 0 {
                 let l = lanes.trailing_zeros() as usize;
                 lanes &= lanes - 1;
@@ -526,6 +489,154 @@ impl Bvh {
         out
     }
 
+    /// The primitives of a leaf child (`count` > 0) that starts at `first`:
+    /// the one place the descents turn a child into its leaf.
+    #[inline(always)]
+    fn leaf(&self, first: u32, count: u32) -> &[u32] {
+        let first = first as usize;
+        &self.order[first..first + count as usize]
+    }
+
+    /// `closest` for a stereo pair (`K == 2`, both lanes active) on the
+    /// four-wide tree (which must exist), in one descent: a node's four
+    /// children are tested for each ray (an outer loop over the two rays,
+    /// each testing the four children in one register), a child is stacked
+    /// if either ray enters it before its own
+    /// nearest hit so far, with the lanes that did (a lane is carried into a
+    /// child only by its own box test, and dropped at a pop when its own
+    /// nearest hit is nearer than its own entry). Children go nearest first
+    /// by the nearer of the two rays' entries. A subtree that only one ray
+    /// enters is finished by that ray's single descent. Per lane the slab and leaf
+    /// arithmetic is the single ray's, so each lane's hit is the one it gets
+    /// alone (culling is conservative, ties go to the lower index).
+    #[inline]
+    pub(super) fn closest_pair_wide<const K: usize>(
+        &self,
+        packet: &Packet<K>,
+        stats: &mut TraversalStats,
+        mut test: impl NearestTest,
+    ) -> PacketHits<K> {
+        debug_assert!(K == 2 && packet.mask == 0b11);
+        let mut out = PacketHits::<K>::none();
+        let (a, b) = (0, 1 % K);
+        let rays = [a, b].map(|l| SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min));
+        let wide_rays = [WideRay::new(&rays[0]), WideRay::new(&rays[1])];
+        let mut best = packet.t_max;
+        let slack = |best: &[f32; K], l: usize| best[l] * CULL_SLACK;
+        let mut lanes = 0;
+        for (bit, l) in [(1, a), (2, b)] {
+            if packet.t_min <= slack(&best, l) {
+                lanes |= bit;
+            }
+        }
+        let (mut nodes, mut boxes) = (0u64, 0u64);
+        let mut stack = ArrayVec::<PairEntry, STACK>::new();
+        let mut current = (lanes != 0).then_some(PairEntry {
+            child: 0,
+            count: 0,
+            lanes,
+            tn: [packet.t_min; 2],
+        });
+        while let Some(PairEntry {
+            child,
+            count,
+            lanes,
+            tn,
+        }) = current
+        {
+            if lanes != 0b11 {
+                // One lane left in this subtree: finish it as a plain ray.
+                let i = lanes.trailing_zeros() as usize;
+                let start = Entry {
+                    child,
+                    count,
+                    tn: tn[i],
+                };
+                let l = [a, b][i];
+                self.finish_lane(start, &rays[i], l, &mut best, &mut out, stats, &mut test);
+            } else if count > 0 {
+                nodes += 1;
+                // Lane bits are packet lanes 0 and 1 for K == 2.
+                test_leaf(
+                    self.leaf(child, count),
+                    lanes,
+                    &mut best,
+                    &mut out,
+                    stats,
+                    &mut test,
+                );
+            } else {
+                nodes += 1;
+                let node = &self.wide[child as usize];
+                boxes += 2 * WIDTH as u64;
+                // Each ray against the four children in one four-wide
+                // register, one ray after the other: this measured faster
+                // than both rays in one eight-wide register (`WidePair`).
+                let (m0, t0) = wide_rays[0].enter(node, best[a]);
+                let (m1, t1) = wide_rays[1].enter(node, best[b]);
+                let any = m0 | m1;
+                if any != 0 {
+                    let entered = |m: u32, t: &[f32; WIDTH], c: usize| {
+                        if m & (1 << c) != 0 {
+                            t[c]
+                        } else {
+                            f32::INFINITY
+                        }
+                    };
+                    let key: [f32; WIDTH] =
+                        std::array::from_fn(|c| fmin(entered(m0, &t0, c), entered(m1, &t1, c)));
+                    current = Some(take_nearest(&mut stack, any, &key, |c| PairEntry {
+                        child: node.child[c],
+                        count: node.count[c],
+                        lanes: (m0 >> c) & 1 | ((m1 >> c) & 1) << 1,
+                        tn: [t0[c], t1[c]],
+                    }));
+                    continue;
+                }
+            }
+            current = None;
+            while let Some(mut e) = stack.pop() {
+                if e.lanes & 1 != 0 && e.tn[0] > slack(&best, a) {
+                    e.lanes &= !1;
+                }
+                if e.lanes & 2 != 0 && e.tn[1] > slack(&best, b) {
+                    e.lanes &= !2;
+                }
+                if e.lanes != 0 {
+                    current = Some(e);
+                    break;
+                }
+            }
+        }
+        stats.nodes += nodes;
+        stats.box_tests += boxes;
+        out
+    }
+
+    /// Packet lane `l` (ray `ray`) alone through the subtree at `start`: the
+    /// packet descents' finish where one lane is left, improving its entry
+    /// in `best` and `out`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn finish_lane<const K: usize, T: NearestTest>(
+        &self,
+        start: Entry,
+        ray: &SingleRay,
+        l: usize,
+        best: &mut [f32; K],
+        out: &mut PacketHits<K>,
+        stats: &mut TraversalStats,
+        test: &mut T,
+    ) {
+        let mut state = LaneHit {
+            best: best[l],
+            prim: out.prim[l],
+            hit: out.hit[l],
+        };
+        self.wide_single(start, ray, &mut state, stats, test, l);
+        (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
+    }
+
     /// One ray's descent of the four-wide subtree at `start`, improving `state`.
     #[inline(always)]
     fn wide_single<T: NearestTest>(
@@ -559,7 +670,11 @@ impl Bvh {
                 let (m, t) = wray.enter(node, lh.best);
                 if m != 0 {
                     // The nearest child next, the others stacked farthest first.
-                    current = Some(take_nearest(&mut stack, node, m, &t));
+                    current = Some(take_nearest(&mut stack, m, &t, |c| Entry {
+                        child: node.child[c],
+                        count: node.count[c],
+                        tn: t[c],
+                    }));
                     continue;
                 }
             }
