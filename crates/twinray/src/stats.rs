@@ -65,6 +65,21 @@ pub struct TraceCounts {
     pub cache_colour_hits: u64,
     /// Rays traced on past a cut-away hit (alpha MASK), one per layer.
     pub cutout_continuations: u64,
+    /// Key views (`--share-shading`, mirror and glass surfaces): samples
+    /// traced in full as key views, probe rays of the views between them,
+    /// samples between key views that took the interpolated secondary
+    /// colour, and those that traced their own (the key views disagreed, or
+    /// the probe or a light's fan did).
+    pub key_view_samples: u64,
+    pub key_view_probes: u64,
+    pub interpolated_samples: u64,
+    pub key_view_fallbacks: u64,
+    /// Shadow fans (`bvh::ShadowFan`): one descent for the shadow segments of
+    /// a run of samples toward one light (`fan_queries`); of those, the runs
+    /// proved lit whole (`fan_free`) and the shadow rays they saved.
+    pub fan_queries: u64,
+    pub fan_free: u64,
+    pub fan_saved_rays: u64,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -113,6 +128,13 @@ impl TraceCounts {
         self.cache_fallbacks += o.cache_fallbacks;
         self.cache_colour_hits += o.cache_colour_hits;
         self.cutout_continuations += o.cutout_continuations;
+        self.key_view_samples += o.key_view_samples;
+        self.key_view_probes += o.key_view_probes;
+        self.interpolated_samples += o.interpolated_samples;
+        self.key_view_fallbacks += o.key_view_fallbacks;
+        self.fan_queries += o.fan_queries;
+        self.fan_free += o.fan_free;
+        self.fan_saved_rays += o.fan_saved_rays;
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -198,6 +220,14 @@ pub struct Report {
     pub cache_hits: u64,
     pub cache_fallbacks: u64,
     pub cache_colour_hits: u64,
+    /// Key views and shadow fans (`--share-shading`): see `TraceCounts`.
+    pub key_view_samples: u64,
+    pub key_view_probes: u64,
+    pub interpolated_samples: u64,
+    pub key_view_fallbacks: u64,
+    pub fan_queries: u64,
+    pub fan_free: u64,
+    pub fan_saved_rays: u64,
     pub nodes_visited: u64,
     pub box_tests: u64,
     pub primitive_tests: u64,
@@ -251,6 +281,13 @@ impl Report {
         self.cache_hits = c.cache_hits;
         self.cache_fallbacks = c.cache_fallbacks;
         self.cache_colour_hits = c.cache_colour_hits;
+        self.key_view_samples = c.key_view_samples;
+        self.key_view_probes = c.key_view_probes;
+        self.interpolated_samples = c.interpolated_samples;
+        self.key_view_fallbacks = c.key_view_fallbacks;
+        self.fan_queries = c.fan_queries;
+        self.fan_free = c.fan_free;
+        self.fan_saved_rays = c.fan_saved_rays;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
         self.primitive_tests = c.prim_tests;

@@ -11,6 +11,7 @@ pub(crate) mod brute_force;
 mod build;
 mod splice;
 mod traverse;
+mod wedge;
 mod wide;
 
 pub use build::{build, primitive_box, BuildOptions};
@@ -19,6 +20,7 @@ pub use traverse::{
     segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
     TraversalStats,
 };
+pub use wedge::{FanWork, ShadowFan};
 pub use wide::{collapse, Node4, WIDTH};
 
 use crate::math::Aabb;

@@ -690,6 +690,10 @@ impl Job {
                     "shared shading: cache entries {} (refused at a shadow edge {}), samples that took an entry's light {} (its whole colour {}), exact fall-backs {}",
                     c.cache_entries, c.cache_edge_refusals, c.cache_hits, c.cache_colour_hits, c.cache_fallbacks
                 )));
+                m.push(Message::info(format!(
+                    "key views: samples traced as key views {}, interpolated samples {}, fall-backs {} (probe rays {}); shadow fans {} ({} lit whole, {} shadow rays saved)",
+                    c.key_view_samples, c.interpolated_samples, c.key_view_fallbacks, c.key_view_probes, c.fan_queries, c.fan_free, c.fan_saved_rays
+                )));
             }
         }
         m
@@ -1247,6 +1251,7 @@ fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
         merge_secondary: a.merge_secondary || a.fast,
         reproject,
         shared_shading,
+        key_spacing: a.key_spacing,
     })
 }
 

@@ -139,6 +139,12 @@ pub struct Approximations {
     /// Issue 16: the light of a surface point shaded once for every view that
     /// sees it (supersedes the safe reprojection when both are asked).
     pub shared_shading: Option<SharedShading>,
+    /// Under the shared shading (tolerance above 0), mirror and glass points
+    /// seen by several views of a group are traced in full by key views,
+    /// every `key_spacing`-th of them (0: adaptive, the outermost two and
+    /// halved where they disagree); the views between take their secondary
+    /// colour interpolated where it is close (`twin::key_views`).
+    pub key_spacing: usize,
 }
 
 /// The multi-view shading cache (`--share-shading`, see `shading_cache`).

@@ -88,7 +88,7 @@ impl<const K: usize> TwinBatch<'_, K> {
         for (g, group) in groups.iter().enumerate() {
             let Some(i) = group[0] else { continue };
             if !self.gives_light(scratch, 0, i, tolerance) {
-                self.shade_group(tracer, scratch, group, out);
+                self.shade_with_key_views(tracer, scratch, group, tolerance, out);
                 whole[g] = true;
                 continue;
             }
@@ -147,7 +147,7 @@ impl<const K: usize> TwinBatch<'_, K> {
                 }
             }
             if rest.iter().any(Option::is_some) {
-                self.shade_group(tracer, scratch, &rest, out);
+                self.shade_with_key_views(tracer, scratch, &rest, tolerance, out);
             }
         }
         scratch.groups = groups;
