@@ -488,6 +488,33 @@ fn mirror_floor_scene() -> Scene {
     scene
 }
 
+/// A strong mirror floor reflecting the wall, on which a light with an
+/// inverse-square falloff, close to it, makes a bright spot.
+fn spot_on_the_wall_in_a_mirror() -> Scene {
+    let mut scene = open_scene();
+    let floor = scene.materials.len() - 1;
+    scene.materials[floor].mirror = 0.8;
+    scene.materials[floor].kd = 0.2;
+    scene.lights.push(Light {
+        kind: LightKind::Point {
+            position: Vec3::new(0.0, 9.6, 0.0),
+            inverse_square: true,
+            range: None,
+        },
+        color: Some(Color::splat(0.2)),
+    });
+    scene
+}
+
+/// A strong mirror floor reflecting a red ball with a sharp highlight.
+fn shiny_ball_in_a_mirror() -> Scene {
+    let mut scene = faint_mirror_scene(0.8);
+    let ball = scene.materials.len() - 1;
+    scene.materials[ball].ks = 0.9;
+    scene.materials[ball].shine = 300.0;
+    scene
+}
+
 /// `shared(tolerance)` in batches of `per_batch` views, key views every
 /// `spacing`-th (1: every view a key view, nothing interpolated).
 fn keyed(tolerance: f32, per_batch: usize, spacing: usize) -> RenderOptions {
@@ -511,8 +538,19 @@ fn keyed(tolerance: f32, per_batch: usize, spacing: usize) -> RenderOptions {
 /// and every view is exact.
 #[test]
 fn views_between_key_views_keep_what_their_own_reflection_shows() {
-    let world = World::new(mirror_floor_scene());
-    for (views, per_batch) in [(8, 4), (16, 8)] {
+    // (scene, views, batch, whether a probe or a fan must refuse somewhere)
+    for (scene, views, per_batch, refusals) in [
+        (mirror_floor_scene(), 8, 4, true),
+        (mirror_floor_scene(), 16, 8, true),
+        // The reflection of a red ball with a sharp highlight: it moves
+        // across the ball from view to view, which only the key views'
+        // colours (not their chains) tell apart.
+        (shiny_ball_in_a_mirror(), 16, 8, false),
+        // The spot's reflection: both key views may see it dim and the views
+        // between bright; the bound on the light's curvature refuses.
+        (spot_on_the_wall_in_a_mirror(), 16, 8, false),
+    ] {
+        let world = World::new(scene);
         let (cam, rig) = rig(&world, views, 0.1, Some(8.0));
         let exact = run(
             &world,
@@ -531,7 +569,7 @@ fn views_between_key_views_keep_what_their_own_reflection_shows() {
                 "{what}: {c:?}"
             );
             assert!(
-                c.key_view_fallbacks > 0 && c.fan_queries > c.fan_free,
+                !refusals || c.key_view_fallbacks > 0 && c.fan_queries > c.fan_free,
                 "{what}: {c:?}"
             );
             assert!(c.rays.reflected < every.counts.rays.reflected, "{what}");

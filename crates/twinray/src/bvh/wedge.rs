@@ -133,10 +133,21 @@ impl<'a> ShadowFan<'a> {
         }
         match shape {
             Shape::Sphere(s) => {
-                let reach = s.radius.abs() + self.eps;
-                self.origins
-                    .iter()
-                    .any(|&o| distance_to_segment(s.center, o, self.light) <= reach)
+                let r = s.radius.abs();
+                let reach = r + self.eps;
+                self.origins.iter().any(|&o| {
+                    // A segment that starts outside the sphere and leaves it
+                    // (the surface the run lies on, lit) misses it: its
+                    // nearest point to the centre is its start. Else, by
+                    // distance.
+                    let out = o - s.center;
+                    let round = 16.0
+                        * f32::EPSILON
+                        * (o.abs().max_element() + s.center.abs().max_element() + r);
+                    let leaves = out.length() > r + round
+                        && (self.light - o).dot(out) > round * out.length();
+                    !leaves && distance_to_segment(s.center, o, self.light) <= reach
+                })
             }
             Shape::Triangle(t) => {
                 let n = t.plane_normal;
@@ -355,9 +366,21 @@ mod tests {
     }
 
     /// The floor the origins lie on (a triangle, its plane below them, the
-    /// light above) does not count as met: its own plane separates it.
+    /// light above) does not count as met: its own plane separates it; nor
+    /// does a ball whose lit side they lie on.
     #[test]
     fn the_surface_the_run_lies_on_is_not_met() {
+        let ball = sphere(Vec3::ZERO, 2.0);
+        let shapes = vec![ball];
+        let on: Vec<Vec3> = (0..5)
+            .map(|i| Vec3::new(i as f32 * 0.05, 0.0, 2.0 + 1e-4))
+            .collect();
+        let fan = ShadowFan::new(&on, Vec3::new(0.0, 0.0, 10.0), 0.0).expect("finite");
+        assert!(tree(&shapes).fan_is_free(&fan, &shapes, &mut FanWork::default()));
+        // Its far side, toward the same light: met.
+        let behind: Vec<Vec3> = on.iter().map(|p| Vec3::new(p.x, p.y, -p.z)).collect();
+        let fan = ShadowFan::new(&behind, Vec3::new(0.0, 0.0, 10.0), 0.0).expect("finite");
+        assert!(!tree(&shapes).fan_is_free(&fan, &shapes, &mut FanWork::default()));
         let floor = triangle(
             Vec3::new(-10.0, -10.0, 0.0),
             Vec3::new(10.0, -10.0, 0.0),

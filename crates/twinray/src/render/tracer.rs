@@ -11,6 +11,7 @@
 mod key_views;
 mod shadow_fans;
 
+pub(crate) use key_views::distance_to_segment;
 pub use key_views::{Chain, Link};
 
 use crate::bvh::{

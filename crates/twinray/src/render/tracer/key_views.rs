@@ -11,6 +11,7 @@
 
 use super::{Donor, SecondaryRays, ShadingTree, Tracer};
 use crate::bvh::{Packet, PacketHits};
+use crate::lights::LightKind;
 use crate::math::{Color, Vec3};
 use crate::shading::offset_point;
 
@@ -76,7 +77,16 @@ impl Tracer<'_> {
     /// (no point to fan toward) make the chains disagree where they light a
     /// surface. `slack` widens each fan: how far the views between may
     /// start their rays off the line of the key views' (their hits differ).
-    pub fn chains_agree(&mut self, a: &Chain, b: &Chain, slack: f32) -> bool {
+    ///
+    /// Between two lit hits the direct light varies, and the interpolation
+    /// is off by at most its second derivative along the segment times s²/8
+    /// (s the segment's length, widened by `slack`): for a diffuse term
+    /// cos θ / d^p toward a light at least D away, (p + 1)(p + 5) / D^(p+2)
+    /// (p = 2 with an inverse-square falloff), times kd, the surface's and
+    /// the light's colour. The chains disagree if that sum exceeds
+    /// `tolerance`, or a chain's surface has a highlight, a texture or a
+    /// spot light on it (terms with no such bound here).
+    pub fn chains_agree(&mut self, a: &Chain, b: &Chain, slack: f32, tolerance: f32) -> bool {
         if a.len() != b.len()
             || a.iter()
                 .zip(b)
@@ -86,6 +96,7 @@ impl Tracer<'_> {
         }
         let world = self.world;
         let scene = &world.scene;
+        let mut curvature = 0.0f32;
         for (x, y) in a.iter().zip(b) {
             if x.prim == PacketHits::<1>::NO_HIT {
                 continue;
@@ -101,6 +112,9 @@ impl Tracer<'_> {
                 (offset_point(l.point, facing, l.t), facing)
             };
             let ((oa, na), (ob, nb)) = (origin(x), origin(y));
+            let span = (oa - ob).length() + slack;
+            let albedo = material.kd * material.color.max_element();
+            let unbounded = material.ks > 0.0 || material.texture.is_some();
             for light in &scene.lights {
                 let Some(position) = light.position() else {
                     return false;
@@ -109,6 +123,29 @@ impl Tracer<'_> {
                 match (faces(oa, na), faces(ob, nb)) {
                     (false, false) => continue,
                     (true, true) => {
+                        let p = match light.kind {
+                            LightKind::Point { inverse_square, .. } => {
+                                if inverse_square {
+                                    2
+                                } else {
+                                    0
+                                }
+                            }
+                            _ => return false,
+                        };
+                        if unbounded {
+                            return false;
+                        }
+                        let near = distance_to_segment(position, oa, ob) - slack;
+                        if near.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                            return false;
+                        }
+                        let colour = light.color.unwrap_or(Color::ONE).max_element();
+                        let k = ((p + 1) * (p + 5)) as f32;
+                        curvature += albedo * colour * span * span / 8.0 * k / near.powi(p + 2);
+                        if curvature.is_nan() || curvature > tolerance {
+                            return false;
+                        }
                         let end_error = position.abs().max_element() * 4.0 * f32::EPSILON;
                         if !self.fan_is_free(&[oa, ob], position, end_error + slack) {
                             return false;
@@ -168,4 +205,15 @@ impl Tracer<'_> {
         let mut tree = ShadingTree::new(SecondaryRays::Own);
         self.shade(packet, hits, self.settings.max_depth, [1.0; K], &mut tree)
     }
+}
+
+/// Distance from `p` to the segment `a`–`b`.
+pub(crate) fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
+    let ab = b - a;
+    let s = if ab.length_squared() > 0.0 {
+        ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + ab * s)).length()
 }

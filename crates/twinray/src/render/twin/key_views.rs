@@ -15,22 +15,11 @@
 //! down to neighbours. The key views' own colours are exact.
 
 use super::{RowScratch, TwinBatch};
-use crate::math::{Color, Vec3};
+use crate::math::Color;
 use crate::render::grouping::Group;
 use crate::render::sampler::RowColors;
-use crate::render::tracer::Chain;
+use crate::render::tracer::{distance_to_segment, Chain};
 use crate::render::Tracer;
-
-/// Distance from `p` to the segment `a`–`b`.
-fn off_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
-    let ab = b - a;
-    let s = if ab.length_squared() > 0.0 {
-        ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p - (a + ab * s)).length()
-}
 
 /// Per lane of a group: its key view's chain and secondary colour.
 #[derive(Default)]
@@ -111,7 +100,7 @@ impl<const K: usize> TwinBatch<'_, K> {
                 (Some(pa), Some(pb)) => lanes[a + 1..b]
                     .iter()
                     .filter_map(|&v| point(v))
-                    .map(|p| off_segment(p, pa, pb))
+                    .map(|p| distance_to_segment(p, pa, pb))
                     .fold(0.0f32, f32::max),
                 _ => f32::INFINITY,
             };
@@ -120,7 +109,7 @@ impl<const K: usize> TwinBatch<'_, K> {
                 .max_element()
                 <= tolerance
                 && slack.is_finite()
-                && tracer.chains_agree(&keys.chains[va], &keys.chains[vb], 2.0 * slack);
+                && tracer.chains_agree(&keys.chains[va], &keys.chains[vb], 2.0 * slack, tolerance);
             if close {
                 for &v in &lanes[a + 1..b] {
                     let Some(k) = group[v] else { continue };
