@@ -304,8 +304,10 @@ pub struct ApproxArgs {
     /// views are traced in full by every K-th of them (key views); the views
     /// between take the key views' secondary colour, interpolated, where both
     /// hit the same primitives, nothing shadows the light between their hits,
-    /// and their colours agree within --share-tolerance. 0: adaptive (the
-    /// outermost two, halved where they disagree).
+    /// and their colours agree within --share-tolerance, and the light's
+    /// curvature between their hits is within it. 0: adaptive (the outermost
+    /// two, halved where they disagree); 1: no key views (every view traces
+    /// its own).
     #[arg(long, value_name = "K", default_value_t = 0)]
     pub key_spacing: usize,
 }

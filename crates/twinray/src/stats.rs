@@ -74,12 +74,14 @@ pub struct TraceCounts {
     pub key_view_probes: u64,
     pub interpolated_samples: u64,
     pub key_view_fallbacks: u64,
+    /// Groups traced as packets because their primitive's last key views
+    /// interpolated nothing.
+    pub key_view_skipped_groups: u64,
     /// Shadow fans (`bvh::ShadowFan`): one descent for the shadow segments of
-    /// a run of samples toward one light (`fan_queries`); of those, the runs
-    /// proved lit whole (`fan_free`) and the shadow rays they saved.
+    /// several hits toward one light (`fan_queries`, key views' checks); of
+    /// those, the fans proved free of occluders (`fan_free`).
     pub fan_queries: u64,
     pub fan_free: u64,
-    pub fan_saved_rays: u64,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -132,9 +134,9 @@ impl TraceCounts {
         self.key_view_probes += o.key_view_probes;
         self.interpolated_samples += o.interpolated_samples;
         self.key_view_fallbacks += o.key_view_fallbacks;
+        self.key_view_skipped_groups += o.key_view_skipped_groups;
         self.fan_queries += o.fan_queries;
         self.fan_free += o.fan_free;
-        self.fan_saved_rays += o.fan_saved_rays;
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -225,9 +227,9 @@ pub struct Report {
     pub key_view_probes: u64,
     pub interpolated_samples: u64,
     pub key_view_fallbacks: u64,
+    pub key_view_skipped_groups: u64,
     pub fan_queries: u64,
     pub fan_free: u64,
-    pub fan_saved_rays: u64,
     pub nodes_visited: u64,
     pub box_tests: u64,
     pub primitive_tests: u64,
@@ -285,9 +287,9 @@ impl Report {
         self.key_view_probes = c.key_view_probes;
         self.interpolated_samples = c.interpolated_samples;
         self.key_view_fallbacks = c.key_view_fallbacks;
+        self.key_view_skipped_groups = c.key_view_skipped_groups;
         self.fan_queries = c.fan_queries;
         self.fan_free = c.fan_free;
-        self.fan_saved_rays = c.fan_saved_rays;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
         self.primitive_tests = c.prim_tests;

@@ -516,7 +516,7 @@ fn shiny_ball_in_a_mirror() -> Scene {
 }
 
 /// `shared(tolerance)` in batches of `per_batch` views, key views every
-/// `spacing`-th (1: every view a key view, nothing interpolated).
+/// `spacing`-th (1: no key views, every view traces its own).
 fn keyed(tolerance: f32, per_batch: usize, spacing: usize) -> RenderOptions {
     RenderOptions {
         views_per_batch: per_batch,
@@ -531,8 +531,8 @@ fn keyed(tolerance: f32, per_batch: usize, spacing: usize) -> RenderOptions {
 /// Key views on the mirror floor: views between two key views take their
 /// reflection, interpolated, only where it is close. The pole's reflection
 /// and the stripe's, narrower than the key views' spacing, are kept: the
-/// probe sees the pole, the shadow fan the bar. Against the same render with
-/// every view a key view (spacing 1, which interpolates nothing) a view
+/// probe sees the pole, the shadow fan the bar. Against the same render
+/// without key views (spacing 1: every view traces its own) a view
 /// differs only by interpolation: within twice the tolerance (the two key
 /// views' colours agree within it). With tolerance 0 nothing is interpolated
 /// and every view is exact.

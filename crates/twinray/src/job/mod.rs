@@ -691,8 +691,8 @@ impl Job {
                     c.cache_entries, c.cache_edge_refusals, c.cache_hits, c.cache_colour_hits, c.cache_fallbacks
                 )));
                 m.push(Message::info(format!(
-                    "key views: samples traced as key views {}, interpolated samples {}, fall-backs {} (probe rays {}); shadow fans {} ({} lit whole, {} shadow rays saved)",
-                    c.key_view_samples, c.interpolated_samples, c.key_view_fallbacks, c.key_view_probes, c.fan_queries, c.fan_free, c.fan_saved_rays
+                    "key views: samples traced as key views {}, interpolated samples {}, fall-backs {} (probe rays {}), groups traced whole after a miss {}; shadow fans {} ({} lit whole)",
+                    c.key_view_samples, c.interpolated_samples, c.key_view_fallbacks, c.key_view_probes, c.key_view_skipped_groups, c.fan_queries, c.fan_free
                 )));
             }
         }

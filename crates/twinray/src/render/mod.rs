@@ -142,7 +142,7 @@ pub struct Approximations {
     /// Under the shared shading (tolerance above 0), mirror and glass points
     /// seen by several views of a group are traced in full by key views,
     /// every `key_spacing`-th of them (0: adaptive, the outermost two and
-    /// halved where they disagree); the views between take their secondary
+    /// halved where they disagree; 1: none, every view traces its own); the views between take their secondary
     /// colour interpolated where it is close (`twin::key_views`).
     pub key_spacing: usize,
 }

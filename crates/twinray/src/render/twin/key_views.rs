@@ -10,7 +10,8 @@
 //! other lane is traced exactly, as one packet with the rest of its group.
 //!
 //! The key views are every `key_spacing`-th lane that sees the primitive and
-//! the last; with spacing 0 (adaptive), the outermost two, and where two key
+//! the last (spacing 1: every view traces its own, as without key views,
+//! the group as one packet); with spacing 0 (adaptive), the outermost two, and where two key
 //! views disagree, the lane halfway between them becomes a key view too,
 //! down to neighbours. The key views' own colours are exact.
 
@@ -21,11 +22,28 @@ use crate::render::sampler::RowColors;
 use crate::render::tracer::{distance_to_segment, Chain};
 use crate::render::Tracer;
 
-/// Per lane of a group: its key view's chain and secondary colour.
+/// Per lane of a group: its key view's chain and secondary colour; and the
+/// primitive whose key views last interpolated nothing, with the groups of
+/// it traced as packets since (cleared for every batch's row: the images do
+/// not depend on which thread traced which row).
 #[derive(Default)]
 pub(super) struct KeyScratch {
     chains: Vec<Chain>,
     secondary: Vec<Color>,
+    given_up: Option<u32>,
+    skipped: u32,
+}
+
+/// Groups of a primitive traced as packets after its key views gave
+/// nothing, before they are tried again.
+const RETRY_AFTER: u32 = 8;
+
+impl KeyScratch {
+    /// Forgets what the last row's key views gave.
+    pub(super) fn start_row(&mut self) {
+        self.given_up = None;
+        self.skipped = 0;
+    }
 }
 
 impl<const K: usize> TwinBatch<'_, K> {
@@ -43,7 +61,7 @@ impl<const K: usize> TwinBatch<'_, K> {
             s.filter(|&i| scratch.points[v][i].is_some())
                 .map(|i| (v, i))
         });
-        let Some((v0, i0)) = first.filter(|_| tolerance > 0.0) else {
+        let Some((v0, i0)) = first.filter(|_| tolerance > 0.0 && self.key_spacing != 1) else {
             return self.shade_group(tracer, scratch, group, out);
         };
         let prim = scratch.hits[v0][i0].0;
@@ -63,6 +81,14 @@ impl<const K: usize> TwinBatch<'_, K> {
             }
         }
         if n < 3 {
+            return self.shade_group(tracer, scratch, group, out);
+        }
+        // A primitive whose last group interpolated nothing is traced as
+        // packets for its next groups (key views traced one by one cost more
+        // than the packet), with a new try every `RETRY_AFTER` groups.
+        if scratch.keys.given_up == Some(prim) && scratch.keys.skipped < RETRY_AFTER {
+            scratch.keys.skipped += 1;
+            tracer.counts.key_view_skipped_groups += 1;
             return self.shade_group(tracer, scratch, group, out);
         }
         let mut keys = std::mem::take(&mut scratch.keys);
@@ -143,6 +169,12 @@ impl<const K: usize> TwinBatch<'_, K> {
                     direct[v] + keys.secondary[left] * (1.0 - w) + keys.secondary[right] * w;
                 tracer.counts.interpolated_samples += 1;
             }
+        }
+        if between.iter().any(Option::is_some) {
+            keys.given_up = None;
+        } else {
+            keys.given_up = Some(prim);
+            keys.skipped = 0;
         }
         scratch.keys = keys;
         if rest.iter().any(Option::is_some) {

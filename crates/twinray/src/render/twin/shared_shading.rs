@@ -80,6 +80,7 @@ impl<const K: usize> TwinBatch<'_, K> {
             cache.start_row(self.world.scene.lights.len(), tolerance);
         }
         cache.begin_leader(self.rig.views[0], row.len());
+        scratch.keys.start_row();
         let groups = std::mem::take(&mut scratch.groups);
         // Per group: shaded whole in step 1; per leader sample: its entry, and
         // whether it was shaded alone (its colour is in `out` already).
