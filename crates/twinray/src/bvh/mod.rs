@@ -20,7 +20,7 @@ pub use traverse::{
     segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
     TraversalStats,
 };
-pub use wedge::{FanWork, ShadowFan};
+pub use wedge::{distance_to_segment, FanWork, ShadowFan};
 pub use wide::{collapse, Node4, WIDTH};
 
 use crate::math::Aabb;

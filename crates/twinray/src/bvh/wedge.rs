@@ -39,7 +39,7 @@ pub struct ShadowFan<'a> {
 }
 
 /// Distance from `p` to the segment `a`–`b`.
-fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
+pub fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
     let ab = b - a;
     let len2 = ab.length_squared();
     let s = if len2 > 0.0 {

@@ -11,7 +11,6 @@
 mod key_views;
 mod shadow_fans;
 
-pub(crate) use key_views::distance_to_segment;
 pub use key_views::{Chain, Link};
 
 use crate::bvh::{

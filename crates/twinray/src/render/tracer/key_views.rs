@@ -10,7 +10,7 @@
 //! own (`shade_direct`).
 
 use super::{Donor, SecondaryRays, ShadingTree, Tracer};
-use crate::bvh::{Packet, PacketHits};
+use crate::bvh::{distance_to_segment, Packet, PacketHits};
 use crate::lights::LightKind;
 use crate::math::{Color, Vec3};
 use crate::shading::offset_point;
@@ -205,15 +205,4 @@ impl Tracer<'_> {
         let mut tree = ShadingTree::new(SecondaryRays::Own);
         self.shade(packet, hits, self.settings.max_depth, [1.0; K], &mut tree)
     }
-}
-
-/// Distance from `p` to the segment `a`–`b`.
-pub(crate) fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
-    let ab = b - a;
-    let s = if ab.length_squared() > 0.0 {
-        ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p - (a + ab * s)).length()
 }

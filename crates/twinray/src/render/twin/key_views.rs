@@ -16,10 +16,11 @@
 //! down to neighbours. The key views' own colours are exact.
 
 use super::{RowScratch, TwinBatch};
+use crate::bvh::distance_to_segment;
 use crate::math::Color;
 use crate::render::grouping::Group;
 use crate::render::sampler::RowColors;
-use crate::render::tracer::{distance_to_segment, Chain};
+use crate::render::tracer::Chain;
 use crate::render::Tracer;
 
 /// Per lane of a group: its key view's chain and secondary colour; and the
