@@ -6,10 +6,9 @@
 # against the exact views. One ray per pixel centre (--samples 1) everywhere.
 # Writes CSV; with matplotlib, the plot docs/images/views-cost.png.
 # MODES (default "exact shared") may add shared-b8: the shared shading with
-# batches of 8 views (--views-per-batch 8) instead of 4; shared-k1: the shared
-# shading without key views for mirrors and glass (--key-spacing 1, every view
-# traces its own secondary rays, as before issue 16's third pass); and
-# shared-b8-k1: both.
+# batches of 8 views (--views-per-batch 8) instead of 4; shared-keys: the
+# shared shading with adaptive key views for mirrors and glass (--key-spacing
+# 0; the default, 1, has none); and shared-b8-keys: both.
 #
 # Time: CPU seconds (user + sys) of the whole command, on THREADS threads
 # (default 1), so that other work on a shared machine does not count; the
@@ -63,7 +62,7 @@ for scene in "${scenes[@]}"; do
       [[ $mode == shared* && $n -eq 1 ]] && continue
       [[ $mode == shared* ]] && extra=(--share-shading)
       [[ $mode == shared-b8* ]] && extra+=(--views-per-batch 8)
-      [[ $mode == *-k1 ]] && extra+=(--key-spacing 1)
+      [[ $mode == *-keys ]] && extra+=(--key-spacing 0)
       s=$(cpu "$bin" render "$scene" -o "$tmp/$mode.pfm" "${common[@]}" "${rig[@]}" "${extra[@]}" \
         --stats "$tmp/$mode.json" 2>/dev/null)
       wall=$(cat "$tmp/wall")

@@ -596,7 +596,7 @@ fn views_between_key_views_keep_what_their_own_reflection_shows() {
 fn key_views_give_the_same_image_for_1_2_and_5_threads() {
     let world = World::new(mirror_floor_scene());
     let (cam, rig) = rig(&world, 8, 0.1, Some(8.0));
-    let opts = shared(E);
+    let opts = keyed(E, 4, 0);
     let one = run_on_threads(1, &world, &cam, &rig, &opts);
     assert!(one.counts.interpolated_samples > 0);
     for threads in [2, 5] {

@@ -203,7 +203,8 @@ pub struct ApproximationSpec {
     /// Its tolerance, in image values (see `render::SharedShading`).
     pub share_tolerance: f32,
     /// Key views for mirrors and glass under the shared shading: every K-th
-    /// view of a group traced in full, 0 = adaptive (see `render::Approximations`).
+    /// view of a group traced in full, 0 = adaptive, 1 (default) = none (see
+    /// `render::Approximations`).
     pub key_spacing: usize,
 }
 
@@ -219,7 +220,7 @@ impl Default for ApproximationSpec {
             fast: false,
             share_shading: false,
             share_tolerance: crate::render::SharedShading::DEFAULT_TOLERANCE,
-            key_spacing: 0,
+            key_spacing: 1,
         }
     }
 }

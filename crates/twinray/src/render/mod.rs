@@ -129,7 +129,7 @@ impl Reprojection {
 
 /// The paper's speed-for-quality trade-offs (twin method only). The default,
 /// none, gives exact images.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Approximations {
     /// Section 2.4: the views' reflected (refracted) rays from one planar
     /// surface merged into one ray from the midpoint.
@@ -142,7 +142,8 @@ pub struct Approximations {
     /// Under the shared shading (tolerance above 0), mirror and glass points
     /// seen by several views of a group are traced in full by key views,
     /// every `key_spacing`-th of them (0: adaptive, the outermost two and
-    /// halved where they disagree; 1: none, every view traces its own); the views between take their secondary
+    /// halved where they disagree; 1, the default: none, every view traces
+    /// its own, since key views measured slower on SPD gears and mount); the views between take their secondary
     /// colour interpolated where it is close (`twin::key_views`).
     pub key_spacing: usize,
 }
@@ -159,6 +160,18 @@ pub struct SharedShading {
 impl SharedShading {
     /// 1 % of the image's range: at most 0.01 per channel where it applies.
     pub const DEFAULT_TOLERANCE: f32 = 0.01;
+}
+
+impl Default for Approximations {
+    /// None: exact images (and no key views: `key_spacing` 1).
+    fn default() -> Self {
+        Approximations {
+            merge_secondary: false,
+            reproject: None,
+            shared_shading: None,
+            key_spacing: 1,
+        }
+    }
 }
 
 impl Approximations {
