@@ -42,7 +42,7 @@ def main(src, dst):
     ax2.axhline(1.0, color="0.5", ls=":")
     ax2.set_xlabel("views N")
     ax2.set_ylabel("time per view / one mono view")
-    ax2.set_title("per view (- exact, -- shared, -. shared in 8s)", fontsize=10)
+    ax2.set_title("per view (- exact, -- shared, -. shared with key views or in 8s)", fontsize=10)
     size = rows[0]["size"] if rows else ""
     fig.suptitle(f"Cost of N views, {size} per view, --samples 1 (bench/views.sh)")
     fig.tight_layout()

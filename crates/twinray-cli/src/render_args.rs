@@ -305,6 +305,16 @@ pub struct ApproxArgs {
     /// (1 = white), where radiance is at most 1.
     #[arg(long, value_name = "E", default_value_t = SharedShading::DEFAULT_TOLERANCE)]
     pub share_tolerance: f32,
+    /// Under the shared shading, mirror and glass points seen by several
+    /// views are traced in full by every K-th of them (key views); the views
+    /// between take the key views' secondary colour, interpolated, where both
+    /// hit the same primitives, nothing shadows the light between their hits,
+    /// and their colours agree within --share-tolerance, and the light's
+    /// curvature between their hits is within it. 0: adaptive (the outermost
+    /// two, halved where they disagree); 1 (the default): no key views, every
+    /// view traces its own (key views measured slower on SPD gears and mount).
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    pub key_spacing: usize,
 }
 
 /// Depth budget, floating window, depth outputs and quilts.
@@ -399,6 +409,7 @@ impl RenderArgs {
                 fast: approx.fast,
                 share_shading: approx.share_shading,
                 share_tolerance: approx.share_tolerance,
+                key_spacing: approx.key_spacing,
             },
             trace: TraceSpec {
                 max_depth: self.max_depth,

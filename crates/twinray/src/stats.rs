@@ -68,6 +68,23 @@ pub struct TraceCounts {
     /// `--strip`: the eye pass's descents for all the views of a camera
     /// column, their nodes, family and single-ray primitive tests.
     pub strip: StripStats,
+    /// Key views (`--share-shading`, mirror and glass surfaces): samples
+    /// traced in full as key views, probe rays of the views between them,
+    /// samples between key views that took the interpolated secondary
+    /// colour, and those that traced their own (the key views disagreed, or
+    /// the probe or a light's fan did).
+    pub key_view_samples: u64,
+    pub key_view_probes: u64,
+    pub interpolated_samples: u64,
+    pub key_view_fallbacks: u64,
+    /// Groups traced as packets because their primitive's last key views
+    /// interpolated nothing.
+    pub key_view_skipped_groups: u64,
+    /// Shadow fans (`bvh::ShadowFan`): one descent for the shadow segments of
+    /// several hits toward one light (`fan_queries`, key views' checks); of
+    /// those, the fans proved free of occluders (`fan_free`).
+    pub fan_queries: u64,
+    pub fan_free: u64,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -117,6 +134,13 @@ impl TraceCounts {
         self.cache_colour_hits += o.cache_colour_hits;
         self.cutout_continuations += o.cutout_continuations;
         self.strip.add(&o.strip);
+        self.key_view_samples += o.key_view_samples;
+        self.key_view_probes += o.key_view_probes;
+        self.interpolated_samples += o.interpolated_samples;
+        self.key_view_fallbacks += o.key_view_fallbacks;
+        self.key_view_skipped_groups += o.key_view_skipped_groups;
+        self.fan_queries += o.fan_queries;
+        self.fan_free += o.fan_free;
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -205,6 +229,14 @@ pub struct Report {
     pub cache_hits: u64,
     pub cache_fallbacks: u64,
     pub cache_colour_hits: u64,
+    /// Key views and shadow fans (`--share-shading`): see `TraceCounts`.
+    pub key_view_samples: u64,
+    pub key_view_probes: u64,
+    pub interpolated_samples: u64,
+    pub key_view_fallbacks: u64,
+    pub key_view_skipped_groups: u64,
+    pub fan_queries: u64,
+    pub fan_free: u64,
     pub nodes_visited: u64,
     pub box_tests: u64,
     pub primitive_tests: u64,
@@ -262,6 +294,13 @@ impl Report {
         self.cache_hits = c.cache_hits;
         self.cache_fallbacks = c.cache_fallbacks;
         self.cache_colour_hits = c.cache_colour_hits;
+        self.key_view_samples = c.key_view_samples;
+        self.key_view_probes = c.key_view_probes;
+        self.interpolated_samples = c.interpolated_samples;
+        self.key_view_fallbacks = c.key_view_fallbacks;
+        self.key_view_skipped_groups = c.key_view_skipped_groups;
+        self.fan_queries = c.fan_queries;
+        self.fan_free = c.fan_free;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
         self.primitive_tests = c.prim_tests;

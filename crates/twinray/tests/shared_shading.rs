@@ -468,3 +468,143 @@ fn a_scene_with_shadows_mirrors_and_glass_stays_close() {
         assert!(d.psnr_db >= 40.0, "view {v}: {d:?}");
     }
 }
+
+/// The shadow-stripe scene with a strong mirror for a floor, and a thin pole
+/// standing on it: its reflection, and the stripe's, move from view to view
+/// and fall between key views.
+fn mirror_floor_scene() -> Scene {
+    let mut scene = shadow_edge_scene();
+    let floor = scene.materials.len() - 2;
+    scene.materials[floor].mirror = 0.8;
+    scene.materials[floor].kd = 0.2;
+    scene.add_material(diffuse(Color::new(1.0, 0.1, 0.1)));
+    scene.add_cone(
+        Vec3::new(0.5, 5.0, -2.0),
+        0.04,
+        Vec3::new(0.5, 5.0, 3.0),
+        0.04,
+        "pole",
+    );
+    scene
+}
+
+/// A strong mirror floor reflecting the wall, on which a light with an
+/// inverse-square falloff, close to it, makes a bright spot.
+fn spot_on_the_wall_in_a_mirror() -> Scene {
+    let mut scene = open_scene();
+    let floor = scene.materials.len() - 1;
+    scene.materials[floor].mirror = 0.8;
+    scene.materials[floor].kd = 0.2;
+    scene.lights.push(Light {
+        kind: LightKind::Point {
+            position: Vec3::new(0.0, 9.6, 0.0),
+            inverse_square: true,
+            range: None,
+        },
+        color: Some(Color::splat(0.2)),
+    });
+    scene
+}
+
+/// A strong mirror floor reflecting a red ball with a sharp highlight.
+fn shiny_ball_in_a_mirror() -> Scene {
+    let mut scene = faint_mirror_scene(0.8);
+    let ball = scene.materials.len() - 1;
+    scene.materials[ball].ks = 0.9;
+    scene.materials[ball].shine = 300.0;
+    scene
+}
+
+/// `shared(tolerance)` in batches of `per_batch` views, key views every
+/// `spacing`-th (1: no key views, every view traces its own).
+fn keyed(tolerance: f32, per_batch: usize, spacing: usize) -> RenderOptions {
+    RenderOptions {
+        views_per_batch: per_batch,
+        approx: Approximations {
+            key_spacing: spacing,
+            ..shared(tolerance).approx
+        },
+        ..shared(tolerance)
+    }
+}
+
+/// Key views on the mirror floor: views between two key views take their
+/// reflection, interpolated, only where it is close. The pole's reflection
+/// and the stripe's, narrower than the key views' spacing, are kept: the
+/// probe sees the pole, the shadow fan the bar. Against the same render
+/// without key views (spacing 1: every view traces its own) a view
+/// differs only by interpolation: within twice the tolerance (the two key
+/// views' colours agree within it). With tolerance 0 nothing is interpolated
+/// and every view is exact.
+#[test]
+fn views_between_key_views_keep_what_their_own_reflection_shows() {
+    // (scene, views, batch, whether a probe or a fan must refuse somewhere)
+    for (scene, views, per_batch, refusals) in [
+        (mirror_floor_scene(), 8, 4, true),
+        (mirror_floor_scene(), 16, 8, true),
+        // The reflection of a red ball with a sharp highlight: it moves
+        // across the ball from view to view, which only the key views'
+        // colours (not their chains) tell apart.
+        (shiny_ball_in_a_mirror(), 16, 8, false),
+        // The spot's reflection: both key views may see it dim and the views
+        // between bright; the bound on the light's curvature refuses.
+        (spot_on_the_wall_in_a_mirror(), 16, 8, false),
+    ] {
+        let world = World::new(scene);
+        let (cam, rig) = rig(&world, views, 0.1, Some(8.0));
+        let exact = run(
+            &world,
+            &cam,
+            &rig,
+            &options(Method::Twin, Sampling::Centers),
+        );
+        let every = run(&world, &cam, &rig, &keyed(E, per_batch, 1));
+        assert_eq!(every.counts.interpolated_samples, 0);
+        for spacing in [0, 2] {
+            let out = run(&world, &cam, &rig, &keyed(E, per_batch, spacing));
+            let c = &out.counts;
+            let what = format!("{views} views, batches of {per_batch}, spacing {spacing}");
+            assert!(
+                c.key_view_samples > 0 && c.interpolated_samples > 0,
+                "{what}: {c:?}"
+            );
+            assert!(
+                !refusals || c.key_view_fallbacks > 0 && c.fan_queries > c.fan_free,
+                "{what}: {c:?}"
+            );
+            assert!(c.rays.reflected < every.counts.rays.reflected, "{what}");
+            for (v, (a, b)) in every.images.iter().zip(&out.images).enumerate() {
+                let d = max_diff(a, b);
+                assert!(
+                    d <= 2.0 * E + ROUNDING,
+                    "{what}, view {v}: {d} from every view keyed"
+                );
+                let d = compare(&exact.images[v], b).expect("same size");
+                assert!(d.psnr_db >= 40.0, "{what}, view {v}: {d:?}");
+            }
+        }
+        // Tolerance 0: no key views, every mirror sample traced by its view.
+        let strict = run(&world, &cam, &rig, &keyed(0.0, per_batch, 0));
+        assert_eq!(strict.counts.key_view_samples, 0);
+        assert_eq!(strict.counts.interpolated_samples, 0);
+        assert_eq!(strict.counts.rays.reflected, exact.counts.rays.reflected);
+    }
+}
+
+/// Key views give the same image for any number of threads.
+#[test]
+fn key_views_give_the_same_image_for_1_2_and_5_threads() {
+    let world = World::new(mirror_floor_scene());
+    let (cam, rig) = rig(&world, 8, 0.1, Some(8.0));
+    let opts = keyed(E, 4, 0);
+    let one = run_on_threads(1, &world, &cam, &rig, &opts);
+    assert!(one.counts.interpolated_samples > 0);
+    for threads in [2, 5] {
+        let many = run_on_threads(threads, &world, &cam, &rig, &opts);
+        assert_eq!(one.images, many.images, "{threads} threads");
+        assert_eq!(
+            one.counts.interpolated_samples,
+            many.counts.interpolated_samples
+        );
+    }
+}

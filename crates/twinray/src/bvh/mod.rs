@@ -12,6 +12,7 @@ mod build;
 mod splice;
 mod strip;
 mod traverse;
+mod wedge;
 mod wide;
 
 pub use build::{build, primitive_box, BuildOptions};
@@ -21,6 +22,7 @@ pub use traverse::{
     segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
     TraversalStats,
 };
+pub use wedge::{distance_to_segment, FanWork, ShadowFan};
 pub use wide::{collapse, Node4, WIDTH};
 
 use crate::math::Aabb;

@@ -710,6 +710,10 @@ impl Job {
                     "shared shading: cache entries {} (refused at a shadow edge {}), samples that took an entry's light {} (its whole colour {}), exact fall-backs {}",
                     c.cache_entries, c.cache_edge_refusals, c.cache_hits, c.cache_colour_hits, c.cache_fallbacks
                 )));
+                m.push(Message::info(format!(
+                    "key views: samples traced as key views {}, interpolated samples {}, fall-backs {} (probe rays {}), groups traced whole after a miss {}; shadow fans {} ({} lit whole)",
+                    c.key_view_samples, c.interpolated_samples, c.key_view_fallbacks, c.key_view_probes, c.key_view_skipped_groups, c.fan_queries, c.fan_free
+                )));
             }
         }
         m
@@ -1268,6 +1272,7 @@ fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
         merge_secondary: a.merge_secondary || a.fast,
         reproject,
         shared_shading,
+        key_spacing: a.key_spacing,
     })
 }
 

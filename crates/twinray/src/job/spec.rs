@@ -206,6 +206,10 @@ pub struct ApproximationSpec {
     pub share_shading: bool,
     /// Its tolerance, in image values (see `render::SharedShading`).
     pub share_tolerance: f32,
+    /// Key views for mirrors and glass under the shared shading: every K-th
+    /// view of a group traced in full, 0 = adaptive, 1 (default) = none (see
+    /// `render::Approximations`).
+    pub key_spacing: usize,
 }
 
 impl Default for ApproximationSpec {
@@ -220,6 +224,7 @@ impl Default for ApproximationSpec {
             fast: false,
             share_shading: false,
             share_tolerance: crate::render::SharedShading::DEFAULT_TOLERANCE,
+            key_spacing: 1,
         }
     }
 }

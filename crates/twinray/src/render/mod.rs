@@ -131,7 +131,7 @@ impl Reprojection {
 
 /// The paper's speed-for-quality trade-offs (twin method only). The default,
 /// none, gives exact images.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Approximations {
     /// Section 2.4: the views' reflected (refracted) rays from one planar
     /// surface merged into one ray from the midpoint.
@@ -141,6 +141,13 @@ pub struct Approximations {
     /// Issue 16: the light of a surface point shaded once for every view that
     /// sees it (supersedes the safe reprojection when both are asked).
     pub shared_shading: Option<SharedShading>,
+    /// Under the shared shading (tolerance above 0), mirror and glass points
+    /// seen by several views of a group are traced in full by key views,
+    /// every `key_spacing`-th of them (0: adaptive, the outermost two and
+    /// halved where they disagree; 1, the default: none, every view traces
+    /// its own, since key views measured slower on SPD gears and mount); the views between take their secondary
+    /// colour interpolated where it is close (`twin::key_views`).
+    pub key_spacing: usize,
 }
 
 /// The multi-view shading cache (`--share-shading`, see `shading_cache`).
@@ -155,6 +162,18 @@ pub struct SharedShading {
 impl SharedShading {
     /// 1 % of the image's range: at most 0.01 per channel where it applies.
     pub const DEFAULT_TOLERANCE: f32 = 0.01;
+}
+
+impl Default for Approximations {
+    /// None: exact images (and no key views: `key_spacing` 1).
+    fn default() -> Self {
+        Approximations {
+            merge_secondary: false,
+            reproject: None,
+            shared_shading: None,
+            key_spacing: 1,
+        }
+    }
 }
 
 impl Approximations {

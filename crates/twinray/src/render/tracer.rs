@@ -8,6 +8,11 @@
 //! lane's numbers are its own throughout, so every lane gets exactly what its
 //! view's reference render gets.
 
+mod key_views;
+mod shadow_fans;
+
+pub use key_views::{Chain, Link};
+
 use crate::bvh::{
     primitive_box, segment_enters, Bvh, NearestTest, Packet, PacketHits, SegmentPacket,
     TraversalStats,
@@ -74,6 +79,9 @@ pub enum SecondaryRays {
 struct ShadingTree {
     secondary: SecondaryRays,
     largest_coefficient: f32,
+    /// Key views (`key_views`): with a chain, what each secondary ray of a
+    /// one-lane tree hit, in the order traced.
+    chain: Option<key_views::Chain>,
 }
 
 impl ShadingTree {
@@ -81,6 +89,7 @@ impl ShadingTree {
         ShadingTree {
             secondary,
             largest_coefficient: 0.0,
+            chain: None,
         }
     }
 }
@@ -383,6 +392,9 @@ impl<'a> Tracer<'a> {
         tree: &mut ShadingTree,
     ) -> [Color; K] {
         let hits = self.closest(packet);
+        if let Some(chain) = tree.chain.as_mut() {
+            chain.push(Link::of(packet, &hits, level));
+        }
         self.shade(packet, &hits, level, weights, tree)
     }
 

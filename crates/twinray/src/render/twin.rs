@@ -24,6 +24,7 @@
 //!    and secondary colour when they see the same surface point and its shading
 //!    tree is diffuse) or as the paper published it (`reproject_forward`).
 
+mod key_views;
 mod shared_shading;
 
 use std::time::Instant;
@@ -66,6 +67,8 @@ pub(super) struct TwinBatch<'a, const K: usize> {
     secondary: SecondaryRays,
     /// `--share-shading`: the rig's shading cache, and its tolerance.
     shared_shading: Option<SharedShading>,
+    /// Key views' spacing under the shared shading (0: adaptive).
+    key_spacing: usize,
 }
 
 /// Paper-mode reprojection: the depth of the nearest point of view 0 that
@@ -95,6 +98,8 @@ pub(super) struct RowScratch<const K: usize> {
     /// Paper-mode reprojection: per view and sample, the depth of the nearest
     /// point of view 0 projected there so far, and its colour if it gives it.
     received: Vec<Vec<Option<Received>>>,
+    /// Key views' chains and secondary colours (`key_views`).
+    keys: key_views::KeyScratch,
 }
 
 impl<const K: usize> RowScratch<K> {
@@ -144,6 +149,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
                 SecondaryRays::Own
             },
             shared_shading: job.opts.approx.shared_shading,
+            key_spacing: job.opts.approx.key_spacing,
         }
     }
 

@@ -80,6 +80,7 @@ impl<const K: usize> TwinBatch<'_, K> {
             cache.start_row(self.world.scene.lights.len(), tolerance);
         }
         cache.begin_leader(self.rig.views[0], row.len());
+        scratch.keys.start_row();
         let groups = std::mem::take(&mut scratch.groups);
         // Per group: shaded whole in step 1; per leader sample: its entry, and
         // whether it was shaded alone (its colour is in `out` already).
@@ -88,7 +89,7 @@ impl<const K: usize> TwinBatch<'_, K> {
         for (g, group) in groups.iter().enumerate() {
             let Some(i) = group[0] else { continue };
             if !self.gives_light(scratch, 0, i, tolerance) {
-                self.shade_group(tracer, scratch, group, out);
+                self.shade_with_key_views(tracer, scratch, group, tolerance, out);
                 whole[g] = true;
                 continue;
             }
@@ -147,7 +148,7 @@ impl<const K: usize> TwinBatch<'_, K> {
                 }
             }
             if rest.iter().any(Option::is_some) {
-                self.shade_group(tracer, scratch, &rest, out);
+                self.shade_with_key_views(tracer, scratch, &rest, tolerance, out);
             }
         }
         scratch.groups = groups;
