@@ -2,6 +2,7 @@
 
 use super::{Bvh, Node};
 use crate::math::{Aabb, Vec3};
+use crate::shapes::BLOCK;
 
 #[derive(Clone, Copy, Debug)]
 pub struct BuildOptions {
@@ -9,8 +10,16 @@ pub struct BuildOptions {
     pub bins: usize,
     /// Largest leaf the builder makes when splitting stops paying.
     pub max_leaf: usize,
-    /// Cost of one box test relative to one primitive test.
+    /// Cost of one box test relative to one primitive test (with
+    /// `cost_in_blocks`: to one block test).
     pub traversal_cost: f32,
+    /// Every leaf starts at a slot that is a multiple of this, the order
+    /// padded with `PAD` between leaves, so that a leaf's triangle blocks
+    /// (`shapes::LeafBlocks`) are found from its first slot. 1: no padding.
+    pub block: usize,
+    /// The SAH counts a leaf's cost in blocks of `block` primitives, which are
+    /// tested at once: it then prefers leaves that fill their blocks.
+    pub cost_in_blocks: bool,
 }
 
 impl Default for BuildOptions {
@@ -19,9 +28,47 @@ impl Default for BuildOptions {
             bins: 16,
             max_leaf: 4,
             traversal_cost: 1.0,
+            block: 1,
+            cost_in_blocks: false,
         }
     }
 }
+
+impl BuildOptions {
+    /// For primitives that are all triangles, tested four at a time: leaves
+    /// of up to two full blocks, aligned to blocks, the SAH counting blocks.
+    pub fn triangle_blocks() -> BuildOptions {
+        BuildOptions {
+            max_leaf: 2 * BLOCK,
+            block: BLOCK,
+            cost_in_blocks: true,
+            ..BuildOptions::default()
+        }
+    }
+
+    /// For any primitives: today's leaves, aligned to blocks so that those
+    /// made only of triangles can be tested four at a time.
+    pub fn aligned() -> BuildOptions {
+        BuildOptions {
+            block: BLOCK,
+            ..BuildOptions::default()
+        }
+    }
+
+    /// What the SAH charges for testing `n` primitives in a leaf.
+    #[inline(always)]
+    fn leaf_cost(&self, n: u32) -> f32 {
+        if self.cost_in_blocks {
+            n.div_ceil(self.block.max(1) as u32) as f32
+        } else {
+            n as f32
+        }
+    }
+}
+
+/// An order slot that holds no primitive: the padding before a leaf that
+/// starts a block.
+pub const PAD: u32 = u32::MAX;
 
 /// Subtrees smaller than this are built on the current thread.
 const PARALLEL_THRESHOLD: usize = 8192;
@@ -52,14 +99,14 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
         .collect();
     let mut refs = refs;
     let tree = build_subtree(&mut refs, opts);
-    let mut bvh = Bvh {
-        nodes: Vec::with_capacity(2 * boxes.len()),
-        order: refs.iter().map(|r| r.index).collect(),
-        wide: Vec::new(),
-    };
-    flatten(&tree, &mut bvh.nodes, 0);
-    bvh.wide = super::collapse(&bvh.nodes);
-    bvh
+    let (nodes, order) = flatten(&tree, &refs, opts.block.max(1));
+    let wide = super::collapse(&nodes);
+    Bvh {
+        nodes,
+        order,
+        wide,
+        ..Bvh::default()
+    }
 }
 
 /// The box a primitive with bounds `b` is filed under: `b` padded so that the
@@ -99,6 +146,14 @@ enum BuildNode {
 }
 
 impl BuildNode {
+    /// Nodes in the subtree.
+    fn count(&self) -> usize {
+        match self {
+            BuildNode::Leaf { .. } => 1,
+            BuildNode::Inner { children, .. } => 1 + children[0].count() + children[1].count(),
+        }
+    }
+
     fn bounds(&self) -> Aabb {
         match self {
             BuildNode::Leaf { bounds, .. } | BuildNode::Inner { bounds, .. } => *bounds,
@@ -126,7 +181,8 @@ fn build_range(
         first: offset,
         count: refs.len(),
     };
-    if refs.len() <= 2 {
+    if refs.len() <= 2 || (opts.cost_in_blocks && refs.len() <= opts.block.min(opts.max_leaf)) {
+        // (One block: splitting adds a box test and saves no block test.)
         return leaf();
     }
     if depth >= MAX_SAH_DEPTH {
@@ -139,7 +195,7 @@ fn build_range(
             median_split(refs, offset, depth, bounds, &centroid_bounds, opts)
         };
     };
-    let leaf_cost = refs.len() as f32;
+    let leaf_cost = opts.leaf_cost(refs.len() as u32);
     if split.cost >= leaf_cost && refs.len() <= opts.max_leaf {
         return leaf();
     }
@@ -328,7 +384,8 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
                 continue;
             }
             let cost = opts.traversal_cost
-                + (acc.half_area() * cnt as f32 + right_area[i] * right_count[i] as f32)
+                + (acc.half_area() * opts.leaf_cost(cnt)
+                    + right_area[i] * opts.leaf_cost(right_count[i]))
                     / parent_area;
             if best.as_ref().is_none_or(|b| cost < b.cost) {
                 best = Some(Split {
@@ -355,20 +412,39 @@ fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> usize {
     i
 }
 
-/// Lays the tree out depth-first with siblings adjacent.
-fn flatten(node: &BuildNode, nodes: &mut Vec<Node>, _depth: usize) {
-    nodes.push(to_node(node, 0));
-    let mut queue = vec![(node, 0usize)];
+/// Lays the tree out depth-first with siblings adjacent, and the
+/// primitives in leaf order, each leaf starting at a multiple of `block`
+/// (`PAD` in the slots between). Leaves come in slot order, so `refs`'s.
+fn flatten(root: &BuildNode, refs: &[PrimRef], block: usize) -> (Vec<Node>, Vec<u32>) {
+    let mut nodes = Vec::with_capacity(root.count());
+    let mut order = Vec::with_capacity(if block > 1 {
+        refs.len() + refs.len() / 2
+    } else {
+        refs.len()
+    });
+    let leaf = |n: &BuildNode, order: &mut Vec<u32>| -> Node {
+        let mut node = to_node(n, 0);
+        if let BuildNode::Leaf { first, count, .. } = n {
+            order.resize(order.len().next_multiple_of(block), PAD);
+            node.first = order.len() as u32;
+            order.extend(refs[*first..first + count].iter().map(|r| r.index));
+        }
+        node
+    };
+    nodes.push(leaf(root, &mut order));
+    let mut queue = vec![(root, 0usize)];
     while let Some((n, index)) = queue.pop() {
         if let BuildNode::Inner { children, .. } = n {
             let first = nodes.len();
             nodes[index].first = first as u32;
-            nodes.push(to_node(&children[0], 0));
-            nodes.push(to_node(&children[1], 0));
+            nodes.push(leaf(&children[0], &mut order));
+            nodes.push(leaf(&children[1], &mut order));
             queue.push((&children[1], first + 1));
             queue.push((&children[0], first));
         }
     }
+    order.resize(order.len().next_multiple_of(block), PAD);
+    (nodes, order)
 }
 
 fn to_node(n: &BuildNode, first: u32) -> Node {
