@@ -3,6 +3,8 @@
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use crate::bvh::{self, BuildOptions, Bvh, PAD};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{Material, Scene};
@@ -88,7 +90,7 @@ impl World {
     pub fn with_cut(mut scene: Scene, cut: Option<Cut>) -> World {
         let start = Instant::now();
         scene.finish();
-        let boxes: Vec<Aabb> = scene.shapes.iter().map(|s| s.bounds()).collect();
+        let boxes: Vec<Aabb> = scene.shapes.par_iter().map(|s| s.bounds()).collect();
         let far_groups: Vec<bool> = match cut {
             None => Vec::new(),
             Some(c) => {
@@ -112,7 +114,7 @@ impl World {
                 .unwrap_or(false)
         });
         let build = |set: &[u32]| {
-            let set_boxes: Vec<Aabb> = set.iter().map(|&i| boxes[i as usize]).collect();
+            let set_boxes: Vec<Aabb> = set.par_iter().map(|&i| boxes[i as usize]).collect();
             let opts = build_options(set.iter().map(|&i| &scene.shapes[i as usize]));
             let mut bvh = bvh::build(&set_boxes, &opts);
             for o in bvh.order.iter_mut().filter(|o| **o != PAD) {
@@ -131,17 +133,18 @@ impl World {
                 *o = order.len() as u32 - 1;
             }
         }
-        let mut shapes = Vec::with_capacity(order.len());
-        let mut materials = Vec::with_capacity(order.len());
-        let mut groups = Vec::with_capacity(order.len());
-        for &i in &order {
-            shapes.push(scene.shapes[i as usize].clone());
-            materials.push(scene.shape_material[i as usize]);
-            groups.push(scene.shape_group[i as usize]);
-        }
-        scene.shapes = shapes;
-        scene.shape_material = materials;
-        scene.shape_group = groups;
+        scene.shapes = order
+            .par_iter()
+            .map(|&i| scene.shapes[i as usize].clone())
+            .collect();
+        scene.shape_material = order
+            .par_iter()
+            .map(|&i| scene.shape_material[i as usize])
+            .collect();
+        scene.shape_group = order
+            .par_iter()
+            .map(|&i| scene.shape_group[i as usize])
+            .collect();
         bvh.attach_blocks(&scene.shapes);
         if let Some(f) = &mut far_bvh {
             f.attach_blocks(&scene.shapes);

@@ -735,18 +735,22 @@ fn block_any_hit_meets_what_one_by_one_meets_and_stops_there() {
     for shapes in [&mesh_shapes, &mixed] {
         let bvh = blocked(shapes);
         assert!(!bvh.blocks.is_empty());
-        let seg = |rng: &mut fastrand::Rng| {
+        // Segments of a packet start and end near one another (as a stereo
+        // pair's do), so that they meet leaves together.
+        let seg = |rng: &mut fastrand::Rng, to: Vec3, from: Vec3| {
+            let jitter = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
+            let (to, from) = (to + jitter * 0.2, from + jitter * 0.5);
+            let d = (to - from).normalize();
+            (from - d * 5.0, d, (to - from).length() + 10.0 * rng.f32())
+        };
+        for k in 0..400 {
             let to = if std::ptr::eq(shapes, &mesh_shapes) {
                 points[rng.usize(0..points.len())]
             } else {
                 Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5) * 20.0
             };
             let from = to + Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32()) * 30.0;
-            let d = (to - from).normalize();
-            (from - d * 5.0, d, (to - from).length() + 10.0 * rng.f32())
-        };
-        for k in 0..400 {
-            let s: [(Vec3, Vec3, f32); 4] = std::array::from_fn(|_| seg(&mut rng));
+            let s: [(Vec3, Vec3, f32); 4] = std::array::from_fn(|_| seg(&mut rng, to, from));
             let run = |blocks: bool, wide: bool, width: usize| {
                 let mut out: Vec<Vec<u32>> = Vec::new();
                 let mut st = TraversalStats::default();
@@ -784,9 +788,23 @@ fn block_any_hit_meets_what_one_by_one_meets_and_stops_there() {
                 let one_by_one = run(false, wide, width);
                 let in_blocks = run(true, wide, width);
                 assert_eq!(in_blocks, one_by_one, "segment set {k}, wide {wide}");
-                for met in &one_by_one {
+                for (l, met) in one_by_one.iter().enumerate() {
                     met_total += met.len();
-                    stopped += met.last().is_some_and(|&p| Recorder::<1>::opaque(p)) as usize;
+                    // A lane stops at its first opaque primitive; one that
+                    // meets none has met every primitive on its segment.
+                    let opaque = met.iter().filter(|&&p| Recorder::<1>::opaque(p)).count();
+                    let stops = met.last().is_some_and(|&p| Recorder::<1>::opaque(p));
+                    assert_eq!(opaque, stops as usize, "set {k}, lane {l}: {met:?}");
+                    stopped += stops as usize;
+                    if !stops {
+                        let ray = Ray::new(s[l].0, s[l].1);
+                        let all: Vec<u32> = (0..shapes.len() as u32)
+                            .filter(|&p| shapes[p as usize].intersect(&ray, 0.0, s[l].2).is_some())
+                            .collect();
+                        let mut met = met.clone();
+                        met.sort_unstable();
+                        assert_eq!(met, all, "set {k}, lane {l}");
+                    }
                 }
             }
         }

@@ -171,35 +171,45 @@ impl LeafBlocks {
     /// primitives, indices into `shapes`) that starts at a multiple of
     /// `BLOCK` and holds only triangles; `slots`: the length of the order.
     /// Other leaves keep the scalar tests. No such leaf: no blocks at all.
+    /// The blocks are made on all threads (each from its own slots).
     pub fn new<'a>(
         shapes: &[Shape],
         slots: usize,
         leaves: impl Iterator<Item = (usize, &'a [u32])>,
     ) -> LeafBlocks {
-        let mut out = LeafBlocks::default();
+        use rayon::prelude::*;
+        let triangle = |p: u32| match shapes.get(p as usize) {
+            Some(Shape::Triangle(t)) => Some(t),
+            _ => None,
+        };
+        // Per block: the primitives of its lanes (a leaf's, `BLOCK` at a time).
+        let mut lanes: Vec<&[u32]> = Vec::new();
         for (first, prims) in leaves {
-            if !first.is_multiple_of(BLOCK) || prims.is_empty() {
+            if !first.is_multiple_of(BLOCK)
+                || prims.is_empty()
+                || !prims.iter().all(|&p| triangle(p).is_some())
+            {
                 continue;
             }
-            let triangle = |p: &u32| match shapes.get(*p as usize) {
-                Some(Shape::Triangle(t)) => Some(t),
-                _ => None,
-            };
-            if !prims.iter().all(|p| triangle(p).is_some()) {
-                continue;
-            }
-            if out.tris.is_empty() {
-                out.tris = vec![Triangle4::EMPTY; slots.div_ceil(BLOCK)];
-                out.lanes = vec![0; slots.div_ceil(BLOCK)];
+            if lanes.is_empty() {
+                lanes = vec![&[]; slots.div_ceil(BLOCK)];
             }
             for (i, chunk) in prims.chunks(BLOCK).enumerate() {
-                let tris: arrayvec::ArrayVec<&Triangle, BLOCK> =
-                    chunk.iter().filter_map(triangle).collect();
-                out.tris[first / BLOCK + i] = Triangle4::new(&tris);
-                out.lanes[first / BLOCK + i] = chunk.len() as u8;
+                lanes[first / BLOCK + i] = chunk;
             }
         }
-        out
+        let tris = lanes
+            .par_iter()
+            .map(|prims| {
+                let tris: arrayvec::ArrayVec<&Triangle, BLOCK> =
+                    prims.iter().filter_map(|&p| triangle(p)).collect();
+                Triangle4::new(&tris)
+            })
+            .collect();
+        LeafBlocks {
+            tris,
+            lanes: lanes.iter().map(|p| p.len() as u8).collect(),
+        }
     }
 }
 
