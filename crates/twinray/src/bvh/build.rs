@@ -166,16 +166,19 @@ impl BuildNode {
 const MAX_SAH_DEPTH: usize = 64;
 
 fn build_subtree(refs: &mut [PrimRef], opts: &BuildOptions) -> BuildNode {
-    build_range(refs, 0, 0, opts)
+    build_range(refs, 0, 0, None, opts)
 }
 
+/// The subtree over `refs` (slots from `offset`); `known`: the bounds and
+/// centroid bounds of `refs` if the parent's partition found them.
 fn build_range(
     refs: &mut [PrimRef],
     offset: usize,
     depth: usize,
+    known: Option<(Aabb, Aabb)>,
     opts: &BuildOptions,
 ) -> BuildNode {
-    let (bounds, centroid_bounds) = bounds_of(refs);
+    let (bounds, centroid_bounds) = known.unwrap_or_else(|| bounds_of(refs));
     let leaf = || BuildNode::Leaf {
         bounds,
         first: offset,
@@ -199,13 +202,22 @@ fn build_range(
     if split.cost >= leaf_cost && refs.len() <= opts.max_leaf {
         return leaf();
     }
-    let mid = partition(refs, |r| {
+    let (mid, sides) = partition(refs, |r| {
         split.binning.bin(r.centroid[split.axis], split.axis) < split.bin
     });
     if mid == 0 || mid == refs.len() {
         return median_split(refs, offset, depth, bounds, &centroid_bounds, opts);
     }
-    split_and_recurse(refs, offset, depth, mid, bounds, split.axis, opts)
+    split_and_recurse(
+        refs,
+        offset,
+        depth,
+        mid,
+        Some(sides),
+        bounds,
+        split.axis,
+        opts,
+    )
 }
 
 /// The union of the boxes of `refs` and the bounds of their centroids, in
@@ -227,25 +239,30 @@ fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
     }
 }
 
+/// `sides`: the bounds and centroid bounds of `refs[..mid]` and
+/// `refs[mid..]`, if known.
+#[allow(clippy::too_many_arguments)]
 fn split_and_recurse(
     refs: &mut [PrimRef],
     offset: usize,
     depth: usize,
     mid: usize,
+    sides: Option<[(Aabb, Aabb); 2]>,
     bounds: Aabb,
     axis: usize,
     opts: &BuildOptions,
 ) -> BuildNode {
     let (left, right) = refs.split_at_mut(mid);
+    let (kl, kr) = (sides.map(|s| s[0]), sides.map(|s| s[1]));
     let (l, r) = if left.len() + right.len() > PARALLEL_THRESHOLD {
         rayon::join(
-            || build_range(left, offset, depth + 1, opts),
-            || build_range(right, offset + mid, depth + 1, opts),
+            || build_range(left, offset, depth + 1, kl, opts),
+            || build_range(right, offset + mid, depth + 1, kr, opts),
         )
     } else {
         (
-            build_range(left, offset, depth + 1, opts),
-            build_range(right, offset + mid, depth + 1, opts),
+            build_range(left, offset, depth + 1, kl, opts),
+            build_range(right, offset + mid, depth + 1, kr, opts),
         )
     };
     BuildNode::Inner {
@@ -267,7 +284,7 @@ fn median_split(
     let axis = centroid_bounds.extent().max_position();
     let mid = refs.len() / 2;
     refs.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
-    split_and_recurse(refs, offset, depth, mid, bounds, axis, opts)
+    split_and_recurse(refs, offset, depth, mid, None, bounds, axis, opts)
 }
 
 struct Split {
@@ -400,16 +417,23 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
     best
 }
 
-/// In-place partition; returns the number of elements for which `pred` holds.
-fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> usize {
+/// In-place partition; returns the number of elements for which `pred`
+/// holds, and the bounds and centroid bounds of both sides (found on the
+/// way, which saves the children a pass over their primitives).
+fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> (usize, [(Aabb, Aabb); 2]) {
+    let mut sides = [(Aabb::EMPTY, Aabb::EMPTY); 2];
     let mut i = 0;
     for j in 0..refs.len() {
-        if pred(&refs[j]) {
+        let r = refs[j];
+        let left = pred(&r);
+        let side = &mut sides[!left as usize];
+        *side = (side.0.union(r.bounds), side.1.grow(r.centroid));
+        if left {
             refs.swap(i, j);
             i += 1;
         }
     }
-    i
+    (i, sides)
 }
 
 /// Lays the tree out depth-first with siblings adjacent, and the
