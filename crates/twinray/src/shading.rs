@@ -175,15 +175,7 @@ impl<const K: usize, const ALPHA: bool> ShadowTest<'_, K, ALPHA> {
     /// lane `lane`.
     #[inline(always)]
     fn met_block(&mut self, b: &BlockHits, prims: &[u32], lane: usize) -> AnyHit {
-        let mut m = b.mask & ((1u32 << prims.len()) - 1);
-        while m != 0 {
-            let i = m.trailing_zeros() as usize;
-            m &= m - 1;
-            let hit = SurfaceHit {
-                t: b.t[i],
-                u: b.u[i],
-                v: b.v[i],
-            };
+        for (i, hit) in b.first(prims.len()) {
             if self.met(prims[i], lane, &hit) == AnyHit::Stop {
                 return AnyHit::Stop;
             }

@@ -78,6 +78,36 @@ pub(crate) fn build_options<'a>(mut shapes: impl Iterator<Item = &'a Shape>) -> 
     }
 }
 
+/// Puts the shapes (their materials and groups with them) in the leaf order
+/// of `trees`, one after the other, so that a leaf's primitives sit together
+/// in memory; the trees' orders then index them in order (past the padding
+/// between leaves), and each tree gets its blocks of triangles.
+pub(crate) fn into_leaf_order<'a>(scene: &mut Scene, trees: impl Iterator<Item = &'a mut Bvh>) {
+    let mut order = Vec::with_capacity(scene.shapes.len());
+    let mut trees: Vec<&mut Bvh> = trees.collect();
+    for tree in trees.iter_mut() {
+        for o in tree.order.iter_mut().filter(|o| **o != PAD) {
+            order.push(*o);
+            *o = order.len() as u32 - 1;
+        }
+    }
+    scene.shapes = order
+        .par_iter()
+        .map(|&i| scene.shapes[i as usize].clone())
+        .collect();
+    scene.shape_material = order
+        .par_iter()
+        .map(|&i| scene.shape_material[i as usize])
+        .collect();
+    scene.shape_group = order
+        .par_iter()
+        .map(|&i| scene.shape_group[i as usize])
+        .collect();
+    for tree in trees {
+        tree.attach_blocks(&scene.shapes);
+    }
+}
+
 impl World {
     pub fn new(scene: Scene) -> World {
         World::with_cut(scene, None)
@@ -124,31 +154,11 @@ impl World {
         };
         let mut bvh = build(&near);
         let mut far_bvh = (!far.is_empty()).then(|| build(&far));
-        // Reorder shapes into leaf order (near, then far); the hierarchies then
-        // index them in order (past the padding between leaves).
-        let mut order = Vec::with_capacity(boxes.len());
-        for tree in std::iter::once(&mut bvh).chain(far_bvh.as_mut()) {
-            for o in tree.order.iter_mut().filter(|o| **o != PAD) {
-                order.push(*o);
-                *o = order.len() as u32 - 1;
-            }
-        }
-        scene.shapes = order
-            .par_iter()
-            .map(|&i| scene.shapes[i as usize].clone())
-            .collect();
-        scene.shape_material = order
-            .par_iter()
-            .map(|&i| scene.shape_material[i as usize])
-            .collect();
-        scene.shape_group = order
-            .par_iter()
-            .map(|&i| scene.shape_group[i as usize])
-            .collect();
-        bvh.attach_blocks(&scene.shapes);
-        if let Some(f) = &mut far_bvh {
-            f.attach_blocks(&scene.shapes);
-        }
+        // Shapes into leaf order (near, then far).
+        into_leaf_order(
+            &mut scene,
+            std::iter::once(&mut bvh).chain(far_bvh.as_mut()),
+        );
         World {
             has_alpha: scene.has_alpha(),
             scene,

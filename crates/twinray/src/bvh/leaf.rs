@@ -14,7 +14,7 @@
 
 use super::traverse::LaneHit;
 use super::{AnyHit, AnyHitTest, Bvh, NearestTest, PacketHits, TraversalStats};
-use crate::shapes::{BlockHits, LeafBlocks, Shape, SurfaceHit, Triangle4, BLOCK};
+use crate::shapes::{BlockHits, LeafBlocks, Shape, Triangle4, BLOCK};
 
 /// A leaf: its primitives, and their blocks if the tree holds them so (one
 /// per `BLOCK` primitives, in order), else none.
@@ -56,15 +56,7 @@ impl Bvh {
 /// offered to `state`, in index order.
 #[inline(always)]
 fn offer_block(prims: &[u32], b: &BlockHits, state: &mut LaneHit) {
-    let mut m = b.mask & ((1u32 << prims.len()) - 1);
-    while m != 0 {
-        let i = m.trailing_zeros() as usize;
-        m &= m - 1;
-        let h = SurfaceHit {
-            t: b.t[i],
-            u: b.u[i],
-            v: b.v[i],
-        };
+    for (i, h) in b.first(prims.len()) {
         state.offer(prims[i], h);
     }
 }

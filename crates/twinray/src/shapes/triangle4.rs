@@ -9,7 +9,7 @@
 //! triangle `i`. Every method (mono, twin, shared, quilt) calls this one routine.
 
 use super::triangle::{intersect_lanes, kept_lanes};
-use super::{Shape, Triangle};
+use super::{Shape, SurfaceHit, Triangle};
 use crate::math::Ray;
 use wide::{f32x4, f32x8};
 
@@ -38,6 +38,26 @@ pub struct BlockHits {
     pub t: [f32; BLOCK],
     pub u: [f32; BLOCK],
     pub v: [f32; BLOCK],
+}
+
+impl BlockHits {
+    /// The hits among the first `n` lanes, in lane order, with their lanes.
+    #[inline(always)]
+    pub fn first(&self, n: usize) -> impl Iterator<Item = (usize, SurfaceHit)> + '_ {
+        let mut m = self.mask & ((1u32 << n) - 1);
+        std::iter::from_fn(move || {
+            (m != 0).then(|| {
+                let i = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let hit = SurfaceHit {
+                    t: self.t[i],
+                    u: self.u[i],
+                    v: self.v[i],
+                };
+                (i, hit)
+            })
+        })
+    }
 }
 
 impl Triangle4 {

@@ -11,7 +11,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::World;
-use crate::bvh::{self, Bvh, Placed, PAD};
+use crate::bvh::{self, Bvh, Placed};
 use crate::math::Aabb;
 use crate::scene::Scene;
 
@@ -113,25 +113,7 @@ impl World {
             })
             .collect();
         let mut joined = bvh::splice(&parts);
-        // Shapes into leaf order, as `World::with_cut` does.
-        let mut order = Vec::with_capacity(n);
-        for o in joined.order.iter_mut().filter(|o| **o != PAD) {
-            order.push(*o);
-            *o = order.len() as u32 - 1;
-        }
-        scene.shapes = order
-            .iter()
-            .map(|&i| scene.shapes[i as usize].clone())
-            .collect();
-        scene.shape_material = order
-            .iter()
-            .map(|&i| scene.shape_material[i as usize])
-            .collect();
-        scene.shape_group = order
-            .iter()
-            .map(|&i| scene.shape_group[i as usize])
-            .collect();
-        joined.attach_blocks(&scene.shapes);
+        super::into_leaf_order(&mut scene, std::iter::once(&mut joined));
         World {
             has_alpha: scene.has_alpha(),
             scene,
