@@ -130,6 +130,7 @@ fn obvhs_to_twinray(b: &Bvh2) -> Bvh {
         wide: twinray::bvh::collapse(&nodes),
         nodes,
         order: b.primitive_indices.clone(),
+        ..Bvh::default()
     }
 }
 

@@ -6,7 +6,7 @@
 //! optimised away.
 //!
 //! Nearest hits test leaves of triangles four at a time, as the renderer
-//! does (`LeafTriangles`); the `*Scalar` trees test every primitive one by
+//! does (`Bvh::blocks`); the `*Scalar` trees test every primitive one by
 //! one, for comparison.
 
 use std::path::Path;
@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use twinray::bvh::{AnyHit, Bvh, NearestTest, Packet, SegmentPacket, TraversalStats};
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::math::{reflect, Ray, Vec3};
-use twinray::shapes::{BlockHits, LeafTriangles, Shape, SurfaceHit};
+use twinray::shapes::{BlockHits, Shape, SurfaceHit, Triangle4};
 use twinray::World;
 
 /// Which traversal a pass uses.
@@ -43,10 +43,10 @@ impl Tree {
 }
 
 /// The renderer's nearest test for rays `rays` (one per lane): leaves held as
-/// blocks four at a time when `blocks` is given.
+/// blocks four at a time when `blocks`.
 struct Nearest<'a, const K: usize> {
     shapes: &'a [Shape],
-    blocks: Option<&'a LeafTriangles>,
+    blocks: bool,
     rays: &'a [Ray; K],
 }
 
@@ -63,15 +63,15 @@ impl<const K: usize> NearestTest for Nearest<'_, K> {
     }
 
     #[inline(always)]
-    fn test_block(&mut self, prims: &[u32], lane: usize, t_max: f32) -> Option<BlockHits> {
-        let block = self.blocks?.block(prims)?;
-        Some(block.intersect(&self.rays[lane], 0.0, t_max))
+    fn test_block(&mut self, block: &Triangle4, lane: usize, t_max: f32) -> Option<BlockHits> {
+        self.blocks
+            .then(|| block.intersect(&self.rays[lane], 0.0, t_max))
     }
 
     #[inline(always)]
-    fn test_block_pair(&mut self, prims: &[u32], t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
-        let block = self.blocks?.block(prims)?;
-        Some(block.intersect_pair(&[self.rays[0], self.rays[1 % K]], 0.0, t_max))
+    fn test_block_pair(&mut self, block: &Triangle4, t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
+        self.blocks
+            .then(|| block.intersect_pair(&[self.rays[0], self.rays[1 % K]], 0.0, t_max))
     }
 }
 
@@ -93,7 +93,7 @@ fn nearest<const K: usize>(
     };
     let test = Nearest {
         shapes: &world.scene.shapes,
-        blocks: tree.blocks().then_some(&world.leaf_triangles),
+        blocks: tree.blocks(),
         rays,
     };
     if tree == Tree::WideEach {

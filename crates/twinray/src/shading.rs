@@ -15,7 +15,7 @@ use crate::bvh::{AnyHit, AnyHitTest, SegmentPacket, TraversalStats};
 use crate::lights::Light;
 use crate::math::{Color, Ray, Vec3};
 use crate::scene::{AlphaMode, Material};
-use crate::shapes::SurfaceHit;
+use crate::shapes::{BlockHits, SurfaceHit, Triangle4};
 use crate::world::World;
 
 /// Distance a secondary ray's origin is moved off the surface, relative to the
@@ -170,6 +170,18 @@ impl<const K: usize, const ALPHA: bool> ShadowTest<'_, K, ALPHA> {
     fn ray(&self, lane: usize) -> Ray {
         Ray::new(self.segments.origins[lane], self.segments.dirs[lane])
     }
+
+    /// A block's hits `b` on `prims` met in index order until one stops
+    /// lane `lane`.
+    #[inline(always)]
+    fn met_block(&mut self, b: &BlockHits, prims: &[u32], lane: usize) -> AnyHit {
+        for (i, hit) in b.first(prims.len()) {
+            if self.met(prims[i], lane, &hit) == AnyHit::Stop {
+                return AnyHit::Stop;
+            }
+        }
+        AnyHit::Continue
+    }
 }
 
 impl<const K: usize, const ALPHA: bool> AnyHitTest for ShadowTest<'_, K, ALPHA> {
@@ -180,6 +192,22 @@ impl<const K: usize, const ALPHA: bool> AnyHitTest for ShadowTest<'_, K, ALPHA> 
             None => AnyHit::Continue,
             Some(hit) => self.met(prim, lane, &hit),
         }
+    }
+
+    /// The leaves of triangles as SIMD blocks: hits met in index order, up
+    /// to the first that stops the segment.
+    #[inline(always)]
+    fn test_block(&mut self, block: &Triangle4, prims: &[u32], lane: usize) -> Option<AnyHit> {
+        let hits = block.intersect(&self.ray(lane), 0.0, self.segments.t_max[lane]);
+        Some(self.met_block(&hits, prims, lane))
+    }
+
+    #[inline(always)]
+    fn test_block_pair(&mut self, block: &Triangle4, prims: &[u32]) -> Option<[AnyHit; 2]> {
+        let (a, b) = (0, 1 % K);
+        let t_max = [self.segments.t_max[a], self.segments.t_max[b]];
+        let hits = block.intersect_pair(&[self.ray(a), self.ray(b)], 0.0, t_max);
+        Some([a, b].map(|l| self.met_block(&hits[l], prims, l)))
     }
 
     #[inline(always)]

@@ -3,10 +3,12 @@
 
 use std::time::Instant;
 
-use crate::bvh::{self, BuildOptions, Bvh};
+use rayon::prelude::*;
+
+use crate::bvh::{self, BuildOptions, Bvh, PAD};
 use crate::math::{Aabb, Vec3};
 use crate::scene::{Material, Scene};
-use crate::shapes::{LeafTriangles, Shape, TriangleNormals};
+use crate::shapes::{Shape, TriangleNormals};
 
 mod two_level;
 pub use two_level::{Instance, InstanceCounts, InstanceTrees};
@@ -22,9 +24,6 @@ pub struct World {
     pub far: Option<Bvh>,
     /// Seconds spent building the hierarchy.
     pub build_seconds: f64,
-    /// The leaves of `bvh` and `far` made only of triangles, as SIMD blocks
-    /// (the nearest-hit traversals test them four at a time).
-    pub leaf_triangles: LeafTriangles,
     /// Whether some material's alpha matters (`Scene::has_alpha`): rays then
     /// go on past cut-away hits, and shadow rays ask the alpha where they meet
     /// such a material.
@@ -68,6 +67,47 @@ impl Cut {
     }
 }
 
+/// How to build the hierarchy over `shapes`: leaves costed and filled as
+/// blocks of four when they are all triangles, else today's leaves, aligned
+/// so that those of triangles still make blocks.
+pub(crate) fn build_options<'a>(mut shapes: impl Iterator<Item = &'a Shape>) -> BuildOptions {
+    if shapes.all(|s| matches!(s, Shape::Triangle(_))) {
+        BuildOptions::triangle_blocks()
+    } else {
+        BuildOptions::aligned()
+    }
+}
+
+/// Puts the shapes (their materials and groups with them) in the leaf order
+/// of `trees`, one after the other, so that a leaf's primitives sit together
+/// in memory; the trees' orders then index them in order (past the padding
+/// between leaves), and each tree gets its blocks of triangles.
+pub(crate) fn into_leaf_order<'a>(scene: &mut Scene, trees: impl Iterator<Item = &'a mut Bvh>) {
+    let mut order = Vec::with_capacity(scene.shapes.len());
+    let mut trees: Vec<&mut Bvh> = trees.collect();
+    for tree in trees.iter_mut() {
+        for o in tree.order.iter_mut().filter(|o| **o != PAD) {
+            order.push(*o);
+            *o = order.len() as u32 - 1;
+        }
+    }
+    scene.shapes = order
+        .par_iter()
+        .map(|&i| scene.shapes[i as usize].clone())
+        .collect();
+    scene.shape_material = order
+        .par_iter()
+        .map(|&i| scene.shape_material[i as usize])
+        .collect();
+    scene.shape_group = order
+        .par_iter()
+        .map(|&i| scene.shape_group[i as usize])
+        .collect();
+    for tree in trees {
+        tree.attach_blocks(&scene.shapes);
+    }
+}
+
 impl World {
     pub fn new(scene: Scene) -> World {
         World::with_cut(scene, None)
@@ -80,7 +120,7 @@ impl World {
     pub fn with_cut(mut scene: Scene, cut: Option<Cut>) -> World {
         let start = Instant::now();
         scene.finish();
-        let boxes: Vec<Aabb> = scene.shapes.iter().map(|s| s.bounds()).collect();
+        let boxes: Vec<Aabb> = scene.shapes.par_iter().map(|s| s.bounds()).collect();
         let far_groups: Vec<bool> = match cut {
             None => Vec::new(),
             Some(c) => {
@@ -104,38 +144,20 @@ impl World {
                 .unwrap_or(false)
         });
         let build = |set: &[u32]| {
-            let set_boxes: Vec<Aabb> = set.iter().map(|&i| boxes[i as usize]).collect();
-            let mut bvh = bvh::build(&set_boxes, &BuildOptions::default());
-            for o in &mut bvh.order {
+            let set_boxes: Vec<Aabb> = set.par_iter().map(|&i| boxes[i as usize]).collect();
+            let opts = build_options(set.iter().map(|&i| &scene.shapes[i as usize]));
+            let mut bvh = bvh::build(&set_boxes, &opts);
+            for o in bvh.order.iter_mut().filter(|o| **o != PAD) {
                 *o = set[*o as usize];
             }
             bvh
         };
         let mut bvh = build(&near);
         let mut far_bvh = (!far.is_empty()).then(|| build(&far));
-        // Reorder shapes into leaf order (near, then far); the hierarchies then
-        // index them directly.
-        let mut order = std::mem::take(&mut bvh.order);
-        let near_count = order.len() as u32;
-        if let Some(f) = &mut far_bvh {
-            order.extend(std::mem::take(&mut f.order));
-            f.order = (near_count..order.len() as u32).collect();
-        }
-        let mut shapes = Vec::with_capacity(order.len());
-        let mut materials = Vec::with_capacity(order.len());
-        let mut groups = Vec::with_capacity(order.len());
-        for &i in &order {
-            shapes.push(scene.shapes[i as usize].clone());
-            materials.push(scene.shape_material[i as usize]);
-            groups.push(scene.shape_group[i as usize]);
-        }
-        scene.shapes = shapes;
-        scene.shape_material = materials;
-        scene.shape_group = groups;
-        bvh.order = (0..near_count).collect();
-        let leaf_triangles = LeafTriangles::new(
-            &scene.shapes,
-            bvh.leaves().chain(far_bvh.iter().flat_map(Bvh::leaves)),
+        // Shapes into leaf order (near, then far).
+        into_leaf_order(
+            &mut scene,
+            std::iter::once(&mut bvh).chain(far_bvh.as_mut()),
         );
         World {
             has_alpha: scene.has_alpha(),
@@ -143,14 +165,13 @@ impl World {
             bvh,
             far: far_bvh,
             build_seconds: start.elapsed().as_secs_f64(),
-            leaf_triangles,
             instances: None,
         }
     }
 
     /// Primitives beyond the cut.
     pub fn cut_primitives(&self) -> usize {
-        self.far.as_ref().map_or(0, |f| f.order.len())
+        self.far.as_ref().map_or(0, Bvh::primitive_count)
     }
 
     /// The transmission coefficient `T` of a primitive's material.
@@ -207,7 +228,6 @@ impl World {
             + s.textures.iter().map(|t| t.memory_bytes()).sum::<usize>()
             + self.bvh.memory_bytes()
             + self.far.as_ref().map_or(0, Bvh::memory_bytes)
-            + self.leaf_triangles.memory_bytes()
     }
 }
 
@@ -267,7 +287,14 @@ mod tests {
         assert_eq!(shape_keys(&world.scene), keys);
         // The hierarchy indexes the reordered shapes directly.
         let n = world.scene.shapes.len() as u32;
-        assert_eq!(world.bvh.order, (0..n).collect::<Vec<_>>());
+        let slots: Vec<u32> = world
+            .bvh
+            .order
+            .iter()
+            .copied()
+            .filter(|&p| p != PAD)
+            .collect();
+        assert_eq!(slots, (0..n).collect::<Vec<_>>());
         assert!(world.far.is_none() && world.cut_primitives() == 0);
     }
 
@@ -321,7 +348,7 @@ mod tests {
         let world = World::with_cut(scene(&text), Some(cut));
         assert_eq!(world.cut_primitives(), 2);
         let far = world.far.as_ref().expect("far hierarchy");
-        for &p in &far.order {
+        for &p in far.order.iter().filter(|&&p| p != PAD) {
             assert!(matches!(world.scene.shapes[p as usize], Shape::Sphere(_)));
             assert!(cut.beyond(&world.scene.shapes[p as usize].bounds()));
         }
@@ -329,7 +356,7 @@ mod tests {
             .bvh
             .order
             .iter()
-            .filter(|&&p| matches!(world.scene.shapes[p as usize], Shape::Triangle(_)))
+            .filter(|&&p| p != PAD && matches!(world.scene.shapes[p as usize], Shape::Triangle(_)))
             .count();
         assert_eq!(triangles, 4, "the polygon stays whole, before the cut");
     }

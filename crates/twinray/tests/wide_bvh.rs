@@ -6,7 +6,7 @@
 //! stops as brute force says. Nearest-first order is checked by counting the
 //! primitive tests on a ray down a row of objects.
 //!
-//! Leaves of triangles tested four at a time (`LeafTriangles`, the renderer's
+//! Leaves of triangles tested four at a time (`Bvh::blocks`, the renderer's
 //! leaf test) give the same hits, bit for bit, on both trees: on the random
 //! scenes, and on meshes whose rays land exactly on shared edges and
 //! vertices, with degenerate and edge-on triangles among them.
@@ -15,9 +15,7 @@ use twinray::bvh::{
     build, AnyHit, BuildOptions, Bvh, NearestTest, Packet, SegmentPacket, TraversalStats,
 };
 use twinray::math::{Aabb, Ray, Vec3};
-use twinray::shapes::{
-    BlockHits, LeafTriangles, Shape, Sphere, SurfaceHit, Triangle, TriangleNormals,
-};
+use twinray::shapes::{BlockHits, Shape, Sphere, SurfaceHit, Triangle, Triangle4, TriangleNormals};
 
 /// A random scene: small triangles and spheres in a 20-unit cube, some
 /// triangles sharing a plane (ties in distance), a few large ones.
@@ -52,6 +50,21 @@ fn scene(n: usize, seed: u64) -> Vec<Shape> {
 fn hierarchy(shapes: &[Shape]) -> Bvh {
     let boxes: Vec<Aabb> = shapes.iter().map(|s| s.bounds()).collect();
     build(&boxes, &BuildOptions::default())
+}
+
+/// The hierarchy the renderer builds: leaves of up to two blocks costed in
+/// blocks when all are triangles, else today's leaves aligned to blocks; the
+/// leaves of triangles held as blocks.
+fn blocked(shapes: &[Shape]) -> Bvh {
+    let boxes: Vec<Aabb> = shapes.iter().map(|s| s.bounds()).collect();
+    let opts = if shapes.iter().all(|s| matches!(s, Shape::Triangle(_))) {
+        BuildOptions::triangle_blocks()
+    } else {
+        BuildOptions::aligned()
+    };
+    let mut bvh = build(&boxes, &opts);
+    bvh.attach_blocks(shapes);
+    bvh
 }
 
 /// The nearest hit among all primitives with `t_min < t <= t_max` (the
@@ -339,7 +352,6 @@ fn nearest_child_first_stops_a_ray_at_the_first_of_a_row() {
 /// tested four at a time, the rest one by one. Counts the blocks it tested.
 struct BlockTest<'a, const K: usize> {
     shapes: &'a [Shape],
-    blocks: &'a LeafTriangles,
     packet: &'a Packet<K>,
     blocks_tested: &'a std::cell::Cell<u64>,
 }
@@ -354,15 +366,13 @@ impl<const K: usize> NearestTest for BlockTest<'_, K> {
         )
     }
 
-    fn test_block(&mut self, prims: &[u32], lane: usize, t_max: f32) -> Option<BlockHits> {
-        let block = self.blocks.block(prims)?;
+    fn test_block(&mut self, block: &Triangle4, lane: usize, t_max: f32) -> Option<BlockHits> {
         self.blocks_tested.set(self.blocks_tested.get() + 1);
         let p = self.packet;
         Some(block.intersect(&Ray::new(p.origins[lane], p.dirs[lane]), p.t_min, t_max))
     }
 
-    fn test_block_pair(&mut self, prims: &[u32], t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
-        let block = self.blocks.block(prims)?;
+    fn test_block_pair(&mut self, block: &Triangle4, t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
         self.blocks_tested.set(self.blocks_tested.get() + 2);
         let p = self.packet;
         let rays = [0, 1 % K].map(|l| Ray::new(p.origins[l], p.dirs[l]));
@@ -372,18 +382,12 @@ impl<const K: usize> NearestTest for BlockTest<'_, K> {
 
 /// Every lane's nearest hit with block leaves, on the four-wide and the
 /// binary tree: brute force's, bit for bit. Returns (lanes hit, blocks tested).
-fn check_blocks<const K: usize>(
-    shapes: &[Shape],
-    bvh: &Bvh,
-    blocks: &LeafTriangles,
-    p: &Packet<K>,
-) -> (u64, u64) {
+fn check_blocks<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) -> (u64, u64) {
     let tested = std::cell::Cell::new(0);
     let mut hits = 0;
     for wide in [true, false] {
         let test = BlockTest {
             shapes,
-            blocks,
             packet: p,
             blocks_tested: &tested,
         };
@@ -424,11 +428,10 @@ fn check_blocks<const K: usize>(
 fn run_blocks<const K: usize>(
     shapes: &[Shape],
     bvh: &Bvh,
-    blocks: &LeafTriangles,
     packets: impl Iterator<Item = Packet<K>>,
 ) -> (u64, u64) {
     packets.fold((0, 0), |acc, p| {
-        let (h, t) = check_blocks(shapes, bvh, blocks, &p);
+        let (h, t) = check_blocks(shapes, bvh, &p);
         (acc.0 + h, acc.1 + t)
     })
 }
@@ -437,36 +440,15 @@ fn run_blocks<const K: usize>(
 fn block_leaves_give_brute_force_hits_for_packets_of_every_width() {
     for (n, seed) in [(3, 2), (300, 4), (2000, 5)] {
         let shapes = scene(n, seed);
-        let bvh = hierarchy(&shapes);
-        let blocks = LeafTriangles::new(&shapes, bvh.leaves());
-        assert!(!blocks.is_empty());
+        let bvh = blocked(&shapes);
+        assert!(!bvh.blocks.is_empty());
         let mut rng = fastrand::Rng::with_seed(seed + 100);
         let (mut hits, mut tested) = (0, 0);
         for (h, t) in [
-            run_blocks(
-                &shapes,
-                &bvh,
-                &blocks,
-                (0..300).map(|_| packet::<1>(&mut rng)),
-            ),
-            run_blocks(
-                &shapes,
-                &bvh,
-                &blocks,
-                (0..300).map(|_| packet::<2>(&mut rng)),
-            ),
-            run_blocks(
-                &shapes,
-                &bvh,
-                &blocks,
-                (0..150).map(|_| packet::<3>(&mut rng)),
-            ),
-            run_blocks(
-                &shapes,
-                &bvh,
-                &blocks,
-                (0..100).map(|_| packet::<8>(&mut rng)),
-            ),
+            run_blocks(&shapes, &bvh, (0..300).map(|_| packet::<1>(&mut rng))),
+            run_blocks(&shapes, &bvh, (0..300).map(|_| packet::<2>(&mut rng))),
+            run_blocks(&shapes, &bvh, (0..150).map(|_| packet::<3>(&mut rng))),
+            run_blocks(&shapes, &bvh, (0..100).map(|_| packet::<8>(&mut rng))),
         ] {
             hits += h;
             tested += t;
@@ -525,10 +507,9 @@ fn mesh(n: usize) -> (Vec<Shape>, Vec<Vec3>) {
 #[test]
 fn block_leaves_agree_on_shared_edges_vertices_and_degenerate_triangles() {
     let (shapes, points) = mesh(24);
-    let bvh = hierarchy(&shapes);
-    let blocks = LeafTriangles::new(&shapes, bvh.leaves());
+    let bvh = blocked(&shapes);
     assert!(
-        blocks.len() * 2 > bvh.leaves().count(),
+        bvh.blocks.len() * 2 > bvh.leaves().count(),
         "most leaves are blocks"
     );
     let mut rng = fastrand::Rng::with_seed(77);
@@ -552,7 +533,7 @@ fn block_leaves_agree_on_shared_edges_vertices_and_degenerate_triangles() {
         t_max: [f32::INFINITY],
         mask: 1,
     });
-    let (hits, tested) = run_blocks(&shapes, &bvh, &blocks, singles);
+    let (hits, tested) = run_blocks(&shapes, &bvh, singles);
     assert!(
         hits as usize > rays.len(),
         "{hits} hits of {} rays",
@@ -569,7 +550,7 @@ fn block_leaves_agree_on_shared_edges_vertices_and_degenerate_triangles() {
             mask: rng.u32(1..16),
         }
     });
-    run_blocks(&shapes, &bvh, &blocks, quads);
+    run_blocks(&shapes, &bvh, quads);
     let pairs = rays.chunks_exact(2).map(|c| Packet {
         origins: [c[0].0, c[1].0],
         dirs: [c[0].1, c[1].1],
@@ -577,7 +558,7 @@ fn block_leaves_agree_on_shared_edges_vertices_and_degenerate_triangles() {
         t_max: [f32::INFINITY, 7.0],
         mask: 0b11,
     });
-    run_blocks(&shapes, &bvh, &blocks, pairs);
+    run_blocks(&shapes, &bvh, pairs);
 }
 
 /// Clusters of four triangles over one another, too close for the builder to
@@ -604,8 +585,7 @@ fn every_lane_of_a_full_block_can_give_the_nearest_hit() {
             )));
         }
     }
-    let bvh = hierarchy(&shapes);
-    let blocks = LeafTriangles::new(&shapes, bvh.leaves());
+    let bvh = blocked(&shapes);
     let full = bvh.leaves().filter(|l| l.len() == 4).count();
     assert!(full >= 100, "{full} leaves of four");
     // Per lane of a block: how often the nearest hit came from it.
@@ -623,7 +603,7 @@ fn every_lane_of_a_full_block_can_give_the_nearest_hit() {
             t_max: [f32::INFINITY],
             mask: 1,
         };
-        let (hits, tested) = check_blocks(&shapes, &bvh, &blocks, &p);
+        let (hits, tested) = check_blocks(&shapes, &bvh, &p);
         assert_eq!((hits, tested > 0), (2, true), "cluster {c}");
         let prim = brute(
             &shapes,
@@ -668,8 +648,7 @@ fn a_pair_in_a_block_keeps_each_rays_own_t_max() {
             TriangleNormals::Flat,
         ))
     }));
-    let bvh = hierarchy(&shapes);
-    let blocks = LeafTriangles::new(&shapes, bvh.leaves());
+    let bvh = blocked(&shapes);
     for (t0, t1) in [
         (5.0, f32::INFINITY),
         (12.0, 30.0),
@@ -683,7 +662,212 @@ fn a_pair_in_a_block_keeps_each_rays_own_t_max() {
             t_max: [t0, t1],
             mask: 0b11,
         };
-        let (hits, tested) = check_blocks(&shapes, &bvh, &blocks, &p);
+        let (hits, tested) = check_blocks(&shapes, &bvh, &p);
         assert!(tested > 0 && hits > 0, "t_max {t0}, {t1}");
     }
+}
+
+/// An any-hit test that records, per lane, every primitive it meets (in
+/// order) and stops a lane at the first primitive `opaque` says blocks;
+/// with `blocks`, leaves of triangles are tested as SIMD blocks.
+struct Recorder<'a, const K: usize> {
+    shapes: &'a [Shape],
+    segments: &'a SegmentPacket<K>,
+    blocks: bool,
+    met: [Vec<u32>; K],
+}
+
+impl<const K: usize> Recorder<'_, K> {
+    fn opaque(prim: u32) -> bool {
+        prim.is_multiple_of(3)
+    }
+
+    fn meet(&mut self, prim: u32, lane: usize) -> AnyHit {
+        self.met[lane].push(prim);
+        if Self::opaque(prim) {
+            AnyHit::Stop
+        } else {
+            AnyHit::Continue
+        }
+    }
+
+    fn ray(&self, l: usize) -> Ray {
+        Ray::new(self.segments.origins[l], self.segments.dirs[l])
+    }
+}
+
+impl<const K: usize> twinray::bvh::AnyHitTest for Recorder<'_, K> {
+    fn test(&mut self, prim: u32, lane: usize) -> AnyHit {
+        let ray = self.ray(lane);
+        match self.shapes[prim as usize].intersect(&ray, 0.0, self.segments.t_max[lane]) {
+            Some(_) => self.meet(prim, lane),
+            None => AnyHit::Continue,
+        }
+    }
+
+    fn test_block(&mut self, block: &Triangle4, prims: &[u32], lane: usize) -> Option<AnyHit> {
+        if !self.blocks {
+            return None;
+        }
+        let hits = block.intersect(&self.ray(lane), 0.0, self.segments.t_max[lane]);
+        let mut m = hits.mask & ((1 << prims.len()) - 1);
+        while m != 0 {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            if self.meet(prims[i], lane) == AnyHit::Stop {
+                return Some(AnyHit::Stop);
+            }
+        }
+        Some(AnyHit::Continue)
+    }
+}
+
+/// Any-hit with SIMD block leaves meets the same primitives in the same
+/// order, and stops at the same one, as testing them one by one: on both
+/// trees, for segments alone, in pairs (one block test for both) and in
+/// packets of four, on a mesh and on a mixed scene.
+#[test]
+fn block_any_hit_meets_what_one_by_one_meets_and_stops_there() {
+    let mut rng = fastrand::Rng::with_seed(5);
+    let (mesh_shapes, points) = mesh(20);
+    let mixed = scene(1500, 9);
+    let (mut met_total, mut stopped) = (0, 0);
+    for shapes in [&mesh_shapes, &mixed] {
+        let bvh = blocked(shapes);
+        assert!(!bvh.blocks.is_empty());
+        // Segments of a packet start and end near one another (as a stereo
+        // pair's do), so that they meet leaves together.
+        let seg = |rng: &mut fastrand::Rng, to: Vec3, from: Vec3| {
+            let jitter = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
+            let (to, from) = (to + jitter * 0.2, from + jitter * 0.5);
+            let d = (to - from).normalize();
+            (from - d * 5.0, d, (to - from).length() + 10.0 * rng.f32())
+        };
+        for k in 0..400 {
+            let to = if std::ptr::eq(shapes, &mesh_shapes) {
+                points[rng.usize(0..points.len())]
+            } else {
+                Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5) * 20.0
+            };
+            let from = to + Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32()) * 30.0;
+            let s: [(Vec3, Vec3, f32); 4] = std::array::from_fn(|_| seg(&mut rng, to, from));
+            let run = |blocks: bool, wide: bool, width: usize| {
+                let mut out: Vec<Vec<u32>> = Vec::new();
+                let mut st = TraversalStats::default();
+                macro_rules! go {
+                    ($k:literal) => {{
+                        let p = SegmentPacket::<$k> {
+                            origins: std::array::from_fn(|l| s[l].0),
+                            dirs: std::array::from_fn(|l| s[l].1),
+                            t_max: std::array::from_fn(|l| s[l].2),
+                            mask: (1 << $k) - 1,
+                        };
+                        let mut r = Recorder {
+                            shapes,
+                            segments: &p,
+                            blocks,
+                            met: std::array::from_fn(|_| Vec::new()),
+                        };
+                        if wide {
+                            bvh.occlusion_wide(&p, &mut st, &mut r);
+                        } else {
+                            bvh.occlusion_binary(&p, &mut st, &mut r);
+                        }
+                        out.extend(r.met);
+                    }};
+                }
+                match width {
+                    1 => go!(1),
+                    2 => go!(2),
+                    _ => go!(4),
+                }
+                out
+            };
+            let width = [1, 2, 4][k % 3];
+            for wide in [true, false] {
+                let one_by_one = run(false, wide, width);
+                let in_blocks = run(true, wide, width);
+                assert_eq!(in_blocks, one_by_one, "segment set {k}, wide {wide}");
+                for (l, met) in one_by_one.iter().enumerate() {
+                    met_total += met.len();
+                    // A lane stops at its first opaque primitive; one that
+                    // meets none has met every primitive on its segment.
+                    let opaque = met.iter().filter(|&&p| Recorder::<1>::opaque(p)).count();
+                    let stops = met.last().is_some_and(|&p| Recorder::<1>::opaque(p));
+                    assert_eq!(opaque, stops as usize, "set {k}, lane {l}: {met:?}");
+                    stopped += stops as usize;
+                    if !stops {
+                        let ray = Ray::new(s[l].0, s[l].1);
+                        let all: Vec<u32> = (0..shapes.len() as u32)
+                            .filter(|&p| shapes[p as usize].intersect(&ray, 0.0, s[l].2).is_some())
+                            .collect();
+                        let mut met = met.clone();
+                        met.sort_unstable();
+                        assert_eq!(met, all, "set {k}, lane {l}");
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        met_total > 1000 && stopped > 300,
+        "{met_total} met, {stopped} stopped"
+    );
+}
+
+/// Leaves costed in blocks make an eye ray's descent shorter: on a mesh
+/// seen from above, fewer box tests per ray than per-primitive leaves, for
+/// the same hits.
+#[test]
+fn blocks_cut_the_box_tests_of_an_eye_ray() {
+    let (shapes, _) = mesh(60);
+    let shapes: Vec<Shape> = shapes
+        .into_iter()
+        .filter(|s| s.bounds().max.z - s.bounds().min.z < 2.0)
+        .collect();
+    let boxes: Vec<Aabb> = shapes.iter().map(|s| s.bounds()).collect();
+    let mut per_prim = build(&boxes, &BuildOptions::aligned());
+    per_prim.attach_blocks(&shapes);
+    let in_blocks = blocked(&shapes);
+    let mut rng = fastrand::Rng::with_seed(3);
+    let eye = Vec3::new(30.0, -20.0, 40.0);
+    let (mut a, mut b) = (TraversalStats::default(), TraversalStats::default());
+    let rays = 2000;
+    for _ in 0..rays {
+        let to = Vec3::new(rng.f32() * 60.0, rng.f32() * 60.0, 0.5);
+        let p = Packet {
+            origins: [eye],
+            dirs: [(to - eye).normalize()],
+            t_min: 0.0,
+            t_max: [f32::INFINITY],
+            mask: 1,
+        };
+        let ha = check(&per_prim, &shapes, &p, &mut a);
+        let hb = check(&in_blocks, &shapes, &p, &mut b);
+        assert_eq!(ha, hb);
+    }
+    let per_ray = |s: &TraversalStats| s.box_tests as f64 / rays as f64;
+    assert!(
+        per_ray(&b) < 0.8 * per_ray(&a),
+        "box tests per ray: {:.1} in blocks, {:.1} per primitive",
+        per_ray(&b),
+        per_ray(&a)
+    );
+}
+
+fn check(
+    bvh: &Bvh,
+    shapes: &[Shape],
+    p: &Packet<1>,
+    st: &mut TraversalStats,
+) -> Option<(u32, u32)> {
+    let tested = std::cell::Cell::new(0);
+    let test = BlockTest {
+        shapes,
+        packet: p,
+        blocks_tested: &tested,
+    };
+    let got = bvh.closest_wide(p, st, test);
+    got.has_hit(0)
+        .then(|| (got.prim[0], got.hit[0].t.to_bits()))
 }

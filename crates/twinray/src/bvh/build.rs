@@ -2,6 +2,7 @@
 
 use super::{Bvh, Node};
 use crate::math::{Aabb, Vec3};
+use crate::shapes::BLOCK;
 
 #[derive(Clone, Copy, Debug)]
 pub struct BuildOptions {
@@ -9,8 +10,16 @@ pub struct BuildOptions {
     pub bins: usize,
     /// Largest leaf the builder makes when splitting stops paying.
     pub max_leaf: usize,
-    /// Cost of one box test relative to one primitive test.
+    /// Cost of one box test relative to one primitive test (with
+    /// `cost_in_blocks`: to one block test).
     pub traversal_cost: f32,
+    /// Every leaf starts at a slot that is a multiple of this, the order
+    /// padded with `PAD` between leaves, so that a leaf's triangle blocks
+    /// (`shapes::LeafBlocks`) are found from its first slot. 1: no padding.
+    pub block: usize,
+    /// The SAH counts a leaf's cost in blocks of `block` primitives, which are
+    /// tested at once: it then prefers leaves that fill their blocks.
+    pub cost_in_blocks: bool,
 }
 
 impl Default for BuildOptions {
@@ -19,9 +28,47 @@ impl Default for BuildOptions {
             bins: 16,
             max_leaf: 4,
             traversal_cost: 1.0,
+            block: 1,
+            cost_in_blocks: false,
         }
     }
 }
+
+impl BuildOptions {
+    /// For primitives that are all triangles, tested four at a time: leaves
+    /// of up to two full blocks, aligned to blocks, the SAH counting blocks.
+    pub fn triangle_blocks() -> BuildOptions {
+        BuildOptions {
+            max_leaf: 2 * BLOCK,
+            block: BLOCK,
+            cost_in_blocks: true,
+            ..BuildOptions::default()
+        }
+    }
+
+    /// For any primitives: today's leaves, aligned to blocks so that those
+    /// made only of triangles can be tested four at a time.
+    pub fn aligned() -> BuildOptions {
+        BuildOptions {
+            block: BLOCK,
+            ..BuildOptions::default()
+        }
+    }
+
+    /// What the SAH charges for testing `n` primitives in a leaf.
+    #[inline(always)]
+    fn leaf_cost(&self, n: u32) -> f32 {
+        if self.cost_in_blocks {
+            n.div_ceil(self.block.max(1) as u32) as f32
+        } else {
+            n as f32
+        }
+    }
+}
+
+/// An order slot that holds no primitive: the padding before a leaf that
+/// starts a block.
+pub const PAD: u32 = u32::MAX;
 
 /// Subtrees smaller than this are built on the current thread.
 const PARALLEL_THRESHOLD: usize = 8192;
@@ -52,14 +99,14 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
         .collect();
     let mut refs = refs;
     let tree = build_subtree(&mut refs, opts);
-    let mut bvh = Bvh {
-        nodes: Vec::with_capacity(2 * boxes.len()),
-        order: refs.iter().map(|r| r.index).collect(),
-        wide: Vec::new(),
-    };
-    flatten(&tree, &mut bvh.nodes, 0);
-    bvh.wide = super::collapse(&bvh.nodes);
-    bvh
+    let (nodes, order) = flatten(&tree, &refs, opts.block.max(1));
+    let wide = super::collapse(&nodes);
+    Bvh {
+        nodes,
+        order,
+        wide,
+        ..Bvh::default()
+    }
 }
 
 /// The box a primitive with bounds `b` is filed under: `b` padded so that the
@@ -99,6 +146,14 @@ enum BuildNode {
 }
 
 impl BuildNode {
+    /// Nodes in the subtree.
+    fn count(&self) -> usize {
+        match self {
+            BuildNode::Leaf { .. } => 1,
+            BuildNode::Inner { children, .. } => 1 + children[0].count() + children[1].count(),
+        }
+    }
+
     fn bounds(&self) -> Aabb {
         match self {
             BuildNode::Leaf { bounds, .. } | BuildNode::Inner { bounds, .. } => *bounds,
@@ -111,22 +166,26 @@ impl BuildNode {
 const MAX_SAH_DEPTH: usize = 64;
 
 fn build_subtree(refs: &mut [PrimRef], opts: &BuildOptions) -> BuildNode {
-    build_range(refs, 0, 0, opts)
+    build_range(refs, 0, 0, None, opts)
 }
 
+/// The subtree over `refs` (slots from `offset`); `known`: the bounds and
+/// centroid bounds of `refs` if the parent's partition found them.
 fn build_range(
     refs: &mut [PrimRef],
     offset: usize,
     depth: usize,
+    known: Option<(Aabb, Aabb)>,
     opts: &BuildOptions,
 ) -> BuildNode {
-    let (bounds, centroid_bounds) = bounds_of(refs);
+    let (bounds, centroid_bounds) = known.unwrap_or_else(|| bounds_of(refs));
     let leaf = || BuildNode::Leaf {
         bounds,
         first: offset,
         count: refs.len(),
     };
-    if refs.len() <= 2 {
+    if refs.len() <= 2 || (opts.cost_in_blocks && refs.len() <= opts.block.min(opts.max_leaf)) {
+        // (One block: splitting adds a box test and saves no block test.)
         return leaf();
     }
     if depth >= MAX_SAH_DEPTH {
@@ -139,17 +198,26 @@ fn build_range(
             median_split(refs, offset, depth, bounds, &centroid_bounds, opts)
         };
     };
-    let leaf_cost = refs.len() as f32;
+    let leaf_cost = opts.leaf_cost(refs.len() as u32);
     if split.cost >= leaf_cost && refs.len() <= opts.max_leaf {
         return leaf();
     }
-    let mid = partition(refs, |r| {
+    let (mid, sides) = partition(refs, |r| {
         split.binning.bin(r.centroid[split.axis], split.axis) < split.bin
     });
     if mid == 0 || mid == refs.len() {
         return median_split(refs, offset, depth, bounds, &centroid_bounds, opts);
     }
-    split_and_recurse(refs, offset, depth, mid, bounds, split.axis, opts)
+    split_and_recurse(
+        refs,
+        offset,
+        depth,
+        mid,
+        Some(sides),
+        bounds,
+        split.axis,
+        opts,
+    )
 }
 
 /// The union of the boxes of `refs` and the bounds of their centroids, in
@@ -171,25 +239,30 @@ fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
     }
 }
 
+/// `sides`: the bounds and centroid bounds of `refs[..mid]` and
+/// `refs[mid..]`, if known.
+#[allow(clippy::too_many_arguments)]
 fn split_and_recurse(
     refs: &mut [PrimRef],
     offset: usize,
     depth: usize,
     mid: usize,
+    sides: Option<[(Aabb, Aabb); 2]>,
     bounds: Aabb,
     axis: usize,
     opts: &BuildOptions,
 ) -> BuildNode {
     let (left, right) = refs.split_at_mut(mid);
+    let (kl, kr) = (sides.map(|s| s[0]), sides.map(|s| s[1]));
     let (l, r) = if left.len() + right.len() > PARALLEL_THRESHOLD {
         rayon::join(
-            || build_range(left, offset, depth + 1, opts),
-            || build_range(right, offset + mid, depth + 1, opts),
+            || build_range(left, offset, depth + 1, kl, opts),
+            || build_range(right, offset + mid, depth + 1, kr, opts),
         )
     } else {
         (
-            build_range(left, offset, depth + 1, opts),
-            build_range(right, offset + mid, depth + 1, opts),
+            build_range(left, offset, depth + 1, kl, opts),
+            build_range(right, offset + mid, depth + 1, kr, opts),
         )
     };
     BuildNode::Inner {
@@ -211,7 +284,7 @@ fn median_split(
     let axis = centroid_bounds.extent().max_position();
     let mid = refs.len() / 2;
     refs.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
-    split_and_recurse(refs, offset, depth, mid, bounds, axis, opts)
+    split_and_recurse(refs, offset, depth, mid, None, bounds, axis, opts)
 }
 
 struct Split {
@@ -328,7 +401,8 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
                 continue;
             }
             let cost = opts.traversal_cost
-                + (acc.half_area() * cnt as f32 + right_area[i] * right_count[i] as f32)
+                + (acc.half_area() * opts.leaf_cost(cnt)
+                    + right_area[i] * opts.leaf_cost(right_count[i]))
                     / parent_area;
             if best.as_ref().is_none_or(|b| cost < b.cost) {
                 best = Some(Split {
@@ -343,32 +417,58 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
     best
 }
 
-/// In-place partition; returns the number of elements for which `pred` holds.
-fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> usize {
+/// In-place partition; returns the number of elements for which `pred`
+/// holds, and the bounds and centroid bounds of both sides (found on the
+/// way, which saves the children a pass over their primitives).
+fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> (usize, [(Aabb, Aabb); 2]) {
+    let mut sides = [(Aabb::EMPTY, Aabb::EMPTY); 2];
     let mut i = 0;
     for j in 0..refs.len() {
-        if pred(&refs[j]) {
+        let r = refs[j];
+        let left = pred(&r);
+        let side = &mut sides[!left as usize];
+        *side = (side.0.union(r.bounds), side.1.grow(r.centroid));
+        if left {
             refs.swap(i, j);
             i += 1;
         }
     }
-    i
+    (i, sides)
 }
 
-/// Lays the tree out depth-first with siblings adjacent.
-fn flatten(node: &BuildNode, nodes: &mut Vec<Node>, _depth: usize) {
-    nodes.push(to_node(node, 0));
-    let mut queue = vec![(node, 0usize)];
+/// Lays the tree out depth-first with siblings adjacent, and the
+/// primitives in leaf order, each leaf starting at a multiple of `block`
+/// (`PAD` in the slots between). Leaves come in slot order, so `refs`'s.
+fn flatten(root: &BuildNode, refs: &[PrimRef], block: usize) -> (Vec<Node>, Vec<u32>) {
+    let mut nodes = Vec::with_capacity(root.count());
+    let mut order = Vec::with_capacity(if block > 1 {
+        refs.len() + refs.len() / 2
+    } else {
+        refs.len()
+    });
+    let leaf = |n: &BuildNode, order: &mut Vec<u32>| -> Node {
+        let mut node = to_node(n, 0);
+        if let BuildNode::Leaf { first, count, .. } = n {
+            order.resize(order.len().next_multiple_of(block), PAD);
+            node.first = order.len() as u32;
+            order.extend(refs[*first..first + count].iter().map(|r| r.index));
+        }
+        node
+    };
+    nodes.push(leaf(root, &mut order));
+    let mut queue = vec![(root, 0usize)];
     while let Some((n, index)) = queue.pop() {
         if let BuildNode::Inner { children, .. } = n {
             let first = nodes.len();
             nodes[index].first = first as u32;
-            nodes.push(to_node(&children[0], 0));
-            nodes.push(to_node(&children[1], 0));
+            nodes.push(leaf(&children[0], &mut order));
+            nodes.push(leaf(&children[1], &mut order));
             queue.push((&children[1], first + 1));
             queue.push((&children[0], first));
         }
     }
+    order.resize(order.len().next_multiple_of(block), PAD);
+    (nodes, order)
 }
 
 fn to_node(n: &BuildNode, first: u32) -> Node {

@@ -3,19 +3,22 @@
 //! rays (one lane per view: the paper's twin objects, realised as the views'
 //! rays traced as one), and any-hit for packets of shadow rays.
 //!
-//! The hierarchy knows nothing of shapes: it holds boxes and a permutation of
-//! primitive indices (and the same tree four-wide, `wide.rs`), and asks a `NearestTest` or `AnyHitTest` to test primitives.
+//! The hierarchy holds boxes and a permutation of primitive indices (and the
+//! same tree four-wide, `wide.rs`), and asks a `NearestTest` or `AnyHitTest`
+//! to test primitives; the one thing it keeps of shapes is its leaves of
+//! triangles as SIMD blocks (`leaf.rs`), which a caller attaches.
 
 #[cfg(test)]
 pub(crate) mod brute_force;
 mod build;
+mod leaf;
 mod splice;
 mod strip;
 mod traverse;
 mod wedge;
 mod wide;
 
-pub use build::{build, primitive_box, BuildOptions};
+pub use build::{build, primitive_box, BuildOptions, PAD};
 pub use splice::{splice, Placed};
 pub use strip::{Cover, Family, FamilyTest, Interval, StripScratch, StripStats, FAMILY_EPS};
 pub use traverse::{
@@ -26,6 +29,7 @@ pub use wedge::{distance_to_segment, FanWork, ShadowFan};
 pub use wide::{collapse, Node4, WIDTH};
 
 use crate::math::Aabb;
+use crate::shapes::LeafBlocks;
 
 /// 32 bytes, two to a cache line. Inner nodes keep their children next to each
 /// other at `first` and `first + 1`; leaves own `count` primitive slots
@@ -68,11 +72,15 @@ impl Node {
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
     pub nodes: Vec<Node>,
-    /// Primitive indices in leaf order: leaf slots `first..first+count` index this.
+    /// Primitive indices in leaf order: leaf slots `first..first+count` index
+    /// this. Slots between leaves hold `PAD` (a tree built for blocks).
     pub order: Vec<u32>,
     /// The same tree collapsed four-wide (`wide.rs`), which the traversals
     /// use when it is there; empty: they use `nodes`.
     pub wide: Vec<Node4>,
+    /// The leaves made only of triangles as SIMD blocks, by slot
+    /// (`Bvh::attach_blocks`); empty: every leaf is tested one by one.
+    pub blocks: LeafBlocks,
 }
 
 impl Bvh {
@@ -108,10 +116,24 @@ impl Bvh {
         })
     }
 
+    /// Each leaf's first slot and its primitives.
+    pub fn leaf_slots(&self) -> impl Iterator<Item = (usize, &[u32])> + '_ {
+        self.nodes.iter().filter(|n| n.is_leaf()).map(|n| {
+            let first = n.first as usize;
+            (first, &self.order[first..first + n.count() as usize])
+        })
+    }
+
+    /// Primitives in the tree (the order's slots without the padding).
+    pub fn primitive_count(&self) -> usize {
+        self.order.iter().filter(|&&p| p != PAD).count()
+    }
+
     /// Memory held by the hierarchy, in bytes.
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node>()
             + self.wide.len() * std::mem::size_of::<Node4>()
             + self.order.len() * 4
+            + self.blocks.memory_bytes()
     }
 }

@@ -9,8 +9,9 @@
 //! at once, but it bounds every primitive, so the nearest hit of a ray (where
 //! only one primitive is nearest) is the same.
 
-use super::{build, collapse, BuildOptions, Bvh, Node};
+use super::{build, collapse, BuildOptions, Bvh, Node, PAD};
 use crate::math::Aabb;
+use crate::shapes::BLOCK;
 
 /// One instance's tree, over primitive slots `offset..offset + bvh.order.len()`
 /// of the joined order.
@@ -32,8 +33,9 @@ enum Source<'a> {
 }
 
 /// The instances' trees joined under a tree over their root boxes. Slot `s`
-/// of instance `i` becomes slot `offset + s`, holding primitive
-/// `offset + order[s]`. Instances without primitives are left out.
+/// of instance `i` becomes slot `b_i + s` (`b_i`: the slots of the instances
+/// before it, rounded up to a block), holding primitive `offset + order[s]`
+/// (padding stays `PAD`). Instances without primitives are left out.
 pub fn splice(parts: &[Placed]) -> Bvh {
     let kept: Vec<usize> = (0..parts.len())
         .filter(|&i| !parts[i].bvh.nodes.is_empty())
@@ -41,15 +43,21 @@ pub fn splice(parts: &[Placed]) -> Bvh {
     if kept.is_empty() {
         return Bvh::default();
     }
-    let slots = parts
-        .iter()
-        .map(|p| p.offset as usize + p.bvh.order.len())
-        .max()
-        .unwrap_or(0);
-    let mut order = vec![0u32; slots];
+    // Each instance's slots start at a block, so that its leaves that start
+    // one still do.
+    let mut base = Vec::with_capacity(parts.len());
+    let mut slots = 0usize;
     for p in parts {
+        slots = slots.next_multiple_of(BLOCK);
+        base.push(slots as u32);
+        slots += p.bvh.order.len();
+    }
+    let mut order = vec![PAD; slots.next_multiple_of(BLOCK)];
+    for (p, &b) in parts.iter().zip(&base) {
         for (s, &o) in p.bvh.order.iter().enumerate() {
-            order[p.offset as usize + s] = p.offset + o;
+            if o != PAD {
+                order[b as usize + s] = p.offset + o;
+            }
         }
     }
     let roots: Vec<Aabb> = kept.iter().map(|&i| parts[i].bvh.bounds()).collect();
@@ -101,7 +109,7 @@ pub fn splice(parts: &[Placed]) -> Bvh {
                 let n = parts[p].bvh.nodes[i];
                 nodes[at] = n;
                 if n.is_leaf() {
-                    nodes[at].first = n.first + parts[p].offset;
+                    nodes[at].first = n.first + base[p];
                     continue;
                 }
                 let first = children(&mut nodes, at);
@@ -111,7 +119,12 @@ pub fn splice(parts: &[Placed]) -> Bvh {
         }
     }
     let wide = collapse(&nodes);
-    Bvh { nodes, order, wide }
+    Bvh {
+        nodes,
+        order,
+        wide,
+        ..Bvh::default()
+    }
 }
 
 #[cfg(test)]

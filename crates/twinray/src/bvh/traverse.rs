@@ -14,9 +14,10 @@
 //! primitive index — does not depend on the order in which nodes are visited:
 //! a lane in any packet gets what the same ray traced alone gets.
 
+use super::leaf::{leaf_lane, occlusion_lane, occlusion_leaf, test_leaf};
 use super::{Bvh, Node};
 use crate::math::{Aabb, Vec3};
-use crate::shapes::{BlockHits, SurfaceHit};
+use crate::shapes::{BlockHits, SurfaceHit, Triangle4};
 use arrayvec::ArrayVec;
 use wide::f32x4;
 
@@ -109,22 +110,22 @@ pub trait NearestTest {
         [self.test(prim, 0, t_max[0]), self.test(prim, 1, t_max[1])]
     }
 
-    /// Lane `lane` against all the primitives `prims` of a leaf at once,
-    /// where the test keeps them as one SIMD block (`shapes::Triangle4`): bit
-    /// `i` and lane `i` are what `test(prims[i], lane, t_max)` returns. `None`:
-    /// the traversal tests them one by one.
+    /// Lane `lane` against a block of a leaf's triangles at once
+    /// (`shapes::Triangle4`): bit `i` and lane `i` are what `test` returns
+    /// for the block's primitive `i`. `None`: the traversal tests the block's
+    /// primitives one by one.
     #[inline(always)]
-    fn test_block(&mut self, _prims: &[u32], _lane: usize, _t_max: f32) -> Option<BlockHits> {
+    fn test_block(&mut self, _block: &Triangle4, _lane: usize, _t_max: f32) -> Option<BlockHits> {
         None
     }
 
-    /// Lanes 0 and 1 against a leaf held as a block, at once: what two calls
-    /// of `test_block` return. `None` where `test_block` gives `None`.
+    /// Lanes 0 and 1 against a block at once: what two calls of `test_block`
+    /// return.
     #[inline(always)]
-    fn test_block_pair(&mut self, prims: &[u32], t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
+    fn test_block_pair(&mut self, block: &Triangle4, t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
         Some([
-            self.test_block(prims, 0, t_max[0])?,
-            self.test_block(prims, 1, t_max[1])?,
+            self.test_block(block, 0, t_max[0])?,
+            self.test_block(block, 1, t_max[1])?,
         ])
     }
 }
@@ -145,6 +146,25 @@ pub trait AnyHitTest {
     #[inline(always)]
     fn test_pair(&mut self, prim: u32) -> [AnyHit; 2] {
         [self.test(prim, 0), self.test(prim, 1)]
+    }
+
+    /// Lane `lane` against a block of triangles (`shapes::Triangle4`) whose
+    /// lanes hold the primitives `prims`: must do what `test` on each of
+    /// `prims` in order does, up to the first `Stop` (which it returns).
+    /// `None`: the traversal tests them one by one.
+    #[inline(always)]
+    fn test_block(&mut self, _block: &Triangle4, _prims: &[u32], _lane: usize) -> Option<AnyHit> {
+        None
+    }
+
+    /// Lanes 0 and 1 against a block at once: what two calls of
+    /// `test_block` do.
+    #[inline(always)]
+    fn test_block_pair(&mut self, block: &Triangle4, prims: &[u32]) -> Option<[AnyHit; 2]> {
+        Some([
+            self.test_block(block, prims, 0)?,
+            self.test_block(block, prims, 1)?,
+        ])
     }
 }
 
@@ -305,47 +325,6 @@ impl LaneHit {
             self.prim = prim;
             self.hit = h;
         }
-    }
-}
-
-/// One lane against a leaf's primitives `prims`, improving `state`: the leaf
-/// test of every nearest-hit descent, binary or four-wide, lane alone or in a
-/// packet. A leaf the test holds as a SIMD block is tested in one go, every
-/// primitive with the bound from before the leaf; `offer` then refuses what a
-/// smaller bound found on the way would have refused, so the hit is the one
-/// the primitives tested one by one give.
-#[inline(always)]
-pub(super) fn leaf_lane<T: NearestTest>(
-    prims: &[u32],
-    lane: usize,
-    state: &mut LaneHit,
-    test: &mut T,
-) {
-    // next_up lets an equal distance through, for the index tie-break.
-    if let Some(b) = test.test_block(prims, lane, state.best.next_up()) {
-        offer_block(prims, &b, state);
-        return;
-    }
-    for &prim in prims {
-        if let Some(h) = test.test(prim, lane, state.best.next_up()) {
-            state.offer(prim, h);
-        }
-    }
-}
-
-/// A block's hits on the leaf `prims` offered to `state`, in index order.
-#[inline(always)]
-fn offer_block(prims: &[u32], b: &BlockHits, state: &mut LaneHit) {
-    let mut m = b.mask;
-    while m != 0 {
-        let i = m.trailing_zeros() as usize;
-        m &= m - 1;
-        let h = SurfaceHit {
-            t: b.t[i],
-            u: b.u[i],
-            v: b.v[i],
-        };
-        state.offer(prims[i], h);
     }
 }
 
@@ -547,96 +526,6 @@ impl<const K: usize> Lanes<K> {
     }
 }
 
-/// The lanes `mask` of a packet against a leaf's primitives `prims`, each
-/// lane's nearest hit improved in `best` and `out` (ties to the lower
-/// index): the leaf test of both the binary and the four-wide descent.
-#[inline(always)]
-pub(super) fn test_leaf<const K: usize, T: NearestTest>(
-    prims: &[u32],
-    mask: u32,
-    best: &mut [f32; K],
-    out: &mut PacketHits<K>,
-    stats: &mut TraversalStats,
-    test: &mut T,
-) {
-    stats.prim_tests += (prims.len() * mask.count_ones() as usize) as u64;
-    let lane = |l: usize, best: &[f32; K], out: &PacketHits<K>| LaneHit {
-        best: best[l],
-        prim: out.prim[l],
-        hit: out.hit[l],
-    };
-    if K == 2 && mask == 0b11 {
-        let bounds = [best[0].next_up(), best[1 % K].next_up()];
-        if let Some(found) = test.test_block_pair(prims, bounds) {
-            // A leaf held as a block: both rays of the pair against it at once.
-            for (l, b) in found.iter().enumerate() {
-                let mut state = lane(l, best, out);
-                offer_block(prims, b, &mut state);
-                (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
-            }
-            return;
-        }
-        // Both rays of the pair against one primitive at once.
-        for &prim in prims {
-            let found = test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
-            for (l, h) in found.into_iter().enumerate() {
-                if let Some(h) = h {
-                    if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
-                        best[l] = h.t;
-                        out.prim[l] = prim;
-                        out.hit[l] = h;
-                    }
-                }
-            }
-        }
-        return;
-    }
-    let mut lanes = mask;
-    while lanes != 0 {
-        let l = lanes.trailing_zeros() as usize;
-        lanes &= lanes - 1;
-        let mut state = lane(l, best, out);
-        leaf_lane(prims, l, &mut state, test);
-        (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
-    }
-}
-
-/// The lanes `mask` of a shadow packet (`pair`: of two lanes) against a
-/// leaf's primitives `prims`;
-/// a lane leaves `live` when `test` says stop for it: the leaf test of both
-/// the binary and the four-wide any-hit descent.
-#[inline(always)]
-pub(super) fn occlusion_leaf<T: AnyHitTest>(
-    prims: &[u32],
-    pair: bool,
-    mask: u32,
-    live: &mut u32,
-    stats: &mut TraversalStats,
-    test: &mut T,
-) {
-    for &prim in prims {
-        if pair && mask & *live == 0b11 {
-            // Both segments of a stereo pair against one primitive at once.
-            stats.prim_tests += 2;
-            for (l, a) in test.test_pair(prim).into_iter().enumerate() {
-                if a == AnyHit::Stop {
-                    *live &= !(1 << l);
-                }
-            }
-            continue;
-        }
-        let mut lanes = mask & *live;
-        while lanes != 0 {
-            let l = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
-            stats.prim_tests += 1;
-            if test.test(prim, l) == AnyHit::Stop {
-                *live &= !(1 << l);
-            }
-        }
-    }
-}
-
 impl Bvh {
     /// Nearest hit per lane, on the binary tree. `test(prim, lane, t_max)`
     /// intersects one primitive with one lane's ray and returns a hit with
@@ -718,9 +607,8 @@ impl Bvh {
             stats.nodes += 1;
             let node = &self.nodes[index as usize];
             if node.is_leaf() {
-                let first = node.first as usize;
                 test_leaf(
-                    &self.order[first..first + node.count() as usize],
+                    self.leaf(node.first, node.count()),
                     mask,
                     &mut best,
                     &mut out,
@@ -766,7 +654,7 @@ impl Bvh {
                 packet.mask.trailing_zeros() as usize
             };
             let ray = SingleRay::new(packet.origins[l], packet.dirs[l], 0.0);
-            self.descend_occlusion(None, &ray, packet.t_max[l], stats, |p| test.test(p, l));
+            self.descend_occlusion(None, &ray, packet.t_max[l], stats, test, l);
             return;
         }
         let segments = Lanes::<K>::new(&packet.origins, &packet.dirs, packet.mask, 0.0);
@@ -790,7 +678,7 @@ impl Bvh {
                 // (a pair keeps it, as in `closest`).
                 let l = mask.trailing_zeros() as usize;
                 let ray = segments.single(l);
-                if self.descend_occlusion(Some(index), &ray, t_max[l], stats, |p| test.test(p, l)) {
+                if self.descend_occlusion(Some(index), &ray, t_max[l], stats, test, l) {
                     live &= !(1 << l);
                 }
                 continue;
@@ -798,9 +686,8 @@ impl Bvh {
             stats.nodes += 1;
             let node = &self.nodes[index as usize];
             if node.is_leaf() {
-                let first = node.first as usize;
                 occlusion_leaf(
-                    &self.order[first..first + node.count() as usize],
+                    self.leaf(node.first, node.count()),
                     K == 2,
                     mask,
                     &mut live,
@@ -869,14 +756,8 @@ impl Bvh {
             nodes += 1;
             let node = &self.nodes[index as usize];
             if node.is_leaf() {
-                let first = node.first as usize;
                 prims += node.count() as u64;
-                leaf_lane(
-                    &self.order[first..first + node.count() as usize],
-                    lane,
-                    &mut lh,
-                    test,
-                );
+                leaf_lane(self.leaf(node.first, node.count()), lane, &mut lh, test);
                 continue;
             }
             let (a, b) = (node.first as usize, node.first as usize + 1);
@@ -900,13 +781,14 @@ impl Bvh {
     /// at `start` (`None`: the root); returns whether `test` said stop. A shadow
     /// packet hands a lane over to this when it is the only live lane in a subtree.
     #[inline(always)]
-    fn descend_occlusion(
+    fn descend_occlusion<T: AnyHitTest>(
         &self,
         start: Option<u32>,
         ray: &SingleRay,
         t_max: f32,
         stats: &mut TraversalStats,
-        mut test: impl FnMut(u32) -> AnyHit,
+        test: &mut T,
+        lane: usize,
     ) -> bool {
         let ([ix, iy, iz], [ox, oy, oz]) = (ray.inv, ray.origin);
         let neg = ray.neg;
@@ -930,13 +812,9 @@ impl Bvh {
             nodes += 1;
             let node = &self.nodes[index as usize];
             if node.is_leaf() {
-                let first = node.first as usize;
-                for &prim in &self.order[first..first + node.count() as usize] {
-                    prims += 1;
-                    if test(prim) == AnyHit::Stop {
-                        stopped = true;
-                        break 'descent;
-                    }
+                if occlusion_lane(self.leaf(node.first, node.count()), lane, &mut prims, test) {
+                    stopped = true;
+                    break 'descent;
                 }
                 continue;
             }

@@ -12,13 +12,9 @@
 //! and a segment that `segment_enters` a primitive's box reaches the primitive
 //! (the shadow cache relies on it).
 
-use super::traverse::{
-    fmin, leaf_lane, occlusion_leaf, test_leaf, LaneHit, SingleRay, CULL_SLACK, NO_SURFACE, ROBUST,
-    STACK,
-};
-use super::{
-    AnyHit, AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats,
-};
+use super::leaf::{leaf_lane, occlusion_lane, occlusion_leaf, test_leaf};
+use super::traverse::{fmin, LaneHit, SingleRay, CULL_SLACK, NO_SURFACE, ROBUST, STACK};
+use super::{AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats};
 use arrayvec::ArrayVec;
 use wide::{f32x4, f32x8};
 
@@ -436,9 +432,8 @@ impl Bvh {
             }
             stats.nodes += 1;
             if count > 0 {
-                let first = child as usize;
                 test_leaf(
-                    &self.order[first..first + count as usize],
+                    self.leaf(child, count),
                     mask,
                     &mut best,
                     &mut out,
@@ -656,14 +651,8 @@ impl Bvh {
         while let Some(Entry { child, count, .. }) = current {
             nodes += 1;
             if count > 0 {
-                let first = child as usize;
                 prims += count as u64;
-                leaf_lane(
-                    &self.order[first..first + count as usize],
-                    lane,
-                    &mut lh,
-                    test,
-                );
+                leaf_lane(self.leaf(child, count), lane, &mut lh, test);
             } else {
                 let node = &self.wide[child as usize];
                 boxes += WIDTH as u64;
@@ -711,7 +700,7 @@ impl Bvh {
             } else {
                 packet.mask.trailing_zeros() as usize
             };
-            self.wide_occlusion_single((0, 0), &rays[l], t_max[l], stats, |p| test.test(p, l));
+            self.wide_occlusion_single((0, 0), &rays[l], t_max[l], stats, test, l);
             return;
         }
         let wide_rays: [WideRay; K] = std::array::from_fn(|l| WideRay::new(&rays[l]));
@@ -726,18 +715,15 @@ impl Bvh {
             }
             if mask & (mask - 1) == 0 {
                 let l = mask.trailing_zeros() as usize;
-                if self.wide_occlusion_single((child, count), &rays[l], t_max[l], stats, |p| {
-                    test.test(p, l)
-                }) {
+                if self.wide_occlusion_single((child, count), &rays[l], t_max[l], stats, test, l) {
                     live &= !(1 << l);
                 }
                 continue;
             }
             stats.nodes += 1;
             if count > 0 {
-                let first = child as usize;
                 occlusion_leaf(
-                    &self.order[first..first + count as usize],
+                    self.leaf(child, count),
                     K == 2,
                     mask,
                     &mut live,
@@ -781,13 +767,14 @@ impl Bvh {
     /// One segment's any-hit descent of the four-wide subtree at `start`
     /// (`(child, count)`); returns whether `test` said stop.
     #[inline(always)]
-    fn wide_occlusion_single(
+    fn wide_occlusion_single<T: AnyHitTest>(
         &self,
         start: (u32, u32),
         ray: &SingleRay,
         t_max: f32,
         stats: &mut TraversalStats,
-        mut test: impl FnMut(u32) -> AnyHit,
+        test: &mut T,
+        lane: usize,
     ) -> bool {
         let wray = WideRay::new(ray);
         let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
@@ -797,13 +784,9 @@ impl Bvh {
         'descent: while let Some((child, count)) = stack.pop() {
             nodes += 1;
             if count > 0 {
-                let first = child as usize;
-                for &prim in &self.order[first..first + count as usize] {
-                    prims += 1;
-                    if test(prim) == AnyHit::Stop {
-                        stopped = true;
-                        break 'descent;
-                    }
+                if occlusion_lane(self.leaf(child, count), lane, &mut prims, test) {
+                    stopped = true;
+                    break 'descent;
                 }
                 continue;
             }

@@ -21,7 +21,7 @@ use crate::math::{reflect, refract, Color, Ray, Vec3};
 use crate::shading::{
     blocks, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint,
 };
-use crate::shapes::{BlockHits, LeafTriangles, Shape, SurfaceHit};
+use crate::shapes::{BlockHits, Shape, SurfaceHit, Triangle4};
 use crate::stats::TraceCounts;
 use crate::world::World;
 
@@ -356,7 +356,6 @@ impl<'a> Tracer<'a> {
         self.counts.closest_traversals += 1;
         let test = NearestShape {
             shapes: &self.world.scene.shapes,
-            blocks: &self.world.leaf_triangles,
             packet,
         };
         bvh.closest(packet, &mut self.traversal, test)
@@ -853,8 +852,6 @@ impl<'a> Tracer<'a> {
 /// A packet's rays against the scene's shapes.
 struct NearestShape<'a, const K: usize> {
     shapes: &'a [Shape],
-    /// The leaves of triangles as SIMD blocks: one routine for every method.
-    blocks: &'a LeafTriangles,
     packet: &'a Packet<K>,
 }
 
@@ -877,15 +874,14 @@ impl<const K: usize> NearestTest for NearestShape<'_, K> {
         self.shapes[prim as usize].intersect_pair(&rays, self.packet.t_min, t_max)
     }
 
+    /// The leaves of triangles as SIMD blocks: one routine for every method.
     #[inline(always)]
-    fn test_block(&mut self, prims: &[u32], lane: usize, t_max: f32) -> Option<BlockHits> {
-        let block = self.blocks.block(prims)?;
+    fn test_block(&mut self, block: &Triangle4, lane: usize, t_max: f32) -> Option<BlockHits> {
         Some(block.intersect(&self.ray(lane), self.packet.t_min, t_max))
     }
 
     #[inline(always)]
-    fn test_block_pair(&mut self, prims: &[u32], t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
-        let block = self.blocks.block(prims)?;
+    fn test_block_pair(&mut self, block: &Triangle4, t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
         let rays = [self.ray(0), self.ray(1 % K)];
         Some(block.intersect_pair(&rays, self.packet.t_min, t_max))
     }

@@ -12,7 +12,7 @@ mod triangle4;
 pub use cone::Cone;
 pub use sphere::Sphere;
 pub use triangle::{Corners, Triangle, TriangleNormals, Uv};
-pub use triangle4::{BlockHits, LeafTriangles, Triangle4, BLOCK};
+pub use triangle4::{BlockHits, LeafBlocks, Triangle4, BLOCK};
 
 use crate::math::{Aabb, Ray, Vec3};
 use wide::f32x4;

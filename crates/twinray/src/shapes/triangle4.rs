@@ -9,16 +9,18 @@
 //! triangle `i`. Every method (mono, twin, shared, quilt) calls this one routine.
 
 use super::triangle::{intersect_lanes, kept_lanes};
-use super::{Shape, Triangle};
+use super::{Shape, SurfaceHit, Triangle};
 use crate::math::Ray;
 use wide::{f32x4, f32x8};
 
-/// Triangles per block: a hierarchy leaf holds at most this many primitives
-/// (`BuildOptions::max_leaf`), so a leaf of triangles is one block.
+/// Triangles per block. A hierarchy built for blocks
+/// (`bvh::BuildOptions::block`) starts every leaf at a slot that is a
+/// multiple of this, so that slot `s` lies in block `s / BLOCK`.
 pub const BLOCK: usize = 4;
 
-/// Up to four triangles, component by component. An unused lane has zero
-/// edges: its determinant is 0, which no ray passes, and `lanes` masks it too.
+/// Up to four triangles, component by component: 192 bytes, three cache
+/// lines. An unused lane has zero edges: its determinant is 0, which no ray
+/// passes (and the leaf tests mask lanes beyond the leaf's count too).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub struct Triangle4 {
@@ -26,8 +28,6 @@ pub struct Triangle4 {
     e1: [f32x4; 3],
     e2: [f32x4; 3],
     n: [f32x4; 3],
-    /// Bits of the lanes in use.
-    lanes: u32,
 }
 
 /// What a block's test found: bit `i` of `mask` set where triangle `i` is hit
@@ -40,7 +40,35 @@ pub struct BlockHits {
     pub v: [f32; BLOCK],
 }
 
+impl BlockHits {
+    /// The hits among the first `n` lanes, in lane order, with their lanes.
+    #[inline(always)]
+    pub fn first(&self, n: usize) -> impl Iterator<Item = (usize, SurfaceHit)> + '_ {
+        let mut m = self.mask & ((1u32 << n) - 1);
+        std::iter::from_fn(move || {
+            (m != 0).then(|| {
+                let i = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let hit = SurfaceHit {
+                    t: self.t[i],
+                    u: self.u[i],
+                    v: self.v[i],
+                };
+                (i, hit)
+            })
+        })
+    }
+}
+
 impl Triangle4 {
+    /// A block of no triangles: every lane's edges zero.
+    pub const EMPTY: Triangle4 = Triangle4 {
+        v0: [f32x4::ZERO; 3],
+        e1: [f32x4::ZERO; 3],
+        e2: [f32x4::ZERO; 3],
+        n: [f32x4::ZERO; 3],
+    };
+
     /// The block of `tris` (at most `BLOCK`).
     pub fn new(tris: &[&Triangle]) -> Triangle4 {
         assert!(tris.len() <= BLOCK, "{} triangles in a block", tris.len());
@@ -60,7 +88,6 @@ impl Triangle4 {
                 lane(&|t| t.plane_normal.y),
                 lane(&|t| t.plane_normal.z),
             ],
-            lanes: (1u32 << tris.len()) - 1,
         }
     }
 
@@ -71,7 +98,7 @@ impl Triangle4 {
         let dir = [ray.dir.x, ray.dir.y, ray.dir.z].map(sp);
         let org = [ray.origin.x, ray.origin.y, ray.origin.z].map(sp);
         let found = intersect_lanes(dir, org, [self.v0, self.e1, self.e2, self.n], f32x4::ONE);
-        let mask = self.lanes & kept_lanes!(f32x4, found, sp(t_min), sp(t_max));
+        let mask = kept_lanes!(f32x4, found, sp(t_min), sp(t_max));
         let [_, u, v, t] = found;
         BlockHits {
             mask,
@@ -99,8 +126,7 @@ impl Triangle4 {
         let tri = [self.v0, self.e1, self.e2, self.n].map(|c| c.map(twice));
         let found = intersect_lanes(dir, org, tri, f32x8::ONE);
         let hi = each(t_max[0], t_max[1]);
-        let mask =
-            (self.lanes | self.lanes << BLOCK) & kept_lanes!(f32x8, found, f32x8::splat(t_min), hi);
+        let mask = kept_lanes!(f32x8, found, f32x8::splat(t_min), hi);
         let [_, u, v, t] = found;
         let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
         let half = |h: usize| {
@@ -116,84 +142,94 @@ impl Triangle4 {
     }
 }
 
-/// A block and the primitives in its lanes.
-#[derive(Clone, Copy, Debug)]
-struct LeafBlock {
-    tris: Triangle4,
-    prims: [u32; BLOCK],
-    count: u32,
-}
-
-/// The scene's hierarchy leaves made only of triangles, each as one
-/// `Triangle4`, found by the leaf's first primitive.
+/// A hierarchy's leaves of triangles as blocks, indexed by slot: block `k`
+/// holds the triangles in slots `BLOCK * k ..` of a leaf that starts at a
+/// multiple of `BLOCK` (`bvh::BuildOptions::block`). The traversals find a
+/// leaf's blocks from its first slot and count, with no table between.
 #[derive(Clone, Debug, Default)]
-pub struct LeafTriangles {
-    blocks: Vec<LeafBlock>,
-    /// Per primitive: the block of the leaf it starts, or `NONE`.
-    at: Vec<u32>,
+pub struct LeafBlocks {
+    pub(crate) tris: Vec<Triangle4>,
+    /// Per block: how many of its lanes hold triangles of a leaf made only of
+    /// triangles (0: the leaf's primitives are tested one by one).
+    pub(crate) lanes: Vec<u8>,
 }
 
-impl LeafTriangles {
-    const NONE: u32 = u32::MAX;
-
-    /// Blocks for the `leaves` (each a slice of primitive indices into
-    /// `shapes`) that hold 1 to `BLOCK` primitives, all triangles.
-    pub fn new<'a>(shapes: &[Shape], leaves: impl Iterator<Item = &'a [u32]>) -> LeafTriangles {
-        let mut out = LeafTriangles {
-            blocks: Vec::new(),
-            at: vec![Self::NONE; shapes.len()],
-        };
-        for leaf in leaves {
-            if leaf.is_empty() || leaf.len() > BLOCK {
-                continue;
-            }
-            let tris: arrayvec::ArrayVec<&Triangle, BLOCK> = leaf
-                .iter()
-                .filter_map(|&p| match shapes.get(p as usize) {
-                    Some(Shape::Triangle(t)) => Some(t),
-                    _ => None,
-                })
-                .collect();
-            if tris.len() != leaf.len() || out.at[leaf[0] as usize] != Self::NONE {
-                continue;
-            }
-            let mut prims = [u32::MAX; BLOCK];
-            prims[..leaf.len()].copy_from_slice(leaf);
-            out.at[leaf[0] as usize] = out.blocks.len() as u32;
-            out.blocks.push(LeafBlock {
-                tris: Triangle4::new(&tris),
-                prims,
-                count: leaf.len() as u32,
-            });
-        }
-        out
-    }
-
-    /// The block holding exactly the primitives `prims` (in this order), if any.
-    #[inline(always)]
-    pub fn block(&self, prims: &[u32]) -> Option<&Triangle4> {
-        let first = *prims.first()?;
-        let b = *self.at.get(first as usize)?;
-        if b == Self::NONE {
-            return None;
-        }
-        let block = &self.blocks[b as usize];
-        (block.count as usize == prims.len() && block.prims[..prims.len()] == *prims)
-            .then_some(&block.tris)
-    }
-
-    /// Number of blocks.
+impl LeafBlocks {
+    /// Number of blocks that hold triangles.
     pub fn len(&self) -> usize {
-        self.blocks.len()
+        self.lanes.iter().filter(|&&l| l != 0).count()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.blocks.is_empty()
+        self.len() == 0
+    }
+
+    /// Triangles held in blocks.
+    pub fn triangles(&self) -> usize {
+        self.lanes.iter().map(|&l| l as usize).sum()
     }
 
     /// Memory held, in bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.blocks.len() * std::mem::size_of::<LeafBlock>() + self.at.len() * 4
+        self.tris.len() * std::mem::size_of::<Triangle4>() + self.lanes.len()
+    }
+
+    /// The blocks of the leaf at slots `first..first + count`, or none if
+    /// they are not held as blocks.
+    #[inline(always)]
+    pub fn of_leaf(&self, first: usize, count: usize) -> &[Triangle4] {
+        let k = first / BLOCK;
+        match self.lanes.get(k) {
+            Some(&l) if l != 0 && first.is_multiple_of(BLOCK) => {
+                &self.tris[k..k + count.div_ceil(BLOCK)]
+            }
+            _ => &[],
+        }
+    }
+
+    /// Blocks for every leaf `(first, prims)` (its first slot and its
+    /// primitives, indices into `shapes`) that starts at a multiple of
+    /// `BLOCK` and holds only triangles; `slots`: the length of the order.
+    /// Other leaves keep the scalar tests. No such leaf: no blocks at all.
+    /// The blocks are made on all threads (each from its own slots).
+    pub fn new<'a>(
+        shapes: &[Shape],
+        slots: usize,
+        leaves: impl Iterator<Item = (usize, &'a [u32])>,
+    ) -> LeafBlocks {
+        use rayon::prelude::*;
+        let triangle = |p: u32| match shapes.get(p as usize) {
+            Some(Shape::Triangle(t)) => Some(t),
+            _ => None,
+        };
+        // Per block: the primitives of its lanes (a leaf's, `BLOCK` at a time).
+        let mut lanes: Vec<&[u32]> = Vec::new();
+        for (first, prims) in leaves {
+            if !first.is_multiple_of(BLOCK)
+                || prims.is_empty()
+                || !prims.iter().all(|&p| triangle(p).is_some())
+            {
+                continue;
+            }
+            if lanes.is_empty() {
+                lanes = vec![&[]; slots.div_ceil(BLOCK)];
+            }
+            for (i, chunk) in prims.chunks(BLOCK).enumerate() {
+                lanes[first / BLOCK + i] = chunk;
+            }
+        }
+        let tris = lanes
+            .par_iter()
+            .map(|prims| {
+                let tris: arrayvec::ArrayVec<&Triangle, BLOCK> =
+                    prims.iter().filter_map(|&p| triangle(p)).collect();
+                Triangle4::new(&tris)
+            })
+            .collect();
+        LeafBlocks {
+            tris,
+            lanes: lanes.iter().map(|p| p.len() as u8).collect(),
+        }
     }
 }
 
@@ -317,7 +353,7 @@ mod tests {
     }
 
     #[test]
-    fn a_block_is_found_only_for_its_own_leaf() {
+    fn blocks_are_made_for_aligned_leaves_of_triangles_only() {
         let t = |x: f32| {
             Shape::Triangle(tri(
                 Vec3::new(x, 0.0, 0.0),
@@ -330,20 +366,39 @@ mod tests {
             radius: 1.0,
             inside: false,
         });
-        let shapes = vec![t(0.0), t(1.0), t(2.0), sphere, t(4.0), t(5.0)];
-        let leaves: [&[u32]; 3] = [&[0, 1, 2], &[3, 4], &[5]];
-        let blocks = LeafTriangles::new(&shapes, leaves.into_iter());
+        let shapes = vec![t(0.0), t(1.0), t(2.0), sphere, t(4.0), t(5.0), t(6.0)];
+        // Slots: 0-2 a leaf, 4-5 a leaf with the sphere, 8-13 a leaf of six
+        // triangles (two blocks), 16 a leaf that does not start a block.
+        let order = [0, 1, 2, 3, 4, 5, 6, 0, 1, 2];
+        let leaves: [(usize, &[u32]); 4] = [
+            (0, &order[0..3]),
+            (4, &order[3..5]),
+            (8, &order[4..10]),
+            (17, &order[0..1]),
+        ];
+        let blocks = LeafBlocks::new(&shapes, 20, leaves.into_iter());
         assert_eq!(
             blocks.len(),
-            2,
+            3,
             "the leaf with a sphere keeps the scalar test"
         );
-        assert!(blocks.block(&[0, 1, 2]).is_some());
-        assert!(blocks.block(&[5]).is_some());
-        assert!(blocks.block(&[3, 4]).is_none());
-        // Another tree's leaf that starts at the same primitive.
-        assert!(blocks.block(&[0, 1]).is_none());
-        assert!(blocks.block(&[0, 2, 1]).is_none());
-        assert!(blocks.block(&[1, 2]).is_none());
+        assert_eq!(blocks.triangles(), 3 + 6);
+        assert_eq!(blocks.of_leaf(0, 3).len(), 1);
+        assert_eq!(blocks.of_leaf(8, 6).len(), 2);
+        assert!(blocks.of_leaf(4, 2).is_empty());
+        assert!(blocks.of_leaf(17, 1).is_empty());
+        assert!(blocks.of_leaf(16, 1).is_empty());
+        // The six-triangle leaf (primitives 4, 5, 6, 0 | 1, 2): block 2
+        // holds its first four, block 3 the rest, in slot order.
+        let down = |x: f32| Ray::new(Vec3::new(x, 0.2, 1.0), -Vec3::Z);
+        let leaf = blocks.of_leaf(8, 6);
+        assert_eq!(leaf[0].intersect(&down(6.2), 0.0, 9.0).mask, 0b0100);
+        assert_eq!(leaf[0].intersect(&down(0.2), 0.0, 9.0).mask, 0b1000);
+        assert_eq!(leaf[1].intersect(&down(2.2), 0.0, 9.0).mask, 0b0010);
+        assert_eq!(leaf[1].intersect(&down(4.2), 0.0, 9.0).mask, 0);
+        assert_eq!(std::mem::size_of::<Triangle4>(), 192);
+        // No leaf of triangles: no blocks.
+        let none = LeafBlocks::new(&shapes, 20, [(4, &order[3..4])].into_iter());
+        assert_eq!(none.memory_bytes(), 0);
     }
 }

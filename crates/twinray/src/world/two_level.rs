@@ -11,10 +11,9 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::World;
-use crate::bvh::{self, BuildOptions, Bvh, Placed};
+use crate::bvh::{self, Bvh, Placed};
 use crate::math::Aabb;
 use crate::scene::Scene;
-use crate::shapes::LeafTriangles;
 
 /// One instance: the scene's shapes `shapes` (a contiguous run), and what
 /// its geometry is a function of (`None`: unknown, built every time). Two
@@ -73,7 +72,7 @@ impl World {
         trees.kept.resize_with(runs.len(), || None);
         let reusable = |i: usize| match (&runs[i].key, &trees.kept[i]) {
             (Some(key), Some((Some(kept), bvh))) => {
-                key == kept && bvh.order.len() == runs[i].shapes.len()
+                key == kept && bvh.primitive_count() == runs[i].shapes.len()
             }
             _ => false,
         };
@@ -83,11 +82,9 @@ impl World {
             .zip(&reuse)
             .map(|(run, &reuse)| {
                 (!reuse).then(|| {
-                    let boxes: Vec<Aabb> = scene.shapes[run.shapes.clone()]
-                        .iter()
-                        .map(|s| s.bounds())
-                        .collect();
-                    let mut tree = bvh::build(&boxes, &BuildOptions::default());
+                    let shapes = &scene.shapes[run.shapes.clone()];
+                    let boxes: Vec<Aabb> = shapes.iter().map(|s| s.bounds()).collect();
+                    let mut tree = bvh::build(&boxes, &super::build_options(shapes.iter()));
                     // Only the joined tree is traversed: its wide form is
                     // made after the splice.
                     tree.wide = Vec::new();
@@ -116,29 +113,13 @@ impl World {
             })
             .collect();
         let mut joined = bvh::splice(&parts);
-        // Shapes into leaf order, as `World::with_cut` does.
-        let order = std::mem::take(&mut joined.order);
-        scene.shapes = order
-            .iter()
-            .map(|&i| scene.shapes[i as usize].clone())
-            .collect();
-        scene.shape_material = order
-            .iter()
-            .map(|&i| scene.shape_material[i as usize])
-            .collect();
-        scene.shape_group = order
-            .iter()
-            .map(|&i| scene.shape_group[i as usize])
-            .collect();
-        joined.order = (0..n as u32).collect();
-        let leaf_triangles = LeafTriangles::new(&scene.shapes, joined.leaves());
+        super::into_leaf_order(&mut scene, std::iter::once(&mut joined));
         World {
             has_alpha: scene.has_alpha(),
             scene,
             bvh: joined,
             far: None,
             build_seconds: start.elapsed().as_secs_f64(),
-            leaf_triangles,
             instances: Some(counts),
         }
     }
@@ -192,7 +173,7 @@ mod tests {
         let two = World::two_level(scene, &instances, &mut InstanceTrees::default());
         assert!(whole.has_alpha);
         assert_eq!(two.has_alpha, whole.has_alpha);
-        assert!(!two.leaf_triangles.is_empty());
-        assert_eq!(two.leaf_triangles.len(), whole.leaf_triangles.len());
+        assert!(!two.bvh.blocks.is_empty());
+        assert_eq!(two.bvh.blocks.triangles(), whole.bvh.blocks.triangles());
     }
 }

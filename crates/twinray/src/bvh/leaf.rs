@@ -1,0 +1,384 @@
+//! The leaf tests of every descent, binary or four-wide, nearest or any hit,
+//! a lane alone or in a packet: a leaf's primitives one by one, or its
+//! triangles as SIMD blocks (`shapes::Triangle4`) where the tree holds them.
+//!
+//! A leaf of triangles in a tree built for blocks (`BuildOptions::block`)
+//! starts at a slot that is a multiple of `BLOCK`, so its blocks are found
+//! from the node's first slot and count alone (`LeafBlocks::of_leaf`).
+//!
+//! Exactness: a block's lane `i` is `Triangle::intersect` of the leaf's
+//! primitive `i`, bit for bit, and its hits are offered in index order with
+//! the scalar path's rules, so a lane's nearest hit (ties to the lower
+//! index) and the primitives an any-hit test meets (in order, up to the stop)
+//! are what the one-by-one tests give.
+
+use super::traverse::LaneHit;
+use super::{AnyHit, AnyHitTest, Bvh, NearestTest, PacketHits, TraversalStats};
+use crate::shapes::{BlockHits, LeafBlocks, Shape, Triangle4, BLOCK};
+
+/// A leaf: its primitives, and their blocks if the tree holds them so (one
+/// per `BLOCK` primitives, in order), else none.
+#[derive(Clone, Copy)]
+pub(super) struct Leaf<'a> {
+    pub(super) prims: &'a [u32],
+    pub(super) blocks: &'a [Triangle4],
+}
+
+impl<'a> Leaf<'a> {
+    /// The primitives of block `k`.
+    #[inline(always)]
+    fn block_prims(&self, k: usize) -> &'a [u32] {
+        let end = (BLOCK * (k + 1)).min(self.prims.len());
+        &self.prims[BLOCK * k..end]
+    }
+}
+
+impl Bvh {
+    /// The leaf at slots `first..first + count`.
+    #[inline(always)]
+    pub(super) fn leaf(&self, first: u32, count: u32) -> Leaf<'_> {
+        let (first, count) = (first as usize, count as usize);
+        Leaf {
+            prims: &self.order[first..first + count],
+            blocks: self.blocks.of_leaf(first, count),
+        }
+    }
+
+    /// Makes the blocks of the leaves of triangles (`shapes` indexed by the
+    /// order's primitive indices); leaves that do not start a block, or hold
+    /// another shape, keep the scalar tests.
+    pub fn attach_blocks(&mut self, shapes: &[Shape]) {
+        self.blocks = LeafBlocks::new(shapes, self.order.len(), self.leaf_slots());
+    }
+}
+
+/// `b`'s hits on the primitives `prims` (the block's, at most `BLOCK`)
+/// offered to `state`, in index order.
+#[inline(always)]
+fn offer_block(prims: &[u32], b: &BlockHits, state: &mut LaneHit) {
+    for (i, h) in b.first(prims.len()) {
+        state.offer(prims[i], h);
+    }
+}
+
+/// One lane against a leaf, improving `state`. Blocks are tested with the
+/// bound from before the leaf; `offer` then refuses what a smaller bound
+/// found on the way would have refused, so the hit is the one the
+/// primitives tested one by one give.
+#[inline(always)]
+pub(super) fn leaf_lane<T: NearestTest>(
+    leaf: Leaf,
+    lane: usize,
+    state: &mut LaneHit,
+    test: &mut T,
+) {
+    // next_up lets an equal distance through, for the index tie-break.
+    let bound = state.best.next_up();
+    for (k, block) in leaf.blocks.iter().enumerate() {
+        let prims = leaf.block_prims(k);
+        match test.test_block(block, lane, bound) {
+            Some(b) => offer_block(prims, &b, state),
+            None => scalar_lane(prims, lane, state, test),
+        }
+    }
+    if leaf.blocks.is_empty() {
+        scalar_lane(leaf.prims, lane, state, test);
+    }
+}
+
+#[inline(always)]
+fn scalar_lane<T: NearestTest>(prims: &[u32], lane: usize, state: &mut LaneHit, test: &mut T) {
+    for &prim in prims {
+        if let Some(h) = test.test(prim, lane, state.best.next_up()) {
+            state.offer(prim, h);
+        }
+    }
+}
+
+/// The lanes `mask` of a packet against a leaf, each lane's nearest hit
+/// improved in `best` and `out` (ties to the lower index).
+#[inline(always)]
+pub(super) fn test_leaf<const K: usize, T: NearestTest>(
+    leaf: Leaf,
+    mask: u32,
+    best: &mut [f32; K],
+    out: &mut PacketHits<K>,
+    stats: &mut TraversalStats,
+    test: &mut T,
+) {
+    stats.prim_tests += (leaf.prims.len() * mask.count_ones() as usize) as u64;
+    let lane = |l: usize, best: &[f32; K], out: &PacketHits<K>| LaneHit {
+        best: best[l],
+        prim: out.prim[l],
+        hit: out.hit[l],
+    };
+    if K == 2 && mask == 0b11 {
+        let bounds = [best[0].next_up(), best[1 % K].next_up()];
+        for (k, block) in leaf.blocks.iter().enumerate() {
+            let prims = leaf.block_prims(k);
+            match test.test_block_pair(block, bounds) {
+                // Both rays of the pair against the block at once.
+                Some(found) => {
+                    for (l, b) in found.iter().enumerate() {
+                        let mut state = lane(l, best, out);
+                        offer_block(prims, b, &mut state);
+                        (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
+                    }
+                }
+                None => scalar_pair(prims, best, out, test),
+            }
+        }
+        if leaf.blocks.is_empty() {
+            scalar_pair(leaf.prims, best, out, test);
+        }
+        return;
+    }
+    let mut lanes = mask;
+    while lanes != 0 {
+        let l = lanes.trailing_zeros() as usize;
+        lanes &= lanes - 1;
+        let mut state = lane(l, best, out);
+        leaf_lane(leaf, l, &mut state, test);
+        (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
+    }
+}
+
+/// Both rays of a pair against one primitive at once, primitive by primitive.
+#[inline(always)]
+fn scalar_pair<const K: usize, T: NearestTest>(
+    prims: &[u32],
+    best: &mut [f32; K],
+    out: &mut PacketHits<K>,
+    test: &mut T,
+) {
+    for &prim in prims {
+        let found = test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
+        for (l, h) in found.into_iter().enumerate() {
+            if let Some(h) = h {
+                if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
+                    best[l] = h.t;
+                    out.prim[l] = prim;
+                    out.hit[l] = h;
+                }
+            }
+        }
+    }
+}
+
+/// One segment (lane `lane`) against one block of a leaf (its primitives
+/// `prims`): whether `test` said stop. The block's hits are met in index
+/// order, up to the first stop, as one by one.
+#[inline(always)]
+fn block_lane<T: AnyHitTest>(block: &Triangle4, prims: &[u32], lane: usize, test: &mut T) -> bool {
+    match test.test_block(block, prims, lane) {
+        Some(a) => a == AnyHit::Stop,
+        None => prims.iter().any(|&p| test.test(p, lane) == AnyHit::Stop),
+    }
+}
+
+/// One segment (lane `lane`) against a leaf, until `test` says stop: returns
+/// whether it did, and counts the primitives tested in `prims_tested`.
+#[inline(always)]
+pub(super) fn occlusion_lane<T: AnyHitTest>(
+    leaf: Leaf,
+    lane: usize,
+    prims_tested: &mut u64,
+    test: &mut T,
+) -> bool {
+    for (k, block) in leaf.blocks.iter().enumerate() {
+        let prims = leaf.block_prims(k);
+        *prims_tested += prims.len() as u64;
+        if block_lane(block, prims, lane, test) {
+            return true;
+        }
+    }
+    if leaf.blocks.is_empty() {
+        for &prim in leaf.prims {
+            *prims_tested += 1;
+            if test.test(prim, lane) == AnyHit::Stop {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// The lanes `mask` of a shadow packet (`pair`: of two lanes) against a
+/// leaf; a lane leaves `live` when `test` says stop for it.
+#[inline(always)]
+pub(super) fn occlusion_leaf<T: AnyHitTest>(
+    leaf: Leaf,
+    pair: bool,
+    mask: u32,
+    live: &mut u32,
+    stats: &mut TraversalStats,
+    test: &mut T,
+) {
+    if leaf.blocks.is_empty() {
+        stats.prim_tests += (leaf.prims.len() * (mask & *live).count_ones() as usize) as u64;
+        occlusion_prims(leaf.prims, pair, mask, live, test);
+        return;
+    }
+    for (k, block) in leaf.blocks.iter().enumerate() {
+        let prims = leaf.block_prims(k);
+        let lanes = mask & *live;
+        if lanes == 0 {
+            return;
+        }
+        stats.prim_tests += (prims.len() * lanes.count_ones() as usize) as u64;
+        if pair && lanes == 0b11 {
+            if let Some(both) = test.test_block_pair(block, prims) {
+                // Both segments of a stereo pair against the block at once.
+                for (l, a) in both.into_iter().enumerate() {
+                    if a == AnyHit::Stop {
+                        *live &= !(1 << l);
+                    }
+                }
+                continue;
+            }
+        }
+        let mut each = lanes;
+        while each != 0 {
+            let l = each.trailing_zeros() as usize;
+            each &= each - 1;
+            if block_lane(block, prims, l, test) {
+                *live &= !(1 << l);
+            }
+        }
+    }
+}
+
+/// The live lanes of `mask` against `prims` one by one (a pair's both
+/// lanes against each primitive at once).
+#[inline(always)]
+fn occlusion_prims<T: AnyHitTest>(
+    prims: &[u32],
+    pair: bool,
+    mask: u32,
+    live: &mut u32,
+    test: &mut T,
+) {
+    for &prim in prims {
+        if pair && mask & *live == 0b11 {
+            for (l, a) in test.test_pair(prim).into_iter().enumerate() {
+                if a == AnyHit::Stop {
+                    *live &= !(1 << l);
+                }
+            }
+            continue;
+        }
+        let mut lanes = mask & *live;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            if test.test(prim, l) == AnyHit::Stop {
+                *live &= !(1 << l);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{build, BuildOptions, PAD};
+    use super::*;
+    use crate::math::{Aabb, Vec3};
+    use crate::shapes::{Triangle, TriangleNormals};
+
+    /// A wavy height field of `n` x `n` quads, two triangles each.
+    fn terrain(n: usize) -> Vec<Shape> {
+        let v = |i: usize, j: usize| {
+            let (x, y) = (i as f32, j as f32);
+            Vec3::new(x, y, (x * 0.37).sin() * (y * 0.23).cos())
+        };
+        let tri = |a: Vec3, b: Vec3, c: Vec3| {
+            let nrm = (b - a).cross(c - a).normalize_or_zero();
+            Shape::Triangle(Triangle::new(a, b, c, nrm, TriangleNormals::Flat))
+        };
+        (0..n * n)
+            .flat_map(|k| {
+                let (i, j) = (k % n, k / n);
+                let (a, b, c, d) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
+                [tri(a, b, c), tri(a, c, d)]
+            })
+            .collect()
+    }
+
+    fn tree(shapes: &[Shape], opts: &BuildOptions) -> Bvh {
+        let boxes: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+        let mut bvh = build(&boxes, opts);
+        bvh.attach_blocks(shapes);
+        bvh
+    }
+
+    /// The SAH counted in blocks fills them: on a mesh, every triangle is in
+    /// a block, blocks hold 3.5 triangles on average (per-primitive leaves:
+    /// under 2.5), every leaf starts a block and holds at most two, and the
+    /// tree with its blocks takes fewer bytes per triangle.
+    #[test]
+    fn leaves_costed_in_blocks_fill_them() {
+        let shapes = terrain(120);
+        let n = shapes.len();
+        let blocked = tree(&shapes, &BuildOptions::triangle_blocks());
+        let aligned = tree(&shapes, &BuildOptions::aligned());
+        for bvh in [&blocked, &aligned] {
+            assert_eq!(bvh.blocks.triangles(), n, "every triangle in a block");
+            assert_eq!(bvh.primitive_count(), n);
+            assert_eq!(bvh.order.len() % BLOCK, 0);
+            for (first, prims) in bvh.leaf_slots() {
+                assert_eq!(first % BLOCK, 0);
+                assert!(!prims.contains(&PAD));
+                assert_eq!(
+                    bvh.blocks.of_leaf(first, prims.len()).len(),
+                    prims.len().div_ceil(BLOCK)
+                );
+            }
+        }
+        assert!(blocked.leaf_slots().all(|(_, p)| p.len() <= 2 * BLOCK));
+        let fill = |b: &Bvh| n as f64 / b.blocks.len() as f64;
+        assert!(
+            fill(&blocked) >= 3.5,
+            "blocks hold {:.2} triangles",
+            fill(&blocked)
+        );
+        assert!(fill(&aligned) < 2.5, "per primitive: {:.2}", fill(&aligned));
+        let bytes = |b: &Bvh| b.memory_bytes() as f64 / n as f64;
+        assert!(
+            bytes(&blocked) < 0.6 * bytes(&aligned),
+            "{:.1} against {:.1} bytes per triangle",
+            bytes(&blocked),
+            bytes(&aligned)
+        );
+        assert!(
+            bytes(&blocked) < 100.0,
+            "{:.1} bytes per triangle",
+            bytes(&blocked)
+        );
+    }
+
+    /// The tree is the same whatever the number of threads: the images do
+    /// not depend on it (ties go to the lower index of a leaf order).
+    #[test]
+    fn the_tree_is_the_same_on_one_two_and_five_threads() {
+        let shapes = terrain(240);
+        let boxes: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+        assert!(
+            boxes.len() > 100_000,
+            "large enough to bin on several threads"
+        );
+        let on = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("thread pool");
+            pool.install(|| build(&boxes, &BuildOptions::triangle_blocks()))
+        };
+        let one = on(1);
+        for threads in [2, 5] {
+            let other = on(threads);
+            assert_eq!(other.nodes, one.nodes, "{threads} threads");
+            assert_eq!(other.order, one.order, "{threads} threads");
+            assert_eq!(other.wide, one.wide, "{threads} threads");
+        }
+    }
+}
