@@ -484,14 +484,6 @@ impl Bvh {
         out
     }
 
-    /// The primitives of a leaf child (`count` > 0) that starts at `first`:
-    /// the one place the descents turn a child into its leaf.
-    #[inline(always)]
-    fn leaf(&self, first: u32, count: u32) -> &[u32] {
-        let first = first as usize;
-        &self.order[first..first + count as usize]
-    }
-
     /// `closest` for a stereo pair (`K == 2`, both lanes active) on the
     /// four-wide tree (which must exist), in one descent: a node's four
     /// children are tested for each ray (an outer loop over the two rays,
