@@ -107,3 +107,29 @@ fn specs_read_back_and_refuse_unknown_fields() {
         "{err:?}"
     );
 }
+
+/// `--key-spacing` belongs to the shared shading: alone it says so; with
+/// `--share-shading` or `--fast` it is taken without a word.
+#[test]
+fn key_spacing_without_shared_shading_is_said_to_do_nothing() {
+    let warned = |share: bool, fast: bool| {
+        let mut spec = pair("0.1");
+        spec.approximations.key_spacing = 0;
+        spec.approximations.share_shading = share;
+        spec.approximations.fast = fast;
+        Job::check(spec)
+            .unwrap()
+            .messages()
+            .iter()
+            .any(|m| m.level == Level::Warning && m.text.contains("--key-spacing"))
+    };
+    assert!(warned(false, false));
+    assert!(!warned(true, false));
+    assert!(!warned(false, true));
+    // At its default, nothing to say.
+    assert!(!Job::check(pair("0.1"))
+        .unwrap()
+        .messages()
+        .iter()
+        .any(|m| m.text.contains("--key-spacing")));
+}

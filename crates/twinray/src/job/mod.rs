@@ -232,7 +232,14 @@ impl Job {
             Some(pool) => pool,
             None => Arc::new(worker_pool(spec.trace.threads)?),
         };
-        let messages = outputs::check_display(&spec.output)?;
+        let mut messages = outputs::check_display(&spec.output)?;
+        let a = &spec.approximations;
+        let sharing = a.share_shading || (a.fast && a.reproject_mode == ReprojectModeSpec::Safe);
+        if a.key_spacing != ApproximationSpec::default().key_spacing && !sharing {
+            messages.push(Message::warning(
+                "--key-spacing does nothing without --share-shading (or --fast): key views are part of the shared shading",
+            ));
+        }
         if let Some(bg) = spec.studio.background {
             if !bg.iter().all(|v| v.is_finite() && *v >= 0.0) {
                 return Err(invalid(format!(
