@@ -152,3 +152,23 @@ pub fn gltf_quad(dir: &Path, material: serde_json::Value, images: &[&str]) -> Pa
     std::fs::write(&path, doc.to_string()).unwrap();
     path
 }
+
+/// The nearest hit among all `shapes` with `t_min < t <= t_max` (the
+/// traversals' contract: an equal distance goes to the lower index): the
+/// reference the hierarchies' tests compare against.
+pub fn brute(
+    shapes: &[twinray::shapes::Shape],
+    ray: &twinray::math::Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(u32, twinray::shapes::SurfaceHit)> {
+    let mut best: Option<(u32, twinray::shapes::SurfaceHit)> = None;
+    for (i, s) in shapes.iter().enumerate() {
+        if let Some(h) = s.intersect(ray, t_min, t_max.next_up()) {
+            if best.is_none_or(|(_, b)| h.t < b.t) {
+                best = Some((i as u32, h));
+            }
+        }
+    }
+    best
+}

@@ -11,6 +11,9 @@
 //! scenes, and on meshes whose rays land exactly on shared edges and
 //! vertices, with degenerate and edge-on triangles among them.
 
+mod common;
+
+use common::brute;
 use twinray::bvh::{
     build, AnyHit, BuildOptions, Bvh, NearestTest, Packet, SegmentPacket, TraversalStats,
 };
@@ -65,20 +68,6 @@ fn blocked(shapes: &[Shape]) -> Bvh {
     let mut bvh = build(&boxes, &opts);
     bvh.attach_blocks(shapes);
     bvh
-}
-
-/// The nearest hit among all primitives with `t_min < t <= t_max` (the
-/// traversal's contract: an equal distance goes to the lower index).
-fn brute(shapes: &[Shape], ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, SurfaceHit)> {
-    let mut best: Option<(u32, SurfaceHit)> = None;
-    for (i, s) in shapes.iter().enumerate() {
-        if let Some(h) = s.intersect(ray, t_min, t_max.next_up()) {
-            if best.is_none_or(|(_, b)| h.t < b.t) {
-                best = Some((i as u32, h));
-            }
-        }
-    }
-    best
 }
 
 fn random_ray(rng: &mut fastrand::Rng) -> (Vec3, Vec3) {

@@ -6,9 +6,12 @@
 //! by its own nearest hit. Every hit is checked against brute force and
 //! against the lane traced alone.
 
+mod common;
+
+use common::brute;
 use twinray::bvh::{build, BuildOptions, Bvh, Packet, PacketHits, TraversalStats};
 use twinray::math::{Aabb, Ray, Vec3};
-use twinray::shapes::{Shape, Sphere, SurfaceHit, Triangle, TriangleNormals};
+use twinray::shapes::{Shape, Sphere, Triangle, TriangleNormals};
 
 fn hierarchy(shapes: &[Shape]) -> Bvh {
     let boxes: Vec<Aabb> = shapes.iter().map(|s| s.bounds()).collect();
@@ -45,19 +48,6 @@ fn terrain(n: usize) -> Vec<Shape> {
         }
     }
     out
-}
-
-/// The nearest hit of all primitives, ties to the lower index.
-fn brute(shapes: &[Shape], ray: &Ray, t_min: f32, t_max: f32) -> Option<(u32, SurfaceHit)> {
-    let mut best: Option<(u32, SurfaceHit)> = None;
-    for (i, s) in shapes.iter().enumerate() {
-        if let Some(h) = s.intersect(ray, t_min, t_max.next_up()) {
-            if best.is_none_or(|(_, b)| h.t < b.t) {
-                best = Some((i as u32, h));
-            }
-        }
-    }
-    best
 }
 
 /// The pair's hits, checked lane by lane against brute force and against the
