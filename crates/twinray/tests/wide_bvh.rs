@@ -14,6 +14,24 @@
 mod common;
 
 use common::brute;
+
+/// Brute force's answer for lane `l` of `p`: `None` for a lane masked off.
+fn brute_lane<const K: usize>(
+    shapes: &[Shape],
+    p: &Packet<K>,
+    l: usize,
+) -> Option<(u32, SurfaceHit)> {
+    (p.mask & (1 << l) != 0)
+        .then(|| {
+            brute(
+                shapes,
+                &Ray::new(p.origins[l], p.dirs[l]),
+                p.t_min,
+                p.t_max[l],
+            )
+        })
+        .flatten()
+}
 use twinray::bvh::{
     build, AnyHit, BuildOptions, Bvh, NearestTest, Packet, SegmentPacket, TraversalStats,
 };
@@ -126,16 +144,7 @@ fn check_closest<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) -> 
     let mut hits = 0;
     for l in 0..K {
         let got = wide.has_hit(l).then(|| (wide.prim[l], wide.hit[l]));
-        let expect = if p.mask & (1 << l) != 0 {
-            brute(
-                shapes,
-                &Ray::new(p.origins[l], p.dirs[l]),
-                p.t_min,
-                p.t_max[l],
-            )
-        } else {
-            None
-        };
+        let expect = brute_lane(shapes, p, l);
         assert_eq!(got, expect, "lane {l} of {K}, mask {:b}", p.mask);
         // Bit for bit the binary tree's answer (f32 compared as bits).
         assert_eq!(wide.prim[l], binary.prim[l]);
@@ -387,16 +396,7 @@ fn check_blocks<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) -> (
             bvh.closest_binary(p, &mut st, test)
         };
         for l in 0..K {
-            let expect = if p.mask & (1 << l) != 0 {
-                brute(
-                    shapes,
-                    &Ray::new(p.origins[l], p.dirs[l]),
-                    p.t_min,
-                    p.t_max[l],
-                )
-            } else {
-                None
-            };
+            let expect = brute_lane(shapes, p, l);
             let bits = |h: Option<(u32, SurfaceHit)>| {
                 h.map(|(prim, h)| (prim, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
             };
