@@ -125,7 +125,7 @@ impl Scene {
 /// bitangent's sign, glTF `TANGENT`), else the triangle's own, from its
 /// edges and texture coordinates (tangent along +u, bitangent up the image,
 /// i.e. along −v since v runs down the rows). Unchanged where the frame is
-/// degenerate (all corners at one u or v).
+/// degenerate (all corners at one u or v) and the file gave no tangent.
 pub(crate) fn mapped_normal(
     t: &Triangle,
     corners: [Uv; 3],
@@ -138,24 +138,26 @@ pub(crate) fn mapped_normal(
     let [a, b, c] = corners;
     let (d1, d2) = (b - a, c - a);
     let r = d1.x * d2.y - d2.x * d1.y;
-    if r == 0.0 || !r.is_finite() {
-        return normal;
-    }
     // p(u, v) is linear over the triangle: e1 = dpdu·d1.u + dpdv·d1.v, and
-    // the same for e2.
-    let dpdu = (t.e1 * d2.y - t.e2 * d1.y) / r;
-    let dpdv = (t.e2 * d1.x - t.e1 * d2.x) / r;
+    // the same for e2; no such frame where the uv is degenerate.
+    let uv_frame = (r != 0.0 && r.is_finite()).then(|| {
+        (
+            (t.e1 * d2.y - t.e2 * d1.y) / r,
+            (t.e2 * d1.x - t.e1 * d2.x) / r,
+        )
+    });
     let bent = match map.kind {
         NormalMapKind::Tangent => {
-            let (tangent, bitangent) = match given_tangent {
+            let (tangent, bitangent) = match (given_tangent, uv_frame) {
                 // glTF's rule: bitangent = normal × tangent × w.
-                Some((t, w)) => {
+                (Some((t, w)), _) => {
                     let tangent = (t - normal * normal.dot(t)).normalize_or_zero();
                     (tangent, normal.cross(tangent) * w)
                 }
+                (None, None) => return normal,
                 // The triangle's own frame: u to the right, v down the image
                 // (glTF's and OBJ's texture convention), so up is −v.
-                None => {
+                (None, Some((dpdu, dpdv))) => {
                     let tangent = (dpdu - normal * normal.dot(dpdu)).normalize_or_zero();
                     let up = -dpdv;
                     let bitangent = (up - normal * normal.dot(up) - tangent * tangent.dot(up))
@@ -170,6 +172,9 @@ pub(crate) fn mapped_normal(
             tangent * (m.x * map.scale) + bitangent * (m.y * map.scale) + normal * m.z
         }
         NormalMapKind::Height => {
+            let Some((dpdu, dpdv)) = uv_frame else {
+                return normal;
+            };
             let (du, dv) = (1.0 / texture.width as f32, 1.0 / texture.height as f32);
             let h = |u: f32, v: f32| texture.sample(u, v).x;
             let hu = (h(uv.x + du, uv.y) - h(uv.x - du, uv.y)) / (2.0 * du);
@@ -190,5 +195,51 @@ pub(crate) fn mapped_normal(
         normal
     } else {
         bent
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Color;
+    use crate::texture::Wrap;
+
+    /// A one-texel tangent-space map that tilts the normal toward +tangent.
+    fn tilting_map() -> (NormalMap, Texture) {
+        let map = NormalMap {
+            texture: 0,
+            scale: 1.0,
+            kind: NormalMapKind::Tangent,
+        };
+        // (0.8, 0.5, 0.8) decodes to (0.6, 0, 0.6): tangent and normal equally.
+        let texture = Texture {
+            width: 1,
+            height: 1,
+            texels: vec![Color::new(0.8, 0.5, 0.8)],
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+        };
+        (map, texture)
+    }
+
+    /// A file's tangent frames the map even where the texture coordinates
+    /// give none (every corner at one uv); without it the normal is kept.
+    #[test]
+    fn a_given_tangent_bends_the_normal_on_degenerate_texture_coordinates() {
+        let (map, texture) = tilting_map();
+        let z = Vec3::Z;
+        let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y, z, TriangleNormals::Flat);
+        let same = [Uv::new(0.5, 0.5); 3];
+        let uv = Uv::new(0.5, 0.5);
+        let bent = mapped_normal(&t, same, uv, z, Some((Vec3::Y, 1.0)), &map, &texture);
+        let expect = Vec3::new(0.0, 1.0, 1.0).normalize();
+        assert!((bent - expect).length() < 1e-3, "{bent}");
+        let kept = mapped_normal(&t, same, uv, z, None, &map, &texture);
+        assert_eq!(kept, z);
+        // A proper uv frame without a tangent: +u is +x.
+        let corners = [Uv::new(0.0, 1.0), Uv::new(1.0, 1.0), Uv::new(0.0, 0.0)];
+        let own = mapped_normal(&t, corners, uv, z, None, &map, &texture);
+        let expect = Vec3::new(1.0, 0.0, 1.0).normalize();
+        assert!((own - expect).length() < 1e-3, "{own}");
     }
 }
