@@ -189,6 +189,12 @@ impl Environment {
         top * (1.0 - ty) + bottom * ty
     }
 
+    /// The angle one texel spans (the smaller of its width and height), in
+    /// radians: directions closer than this see at most neighbouring texels.
+    pub fn texel_angle(&self) -> f32 {
+        (2.0 * PI / self.width as f32).min(PI / self.height as f32)
+    }
+
     /// The light a white Lambertian surface of normal `n` (unit) reflects:
     /// irradiance over π.
     pub fn diffuse(&self, n: Vec3) -> Color {

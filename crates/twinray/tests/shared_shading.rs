@@ -608,3 +608,52 @@ fn key_views_give_the_same_image_for_1_2_and_5_threads() {
         );
     }
 }
+
+/// A mirror ball, alone under an environment of eight vertical black and
+/// white stripes (45° each): every view's reflection leaves the scene, and
+/// the stripe it sees changes from view to view near the ball's rim.
+fn mirror_ball_under_stripes() -> Scene {
+    let mut scene = Scene::new();
+    scene.viewpoint = viewpoint();
+    scene
+        .lights
+        .push(Light::point(Vec3::new(-3.0, 2.0, 6.0), Some(Color::ONE)));
+    let texels = (0..128)
+        .map(|i| Color::splat(if (i % 64) / 8 % 2 == 0 { 1.0 } else { 0.0 }))
+        .collect();
+    let env = twinray::environment::Environment::from_texels(64, 2, texels, true);
+    scene.environment = Some(std::sync::Arc::new(env));
+    scene.add_material(Material {
+        mirror: 0.9,
+        kd: 0.1,
+        ..diffuse(Color::new(0.8, 0.8, 0.8))
+    });
+    scene.add_sphere(Vec3::new(0.0, 8.0, 0.0), 2.5, "ball");
+    scene
+}
+
+/// A curved mirror under an environment image: the key views' reflections
+/// leave the scene in directions that differ, and the stripe each sees can
+/// change between them (and change back: the key views' colours may agree
+/// across two edges). So a view between takes the key views' reflection
+/// only where they look the same way; every view stays within twice the
+/// tolerance of its own traced reflection (interpolated across a stripe,
+/// it was off by the whole contrast, 0.9).
+#[test]
+fn a_curved_mirror_under_an_environment_is_not_interpolated_across_stripes() {
+    let world = World::new(mirror_ball_under_stripes());
+    let (cam, rig) = rig(&world, 16, 0.1, Some(8.0));
+    let every = run(&world, &cam, &rig, &keyed(E, 8, 1));
+    for spacing in [0, 2] {
+        let out = run(&world, &cam, &rig, &keyed(E, 8, spacing));
+        let c = &out.counts;
+        assert!(c.interpolated_samples > 0, "spacing {spacing}: {c:?}");
+        for (v, (a, b)) in every.images.iter().zip(&out.images).enumerate() {
+            let d = max_diff(a, b);
+            assert!(
+                d <= 2.0 * E + ROUNDING,
+                "spacing {spacing}, view {v}: {d} from every view keyed"
+            );
+        }
+    }
+}

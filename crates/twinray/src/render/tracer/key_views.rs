@@ -14,6 +14,7 @@ use crate::bvh::{distance_to_segment, Packet, PacketHits};
 use crate::lights::LightKind;
 use crate::math::{Color, Vec3};
 use crate::shading::offset_point;
+use crate::shapes::{Shape, TriangleNormals};
 
 /// What one secondary ray of a key view hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,8 +85,11 @@ impl Tracer<'_> {
     /// cos θ / d^p toward a light at least D away, (p + 1)(p + 5) / D^(p+2)
     /// (p = 2 with an inverse-square falloff), times kd, the surface's and
     /// the light's colour. The chains disagree if that sum exceeds
-    /// `tolerance`, or a chain's surface has a highlight, a texture or a
-    /// spot light on it (terms with no such bound here).
+    /// `tolerance`, or a chain's lit surface is not flat, evenly coloured
+    /// and diffuse (a highlight, a map, per-corner normals or colours, a
+    /// curved shape) or has a spot light on it (terms with no such bound
+    /// here), or their rays leave the scene toward an environment image in
+    /// directions more than 1/64 of a texel apart.
     pub fn chains_agree(&mut self, a: &Chain, b: &Chain, slack: f32, tolerance: f32) -> bool {
         if a.len() != b.len()
             || a.iter()
@@ -99,6 +103,16 @@ impl Tracer<'_> {
         let mut curvature = 0.0f32;
         for (x, y) in a.iter().zip(b) {
             if x.prim == PacketHits::<1>::NO_HIT {
+                // Rays leaving the scene see the environment image, which
+                // may change anywhere: only rays the same way (a flat
+                // mirror's, nearly parallel) see the same radiance.
+                if let Some(env) = &scene.environment {
+                    let cos = x.dir.normalize_or_zero().dot(y.dir.normalize_or_zero());
+                    let near = (env.texel_angle() / 64.0).cos();
+                    if cos.is_nan() || cos < near {
+                        return false;
+                    }
+                }
                 continue;
             }
             let material = world.material_of(x.prim);
@@ -114,7 +128,17 @@ impl Tracer<'_> {
             let ((oa, na), (ob, nb)) = (origin(x), origin(y));
             let span = (oa - ob).length() + slack;
             let albedo = material.kd * material.color.max_element();
-            let unbounded = material.ks > 0.0 || material.texture.is_some();
+            // The bound holds for a flat, evenly coloured, diffuse surface:
+            // a highlight, any map, per-corner normals or colours, or a
+            // curved surface (whose normal turns between the hits) has none.
+            let flat = matches!(shape, Shape::Triangle(t) if t.normals == TriangleNormals::Flat);
+            let unbounded = material.ks > 0.0
+                || !flat
+                || material.texture.is_some()
+                || material.emission_texture.is_some()
+                || material.occlusion_texture.is_some()
+                || material.alpha_texture.is_some()
+                || material.normal_map.is_some();
             for light in &scene.lights {
                 let Some(position) = light.position() else {
                     return false;
