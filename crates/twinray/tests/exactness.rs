@@ -184,3 +184,69 @@ fn views_samples_of_one_point_are_shaded_together() {
     assert_eq!(reference.counts.shared_secondary, 0);
     assert_eq!(reference.counts.grouped_samples, 0);
 }
+
+/// A thicket of thin branches (cones 0.002–0.004 wide, two from each fork,
+/// like the SPD tree's twigs) seen from about 18 away: a thin cone's hit
+/// computed from so far lost its radius to rounding, landed outside its
+/// box, and a twin packet (binary tree) and a single ray (four-wide tree)
+/// then found different branches in a few pixels.
+#[test]
+fn thin_far_branches_twin_equals_independent() {
+    use twinray::math::{Color, Vec3};
+    use twinray::scene::{Light, Material, Viewpoint};
+    let mut scene = twinray::Scene::new();
+    scene.viewpoint = Viewpoint {
+        from: Vec3::new(18.0, 1.6, 3.5),
+        at: Vec3::new(0.0, 0.0, 1.5),
+        up: Vec3::Z,
+        angle_deg: 3.5,
+        hither: 0.0,
+        width: 160,
+        height: 160,
+        ..Viewpoint::default()
+    };
+    scene.background = Color::new(0.1, 0.4, 0.8);
+    scene
+        .lights
+        .push(Light::point(Vec3::new(3.0, -4.0, 6.0), Some(Color::ONE)));
+    scene.add_material(Material {
+        color: Color::new(0.5, 0.35, 0.2),
+        ..Material::default()
+    });
+    let mut seed = 11u32;
+    let mut next = || {
+        seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+        (seed >> 8) as f32 / (1u32 << 24) as f32
+    };
+    for _ in 0..3000 {
+        let fork = Vec3::new(next() - 0.5, next() - 0.5, 1.2 + 0.6 * next());
+        let r = 0.002 + 0.001 * next();
+        for _ in 0..2 {
+            let dir = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize();
+            let tip = fork + dir * (0.015 + 0.015 * next());
+            scene.add_cone(fork, r, tip, r * 0.67, "twig");
+        }
+    }
+    let world = twinray::World::new(scene);
+    let cam = camera(&world, 160, 160);
+    let rig = Rig::multi_view(&cam, 8, 0.02, Some(18.0)).unwrap();
+    let reference = run(
+        &world,
+        &cam,
+        &rig,
+        &options(Method::Independent, Sampling::Centers),
+    );
+    let twin = run(
+        &world,
+        &cam,
+        &rig,
+        &options(Method::Twin, Sampling::Centers),
+    );
+    for v in 0..8 {
+        assert_same_pixels(
+            &reference.images[v],
+            &twin.images[v],
+            &format!("thin branches, view {v}"),
+        );
+    }
+}
