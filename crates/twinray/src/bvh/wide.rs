@@ -1,5 +1,6 @@
-//! The four-wide hierarchy (stereo pairs and shadow packets traverse it; rays
-//! alone take the eight-wide tree, `wide8.rs`): the binary SAH tree
+//! The four-wide hierarchy (shadow packets traverse it, and stereo pairs in
+//! one descent where there is no eight-wide tree; rays alone and the rays of
+//! a pair take the eight-wide tree, `wide8.rs`): the binary SAH tree
 //! collapsed so that each node holds up to four children, their boxes in
 //! structure-of-arrays layout, so that one ray meets all four in one SIMD
 //! stream (`wide::f32x4`, SSE on x86-64). Children are visited nearest first.
@@ -390,10 +391,12 @@ struct PacketEntry<const K: usize> {
 
 impl Bvh {
     /// Nearest hit per lane (see `closest_binary` for the contract). A ray
-    /// alone descends the eight-wide tree when there is one (else the
-    /// four-wide); a stereo pair the four-wide tree in one descent
-    /// (`closest_pair_wide`); wider packets the binary tree. All give the
-    /// same hits.
+    /// alone, and each ray of a stereo pair, descends the eight-wide tree
+    /// when there is one; without it a pair descends the four-wide tree in
+    /// one descent (`closest_pair_wide`); wider packets the binary tree. All
+    /// give the same hits. Measured in docs/benchmarks.md ("Issue 17, third
+    /// pass: nodes and descent" and "fourth pass: eight-wide nodes": two
+    /// eight-wide descents beat the four-wide pair descent).
     #[inline]
     pub fn closest<const K: usize>(
         &self,
@@ -403,7 +406,7 @@ impl Bvh {
     ) -> PacketHits<K> {
         if self.wide.is_empty() {
             self.closest_binary(packet, stats, test)
-        } else if K == 2 && packet.mask == 0b11 {
+        } else if K == 2 && packet.mask == 0b11 && self.wide8.is_empty() {
             self.closest_pair_wide(packet, stats, test)
         } else if K <= 2 || packet.mask.count_ones() == 1 {
             if self.wide8.is_empty() {
