@@ -1,13 +1,15 @@
 //! Side-by-side rays/s of the four-wide and the binary traversal, in one
 //! process, rounds interleaved so that the machine's load hits both alike:
 //!
-//! `cargo bench -p twinray-bench --bench wide_vs_binary -- [--size N] [--rounds R] [--leaves | --pairs] SCENE.nff ...`
+//! `cargo bench -p twinray-bench --bench wide_vs_binary -- [--size N] [--rounds R] [--leaves | --pairs | --eight] SCENE.nff ...`
 //!
 //! Prints per scene and ray kind the median Mrays/s of each over the rounds and
 //! the ratio wide / binary, on 1 thread (per second of this thread's CPU time,
 //! which other processes' load does not inflate) and 2 threads (wall time).
 //! With `--leaves`: leaves of triangles tested four at a time against one by
-//! one (block / scalar), on each tree.
+//! one (block / scalar), on each tree. With `--eight`: the four-wide tree
+//! (pairs and packets in one descent, as the renderer traces them on it)
+//! against the eight-wide tree (every ray and segment alone).
 
 use std::path::Path;
 use std::time::Instant;
@@ -77,7 +79,17 @@ fn main() {
         }
         None => false,
     };
-    let compared: &[(Tree, Tree)] = if pairs {
+    // `--eight`: the four-wide tree (first) against the eight-wide (second).
+    let eight = match args.iter().position(|a| a == "--eight") {
+        Some(i) => {
+            args.remove(i);
+            true
+        }
+        None => false,
+    };
+    let compared: &[(Tree, Tree)] = if eight {
+        &[(Tree::Wide, Tree::Wide8)]
+    } else if pairs {
         &[(Tree::WideEach, Tree::Wide), (Tree::Binary, Tree::WideEach)]
     } else if leaves {
         &[
@@ -131,7 +143,7 @@ fn main() {
                 );
             }
         }
-        for tree in [Tree::Binary, Tree::Wide] {
+        for tree in [Tree::Binary, Tree::Wide, Tree::Wide8] {
             let st = work(&sets, &sets.eye, tree);
             let n = sets.eye.len() as f64;
             println!(
@@ -206,14 +218,14 @@ fn main() {
 }
 
 /// The build over 1M triangles (a 1000 x 500-cell terrain, as benches/bvh.rs),
-/// and how much of it the four-wide collapse takes.
+/// and how much of it the four-wide and the eight-wide collapses take.
 fn build_time() {
     let tris = twinray_bench::terrain(1000, 500, 1.0, 0.5, 1);
     let boxes: Vec<twinray::math::Aabb> = tris
         .iter()
         .map(|t| twinray::math::Aabb::from_points(t))
         .collect();
-    let (mut build_s, mut collapse_s) = (Vec::new(), Vec::new());
+    let (mut build_s, mut collapse_s, mut collapse8_s) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..3 {
         let t0 = Instant::now();
         let bvh = twinray::bvh::build(&boxes, &twinray::bvh::BuildOptions::default());
@@ -222,10 +234,15 @@ fn build_time() {
         let wide = twinray::bvh::collapse(&bvh.nodes);
         collapse_s.push(t0.elapsed().as_secs_f64());
         assert_eq!(wide, bvh.wide);
+        let t0 = Instant::now();
+        let wide8 = twinray::bvh::collapse8(&bvh.nodes);
+        collapse8_s.push(t0.elapsed().as_secs_f64());
+        assert_eq!(wide8, bvh.wide8);
     }
     println!(
-        "build 1M triangles: {:.3} s (wall, median of 3), of which the four-wide collapse {:.3} s",
+        "build 1M triangles: {:.3} s (wall, median of 3), of which the four-wide collapse {:.3} s and the eight-wide {:.3} s",
         median(build_s),
-        median(collapse_s)
+        median(collapse_s),
+        median(collapse8_s)
     );
 }

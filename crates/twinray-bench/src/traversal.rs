@@ -30,6 +30,10 @@ pub enum Tree {
     /// The four-wide tree, each lane of a packet descending it alone
     /// (`Bvh::closest_each_wide`), leaves as blocks.
     WideEach,
+    /// The eight-wide tree, each lane of a packet (and each shadow segment)
+    /// descending it alone (`Bvh::closest_each_wide8`,
+    /// `Bvh::occlusion_wide8`), leaves as blocks.
+    Wide8,
 }
 
 impl Tree {
@@ -38,7 +42,10 @@ impl Tree {
     }
 
     fn blocks(self) -> bool {
-        matches!(self, Tree::Binary | Tree::Wide | Tree::WideEach)
+        matches!(
+            self,
+            Tree::Binary | Tree::Wide | Tree::WideEach | Tree::Wide8
+        )
     }
 }
 
@@ -98,6 +105,8 @@ fn nearest<const K: usize>(
     };
     if tree == Tree::WideEach {
         bvh.closest_each_wide(&p, st, test)
+    } else if tree == Tree::Wide8 {
+        bvh.closest_each_wide8(&p, st, test)
     } else if tree.wide() {
         bvh.closest_wide(&p, st, test)
     } else {
@@ -311,7 +320,9 @@ fn any_hits<const K: usize>(w: &World, segs: [(Vec3, Vec3, f32); K], tree: Tree)
         }
     };
     let mut st = TraversalStats::default();
-    if tree.wide() {
+    if tree == Tree::Wide8 {
+        w.bvh.occlusion_wide8(&p, &mut st, &mut test)
+    } else if tree.wide() {
         w.bvh.occlusion_wide(&p, &mut st, &mut test)
     } else {
         w.bvh.occlusion_binary(&p, &mut st, &mut test)

@@ -4,7 +4,7 @@
 //! rays traced as one), and any-hit for packets of shadow rays.
 //!
 //! The hierarchy holds boxes and a permutation of primitive indices (and the
-//! same tree four-wide, `wide.rs`), and asks a `NearestTest` or `AnyHitTest`
+//! same tree four-wide, `wide.rs`, and eight-wide, `wide8.rs`), and asks a `NearestTest` or `AnyHitTest`
 //! to test primitives; the one thing it keeps of shapes is its leaves of
 //! triangles as SIMD blocks (`leaf.rs`), which a caller attaches.
 
@@ -17,8 +17,9 @@ mod strip;
 mod traverse;
 mod wedge;
 mod wide;
+mod wide8;
 
-pub use build::{build, primitive_box, BuildOptions, PAD};
+pub use build::{primitive_box, BuildOptions, PAD};
 pub use splice::{splice, Placed};
 pub use strip::{Cover, Family, FamilyTest, Interval, StripScratch, StripStats, FAMILY_EPS};
 pub use traverse::{
@@ -26,7 +27,8 @@ pub use traverse::{
     TraversalStats,
 };
 pub use wedge::{distance_to_segment, FanWork, ShadowFan};
-pub use wide::{collapse, Node4, WIDTH};
+pub use wide::{collapse, collapse_sah, collapse_to, Node4, WideNode, WIDTH};
+pub use wide8::{collapse8, Node8, WIDTH8};
 
 use crate::math::Aabb;
 use crate::shapes::LeafBlocks;
@@ -81,6 +83,17 @@ pub struct Bvh {
     /// The leaves made only of triangles as SIMD blocks, by slot
     /// (`Bvh::attach_blocks`); empty: every leaf is tested one by one.
     pub blocks: LeafBlocks,
+    /// The same tree collapsed eight-wide (`wide8.rs`), which rays traced
+    /// alone use when it is there (pairs and packets use `wide`).
+    pub wide8: Vec<Node8>,
+}
+
+/// Builds a hierarchy over primitives with the given boxes (`build.rs`'s
+/// binned SAH, collapsed four-wide there), and its eight-wide form.
+pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
+    let mut bvh = build::build(boxes, opts);
+    bvh.wide8 = collapse8(&bvh.nodes);
+    bvh
 }
 
 impl Bvh {
@@ -133,6 +146,7 @@ impl Bvh {
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node>()
             + self.wide.len() * std::mem::size_of::<Node4>()
+            + self.wide8.len() * std::mem::size_of::<Node8>()
             + self.order.len() * 4
             + self.blocks.memory_bytes()
     }

@@ -9,7 +9,7 @@
 //! at once, but it bounds every primitive, so the nearest hit of a ray (where
 //! only one primitive is nearest) is the same.
 
-use super::{build, collapse, BuildOptions, Bvh, Node, PAD};
+use super::{build, collapse, collapse8, BuildOptions, Bvh, Node, PAD};
 use crate::math::Aabb;
 use crate::shapes::BLOCK;
 
@@ -119,10 +119,12 @@ pub fn splice(parts: &[Placed]) -> Bvh {
         }
     }
     let wide = collapse(&nodes);
+    let wide8 = collapse8(&nodes);
     Bvh {
         nodes,
         order,
         wide,
+        wide8,
         ..Bvh::default()
     }
 }

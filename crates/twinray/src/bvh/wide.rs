@@ -1,4 +1,6 @@
-//! The four-wide hierarchy (the renderer's shadow rays traverse it): the binary SAH tree
+//! The four-wide hierarchy (shadow packets traverse it, and stereo pairs in
+//! one descent where there is no eight-wide tree; rays alone and the rays of
+//! a pair take the eight-wide tree, `wide8.rs`): the binary SAH tree
 //! collapsed so that each node holds up to four children, their boxes in
 //! structure-of-arrays layout, so that one ray meets all four in one SIMD
 //! stream (`wide::f32x4`, SSE on x86-64). Children are visited nearest first.
@@ -21,55 +23,59 @@ use wide::{f32x4, f32x8};
 /// Children per node.
 pub const WIDTH: usize = 4;
 
-/// Up to four children's boxes, per axis and side (`bounds[2 * axis]` the
+/// Up to `W` children's boxes, per axis and side (`bounds[2 * axis]` the
 /// minima, `bounds[2 * axis + 1]` the maxima), and where each child is. An
 /// unused slot has an empty box (`+inf..-inf`), which no ray enters: its entry
-/// distance is `+inf` on every axis whatever the ray's signs.
+/// distance is `+inf` on every axis whatever the ray's signs. Each plane's
+/// `W` values lie together (one SIMD load), the node on cache lines of its own.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
-pub struct Node4 {
-    pub bounds: [[f32; WIDTH]; 6],
+pub struct WideNode<const W: usize> {
+    pub bounds: [[f32; W]; 6],
     /// Inner child: its node's index. Leaf child: its first slot in `Bvh::order`.
-    pub child: [u32; WIDTH],
+    pub child: [u32; W],
     /// Leaf child: its primitive count (> 0). Inner child or unused slot: 0.
-    pub count: [u32; WIDTH],
+    pub count: [u32; W],
 }
 
-impl Node4 {
-    const EMPTY: Node4 = Node4 {
+/// A node of the four-wide tree (128 bytes).
+pub type Node4 = WideNode<WIDTH>;
+
+impl<const W: usize> WideNode<W> {
+    pub(super) const EMPTY: WideNode<W> = WideNode {
         bounds: [
-            [f32::INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
-            [f32::INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
-            [f32::INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
+            [f32::INFINITY; W],
+            [f32::NEG_INFINITY; W],
+            [f32::INFINITY; W],
+            [f32::NEG_INFINITY; W],
+            [f32::INFINITY; W],
+            [f32::NEG_INFINITY; W],
         ],
-        child: [0; WIDTH],
-        count: [0; WIDTH],
+        child: [0; W],
+        count: [0; W],
     };
 }
 
-/// The binary tree `nodes` collapsed four-wide: each wide node takes a binary
-/// node's children and opens the largest (by surface area) inner one among
-/// them until there are four. Leaves are the binary leaves, so `order` serves both.
+/// The binary tree `nodes` collapsed four-wide (`collapse_to`).
 pub fn collapse(nodes: &[super::Node]) -> Vec<Node4> {
-    if nodes.is_empty() {
-        return Vec::new();
-    }
-    let mut out = Vec::with_capacity(nodes.len() / 2 + 1);
-    out.push(Node4::EMPTY);
-    let mut work = vec![(0usize, 0usize)];
-    while let Some((binary, wide)) = work.pop() {
+    collapse_to::<WIDTH>(nodes)
+}
+
+/// The binary tree `nodes` collapsed `W`-wide: each wide node takes a binary
+/// node's children and opens the largest (by surface area) inner one among
+/// them until there are `W`. Leaves are the binary leaves, so `order` serves
+/// every tree.
+pub fn collapse_to<const W: usize>(nodes: &[super::Node]) -> Vec<WideNode<W>> {
+    collapse_by(nodes, |binary| {
         let root = &nodes[binary];
-        let mut kids: ArrayVec<usize, WIDTH> = ArrayVec::new();
+        let mut kids: ArrayVec<usize, W> = ArrayVec::new();
         if root.is_leaf() {
             kids.push(binary);
         } else {
             kids.push(root.first as usize);
             kids.push(root.first as usize + 1);
         }
-        while kids.len() < WIDTH {
+        while kids.len() < W {
             let open = kids
                 .iter()
                 .enumerate()
@@ -84,8 +90,89 @@ pub fn collapse(nodes: &[super::Node]) -> Vec<Node4> {
             kids[i] = first;
             kids.insert(i + 1, first + 1);
         }
-        let mut node = Node4::EMPTY;
-        for (slot, &k) in kids.iter().enumerate() {
+        kids
+    })
+}
+
+/// The binary tree `nodes` collapsed `W`-wide with the fewest expected node
+/// visits: the binary leaves stay leaves, and which binary inner nodes become
+/// wide nodes is chosen by dynamic programming to minimise the sum of their
+/// surface areas (the surface-area heuristic's cost of the inner nodes; the
+/// leaves' cost is the same in every collapse), as in Ylitie, Karras and
+/// Laine's compressed wide BVH. The greedy `collapse_to` leaves nodes near
+/// the bottom with few children. Deterministic: the same binary tree gives
+/// the same wide tree.
+pub fn collapse_sah<const W: usize>(nodes: &[super::Node]) -> Vec<WideNode<W>> {
+    // cost[n][i - 1]: the least cost of covering the subtree at `n` with at
+    // most `i` children of a wide node (a leaf child costs nothing, a wide
+    // node its area plus its own children's cost). Children come after their
+    // parent in `nodes`, so a reverse sweep sees them first (were they not,
+    // the collapse would only be worse, never wrong).
+    let mut cost = vec![[0.0f32; W]; nodes.len()];
+    // The best split of `slots` children between `n`'s two children: its
+    // cost and the left child's share.
+    let split = |cost: &[[f32; W]], n: &super::Node, slots: usize| -> (f32, usize) {
+        let (l, r) = (n.first as usize, n.first as usize + 1);
+        let mut best = (f32::INFINITY, 1);
+        for k in 1..slots {
+            let c = cost[l][k - 1] + cost[r][slots - k - 1];
+            if c < best.0 {
+                best = (c, k);
+            }
+        }
+        best
+    };
+    for i in (0..nodes.len()).rev() {
+        let n = &nodes[i];
+        if n.is_leaf() {
+            continue;
+        }
+        let keep = n.bounds().half_area() + split(&cost, n, W).0;
+        let mut row = [keep; W];
+        for (slots, c) in row.iter_mut().enumerate().skip(1) {
+            *c = fmin(keep, split(&cost, n, slots + 1).0);
+        }
+        cost[i] = row;
+    }
+    collapse_by(nodes, |binary| {
+        let mut kids: ArrayVec<usize, W> = ArrayVec::new();
+        // Subtrees and the slots they may take, left to right.
+        let mut open: ArrayVec<(usize, usize), W> = ArrayVec::new();
+        open.push((binary, W));
+        while let Some((b, slots)) = open.pop() {
+            let n = &nodes[b];
+            let (split_cost, k) = if n.is_leaf() || slots == 1 {
+                (f32::INFINITY, 0)
+            } else {
+                split(&cost, n, slots)
+            };
+            if n.is_leaf() || (b != binary && cost[b][0] <= split_cost) {
+                kids.push(b);
+            } else {
+                open.push((n.first as usize + 1, slots - k));
+                open.push((n.first as usize, k));
+            }
+        }
+        kids
+    })
+}
+
+/// The wide tree whose node at binary node `b` has the children
+/// `kids_of(b)` (binary nodes, left to right): those that are inner become
+/// wide nodes in turn. A node's children are stored next to each other.
+fn collapse_by<const W: usize>(
+    nodes: &[super::Node],
+    mut kids_of: impl FnMut(usize) -> ArrayVec<usize, W>,
+) -> Vec<WideNode<W>> {
+    if nodes.is_empty() {
+        return Vec::new();
+    }
+    let mut out = Vec::with_capacity(nodes.len() / (W - 1) + 1);
+    out.push(WideNode::EMPTY);
+    let mut work = vec![(0usize, 0usize)];
+    while let Some((binary, wide)) = work.pop() {
+        let mut node = WideNode::EMPTY;
+        for (slot, k) in kids_of(binary).into_iter().enumerate() {
             let n = &nodes[k];
             for axis in 0..3 {
                 node.bounds[2 * axis][slot] = n.min[axis];
@@ -97,7 +184,7 @@ pub fn collapse(nodes: &[super::Node]) -> Vec<Node4> {
             } else {
                 node.child[slot] = out.len() as u32;
                 work.push((k, out.len()));
-                out.push(Node4::EMPTY);
+                out.push(WideNode::EMPTY);
             }
         }
         out[wide] = node;
@@ -234,19 +321,19 @@ impl WidePair {
 
 /// A stack entry: a child (`count` > 0: a leaf) entered at `tn`.
 #[derive(Clone, Copy)]
-struct Entry {
-    child: u32,
-    count: u32,
-    tn: f32,
+pub(super) struct Entry {
+    pub(super) child: u32,
+    pub(super) count: u32,
+    pub(super) tn: f32,
 }
 
 /// The children in `mask` by `key` (their entry distances): returns the
 /// nearest's entry and stacks the others' so that they pop nearest first.
 #[inline(always)]
-fn take_nearest<E: Copy>(
+pub(super) fn take_nearest<E: Copy, const W: usize>(
     stack: &mut ArrayVec<E, STACK>,
     mask: u32,
-    key: &[f32; WIDTH],
+    key: &[f32; W],
     entry: impl Fn(usize) -> E,
 ) -> E {
     let a = mask.trailing_zeros() as usize;
@@ -261,8 +348,8 @@ fn take_nearest<E: Copy>(
         let _ = stack.try_push(entry(far));
         return entry(near);
     }
-    // Three or four: sorted by insertion, farthest first.
-    let mut sorted = [near; WIDTH];
+    // Three or more: sorted by insertion (nearest first), stacked farthest first.
+    let mut sorted = [near; W];
     sorted[1] = far;
     let mut n = 2;
     let mut bits = rest;
@@ -303,11 +390,13 @@ struct PacketEntry<const K: usize> {
 }
 
 impl Bvh {
-    /// Nearest hit per lane (see `closest_binary` for the contract). On the
-    /// four-wide tree when there is one: a ray alone descends it by itself,
-    /// a stereo pair in one descent (`closest_pair_wide`); wider packets on
-    /// the binary tree. All give the same hits. Measured in
-    /// docs/benchmarks.md ("Issue 17, third pass: nodes and descent").
+    /// Nearest hit per lane (see `closest_binary` for the contract). A ray
+    /// alone, and each ray of a stereo pair, descends the eight-wide tree
+    /// when there is one; without it a pair descends the four-wide tree in
+    /// one descent (`closest_pair_wide`); wider packets the binary tree. All
+    /// give the same hits. Measured in docs/benchmarks.md ("Issue 17, third
+    /// pass: nodes and descent" and "fourth pass: eight-wide nodes": two
+    /// eight-wide descents beat the four-wide pair descent).
     #[inline]
     pub fn closest<const K: usize>(
         &self,
@@ -317,10 +406,14 @@ impl Bvh {
     ) -> PacketHits<K> {
         if self.wide.is_empty() {
             self.closest_binary(packet, stats, test)
-        } else if K == 2 && packet.mask == 0b11 {
+        } else if K == 2 && packet.mask == 0b11 && self.wide8.is_empty() {
             self.closest_pair_wide(packet, stats, test)
         } else if K <= 2 || packet.mask.count_ones() == 1 {
-            self.closest_each_wide(packet, stats, test)
+            if self.wide8.is_empty() {
+                self.closest_each_wide(packet, stats, test)
+            } else {
+                self.closest_each_wide8(packet, stats, test)
+            }
         } else {
             self.closest_binary(packet, stats, test)
         }
@@ -360,7 +453,7 @@ impl Bvh {
 
     /// Any-hit per lane (see `occlusion_binary` for the contract), on the
     /// four-wide tree when there is one: it measured faster for shadow rays
-    /// (docs/benchmarks.md).
+    /// (docs/benchmarks.md); a segment alone on the eight-wide tree.
     pub fn occlusion<const K: usize>(
         &self,
         packet: &SegmentPacket<K>,
@@ -369,6 +462,8 @@ impl Bvh {
     ) {
         if self.wide.is_empty() {
             self.occlusion_binary(packet, stats, test)
+        } else if !self.wide8.is_empty() && (K == 1 || packet.mask.count_ones() == 1) {
+            self.occlusion_wide8(packet, stats, test)
         } else {
             self.occlusion_wide(packet, stats, test)
         }

@@ -1,0 +1,67 @@
+#!/usr/bin/env python3
+"""Whole renders of the SPD scenes by CPU time, two or more binaries alternating.
+
+usage (from the project's root):
+    bench/render-cpu.py mono|stereo ROUNDS BIN BIN ...
+
+mono:   each BIN renders ../shared/scenes/spd/NAME.nff at 512x512, --samples 1,
+        one thread (the renders of ../shared/bench/vs-povray.sh, on one core);
+        prints the medians and the last binary's time over the first's.
+stereo: each BIN renders the pair at 1024x1024, --interaxial 0.1, --samples 1,
+        one thread, --method independent and twin (the renders of bench-stereo);
+        prints the medians and twin / independent per binary.
+
+The clock is the CPU time of the child (user + system, getrusage), not wall time,
+so that a machine loaded by other work inflates it less. Scenes: $SCENES, default
+all seven (balls gears mount rings teapot tetra tree). Within a round every binary
+and method runs once, in turn.
+"""
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+
+mode, rounds, bins = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
+if mode not in ("mono", "stereo") or len(bins) < 1:
+    sys.exit(__doc__)
+scenes = os.environ.get("SCENES", "balls gears mount rings teapot tetra tree").split()
+here = os.path.dirname(os.path.abspath(__file__))
+spd = os.path.join(here, "..", "..", "shared", "scenes", "spd", "%s.nff")
+out = os.path.join(tempfile.mkdtemp(), "out.png")
+
+
+def cpu(cmd):
+    a = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    b = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (b.ru_utime - a.ru_utime) + (b.ru_stime - a.ru_stime)
+
+
+def command(b, scene, method):
+    if method is None:
+        return [b, "render", spd % scene, "-o", out, "--size", "512x512",
+                "--samples", "1", "--threads", "1", "--quiet"]
+    return [b, "render", spd % scene, "-o", out, "--stereo", "--interaxial", "0.1",
+            "--size", "1024x1024", "--samples", "1", "--threads", "1",
+            "--method", method, "--quiet"]
+
+
+methods = ["independent", "twin"] if mode == "stereo" else [None]
+for s in scenes:
+    t = {(b, m): [] for b in bins for m in methods}
+    for _ in range(rounds):
+        for b in bins:
+            for m in methods:
+                t[(b, m)].append(cpu(command(b, s, m)))
+    med = {k: statistics.median(v) for k, v in t.items()}
+    if mode == "mono":
+        row = " ".join("%s %.3f s" % (b, med[(b, None)]) for b in bins)
+        print("%-8s %s  last/first %.3f" % (s, row, med[(bins[-1], None)] / med[(bins[0], None)]),
+              flush=True)
+    else:
+        row = " | ".join("%s indep %.3f twin %.3f ratio %.3f" % (
+            b, med[(b, "independent")], med[(b, "twin")],
+            med[(b, "twin")] / med[(b, "independent")]) for b in bins)
+        print("%-8s %s" % (s, row), flush=True)

@@ -1,0 +1,248 @@
+//! The eight-wide hierarchy: the binary SAH tree collapsed so that each node
+//! holds up to eight children (`collapse8`), each plane's eight values stored together, so
+//! that one ray meets all eight children in one `f32x8` (one AVX register, one
+//! load per plane). Rays traced alone take it: eye rays, secondary rays and
+//! shadow segments of one lane, and each ray of a stereo pair's nearest-hit
+//! packet. Shadow packets keep the four-wide tree (`wide.rs`), nearest-hit
+//! packets of three or more lanes the binary tree; docs/benchmarks.md
+//! ("Issue 17, fourth pass") has the measurements.
+//!
+//! Exactness: as in `wide.rs`, a child's slab test is per register lane the
+//! binary descent's, with its arithmetic (the planes picked by the ray's signs,
+//! one multiply and one subtract per plane, then `maxps`/`minps` in the binary
+//! test's order), on the binary tree's boxes. So culling is as conservative as
+//! there (`CULL_SLACK`), a ray's nearest hit (ties to the lower primitive
+//! index) is the one it gets on any tree, and a segment that `segment_enters`
+//! a primitive's box reaches the primitive's leaf. Leaves are tested by
+//! `leaf.rs`, as on the other trees.
+
+use super::leaf::{leaf_lane, occlusion_lane};
+use super::traverse::{LaneHit, SingleRay, CULL_SLACK, NO_SURFACE, ROBUST, STACK};
+use super::wide::{collapse_sah, take_nearest, Entry, WideNode};
+use super::TraversalStats;
+use super::{AnyHitTest, Bvh, NearestTest, Node, Packet, PacketHits, SegmentPacket};
+use arrayvec::ArrayVec;
+use wide::f32x8;
+
+/// Children per node of the eight-wide tree.
+pub const WIDTH8: usize = 8;
+
+/// A node of the eight-wide tree (256 bytes: four cache lines).
+pub type Node8 = WideNode<WIDTH8>;
+
+/// The binary tree `nodes` collapsed eight-wide (`collapse_sah`: it fills
+/// the nodes near the bottom better than the greedy collapse).
+pub fn collapse8(nodes: &[Node]) -> Vec<Node8> {
+    collapse_sah::<WIDTH8>(nodes)
+}
+
+/// One ray prepared for the eight-wide slab test: per axis, which of a node's
+/// bound arrays is its entry plane and which its exit plane, and its numbers
+/// splatted.
+#[derive(Clone, Copy)]
+struct Ray8 {
+    near: [usize; 3],
+    far: [usize; 3],
+    inv: [f32x8; 3],
+    org: [f32x8; 3],
+    t_min: f32x8,
+}
+
+impl Ray8 {
+    #[inline(always)]
+    fn new(r: &SingleRay) -> Ray8 {
+        let side = |a: usize| r.neg[a] as usize;
+        Ray8 {
+            near: [0, 1, 2].map(|a| 2 * a + side(a)),
+            far: [0, 1, 2].map(|a| 2 * a + 1 - side(a)),
+            inv: r.inv.map(f32x8::splat),
+            org: r.origin.map(f32x8::splat),
+            t_min: f32x8::splat(r.t_min),
+        }
+    }
+
+    /// Entry and exit distances of the eight children: per lane, the binary
+    /// descent's `entry` (and `segment_enters_node` with `t_min = 0`).
+    #[inline(always)]
+    fn slabs(&self, node: &Node8) -> (f32x8, f32x8) {
+        let plane = |i: usize, a: usize| f32x8::from(node.bounds[i]) * self.inv[a] - self.org[a];
+        let (nx, ny, nz) = (
+            plane(self.near[0], 0),
+            plane(self.near[1], 1),
+            plane(self.near[2], 2),
+        );
+        let (fx, fy, fz) = (
+            plane(self.far[0], 0),
+            plane(self.far[1], 1),
+            plane(self.far[2], 2),
+        );
+        // `fast_max(a, b)` is `maxps(a, b)`: `a > b ? a : b`, i.e. `fmax(a, b)`.
+        let tn = nx.fast_max(ny).fast_max(nz.fast_max(self.t_min));
+        let tf = fx.fast_min(fy).fast_min(fz) * f32x8::splat(ROBUST);
+        (tn, tf)
+    }
+
+    /// The children a ray enters before `best * CULL_SLACK`, as a bit mask,
+    /// and their entry distances.
+    #[inline(always)]
+    fn enter(&self, node: &Node8, best: f32) -> (u32, [f32; WIDTH8]) {
+        let (tn, tf) = self.slabs(node);
+        let bound = f32x8::splat(best * CULL_SLACK);
+        let m = (tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask();
+        (m, tn.to_array())
+    }
+
+    /// The children a segment `0 < t < t_max` enters, as a bit mask.
+    #[inline(always)]
+    fn enters(&self, node: &Node8, t_max: f32) -> u32 {
+        let (tn, tf) = self.slabs(node);
+        tn.simd_le(tf.fast_min(f32x8::splat(t_max))).to_bitmask()
+    }
+}
+
+impl Bvh {
+    /// `closest` with each active lane traced alone on the eight-wide tree
+    /// (which must exist): each lane's nearest hit, ties to the lower index.
+    #[inline]
+    pub fn closest_each_wide8<const K: usize>(
+        &self,
+        packet: &Packet<K>,
+        stats: &mut TraversalStats,
+        mut test: impl NearestTest,
+    ) -> PacketHits<K> {
+        let mut out = PacketHits::<K>::none();
+        if self.wide8.is_empty() {
+            return out;
+        }
+        let mut lanes = packet.mask & ((1u64 << K) - 1) as u32;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let ray = SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min);
+            let mut state = LaneHit {
+                best: packet.t_max[l],
+                prim: PacketHits::<K>::NO_HIT,
+                hit: NO_SURFACE,
+            };
+            self.wide8_single(&ray, &mut state, stats, &mut test, l);
+            out.prim[l] = state.prim;
+            out.hit[l] = state.hit;
+        }
+        out
+    }
+
+    /// One ray's nearest-hit descent of the eight-wide tree, improving
+    /// `state`: the nearest entered child next, the others stacked farthest
+    /// first, each popped only if it is entered before the nearest hit so far.
+    #[inline(always)]
+    fn wide8_single<T: NearestTest>(
+        &self,
+        ray: &SingleRay,
+        state: &mut LaneHit,
+        stats: &mut TraversalStats,
+        test: &mut T,
+        lane: usize,
+    ) {
+        let wray = Ray8::new(ray);
+        let mut lh = *state;
+        let (mut nodes, mut prims) = (0u64, 0u64);
+        let mut inner = 0u64;
+        let mut stack = ArrayVec::<Entry, STACK>::new();
+        let root = Entry {
+            child: 0,
+            count: 0,
+            tn: ray.t_min,
+        };
+        let mut current = (ray.t_min <= lh.best * CULL_SLACK).then_some(root);
+        while let Some(Entry { child, count, .. }) = current {
+            nodes += 1;
+            if count > 0 {
+                prims += count as u64;
+                leaf_lane(self.leaf(child, count), lane, &mut lh, test);
+            } else {
+                let node = &self.wide8[child as usize];
+                inner += 1;
+                let (m, t) = wray.enter(node, lh.best);
+                if m != 0 {
+                    current = Some(take_nearest(&mut stack, m, &t, |c| Entry {
+                        child: node.child[c],
+                        count: node.count[c],
+                        tn: t[c],
+                    }));
+                    continue;
+                }
+            }
+            current = None;
+            while let Some(e) = stack.pop() {
+                if e.tn <= lh.best * CULL_SLACK {
+                    current = Some(e);
+                    break;
+                }
+            }
+        }
+        *state = lh;
+        stats.nodes += nodes;
+        stats.box_tests += inner * WIDTH8 as u64;
+        stats.prim_tests += prims;
+    }
+
+    /// Any-hit per lane (see `occlusion_binary` for the contract) on the
+    /// eight-wide tree (which must exist), each active lane's segment alone.
+    pub fn occlusion_wide8<const K: usize>(
+        &self,
+        packet: &SegmentPacket<K>,
+        stats: &mut TraversalStats,
+        test: &mut impl AnyHitTest,
+    ) {
+        if self.wide8.is_empty() {
+            return;
+        }
+        let mut lanes = packet.mask & ((1u64 << K) - 1) as u32;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let ray = SingleRay::new(packet.origins[l], packet.dirs[l], 0.0);
+            self.wide8_occlusion_single(&ray, packet.t_max[l], stats, test, l);
+        }
+    }
+
+    /// One segment's any-hit descent of the eight-wide tree; returns whether
+    /// `test` said stop. Children are visited in slot order.
+    #[inline(always)]
+    fn wide8_occlusion_single<T: AnyHitTest>(
+        &self,
+        ray: &SingleRay,
+        t_max: f32,
+        stats: &mut TraversalStats,
+        test: &mut T,
+        lane: usize,
+    ) -> bool {
+        let wray = Ray8::new(ray);
+        let (mut nodes, mut inner, mut prims) = (0u64, 0u64, 0u64);
+        let mut stopped = false;
+        let mut stack = ArrayVec::<(u32, u32), STACK>::new();
+        stack.push((0, 0));
+        while let Some((child, count)) = stack.pop() {
+            nodes += 1;
+            if count > 0 {
+                if occlusion_lane(self.leaf(child, count), lane, &mut prims, test) {
+                    stopped = true;
+                    break;
+                }
+                continue;
+            }
+            let node = &self.wide8[child as usize];
+            inner += 1;
+            let mut m = wray.enters(node, t_max);
+            while m != 0 {
+                let c = 31 - m.leading_zeros() as usize;
+                m &= !(1 << c);
+                let _ = stack.try_push((node.child[c], node.count[c]));
+            }
+        }
+        stats.nodes += nodes;
+        stats.box_tests += inner * WIDTH8 as u64;
+        stats.prim_tests += prims;
+        stopped
+    }
+}
