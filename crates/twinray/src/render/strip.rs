@@ -70,8 +70,11 @@ pub(super) struct StripRow {
     /// Every single-ray primitive test the strip made: (view, sample, prim).
     #[cfg(test)]
     tested: Vec<(usize, usize, u32)>,
-    /// Eye runs: spans of members (ends traced) still to resolve.
+    /// Eye runs: spans of members (ends traced) still to resolve, those of
+    /// the next round, and the members to trace before it.
     spans: Vec<(usize, usize)>,
+    next_spans: Vec<(usize, usize)>,
+    pending: Vec<usize>,
 }
 
 impl<'a> StripEyePass<'a> {
@@ -228,45 +231,82 @@ impl StripEyePass<'_> {
     }
 
     /// The family's hits (`out.found`, by member) by eye runs: its two end
-    /// rays traced alone, then each span between traced rays either proved
-    /// (`prove_run`) or split at its middle ray, traced (`bvh/run.rs`).
+    /// rays traced, then round by round each span between traced rays
+    /// either proved (`prove_run`) or split at its middle ray, the round's
+    /// middle rays traced together (`bvh/run.rs`).
     fn trace_runs(&self, tracer: &mut Tracer, dir: Vec3, out: &mut StripRow) {
         let n = out.members.len();
         out.found.clear();
         out.found.resize(n, None);
         tracer.counts.runs.families += 1;
-        self.trace_alone(tracer, dir, out, 0);
+        out.pending.clear();
+        out.pending.push(0);
         if n > 1 {
-            self.trace_alone(tracer, dir, out, n - 1);
+            out.pending.push(n - 1);
         }
         out.spans.clear();
         if n > 2 {
             out.spans.push((0, n - 1));
         }
-        while let Some((a, b)) = out.spans.pop() {
-            if b - a < 2 || self.prove_run(tracer, dir, out, a, b) {
-                continue;
+        loop {
+            self.trace_pending(tracer, dir, out);
+            if out.spans.is_empty() {
+                break;
             }
-            let m = (a + b) / 2;
-            self.trace_alone(tracer, dir, out, m);
-            out.spans.push((m, b));
-            out.spans.push((a, m));
+            let mut spans = std::mem::take(&mut out.spans);
+            out.next_spans.clear();
+            for &(a, b) in &spans {
+                if b - a < 2 || self.prove_run(tracer, dir, out, a, b) {
+                    continue;
+                }
+                let m = (a + b) / 2;
+                out.pending.push(m);
+                out.next_spans.push((a, m));
+                out.next_spans.push((m, b));
+            }
+            spans.clear();
+            out.spans = std::mem::replace(&mut out.next_spans, spans);
         }
     }
 
-    /// Member `k`'s eye ray traced alone, as the independent method traces it.
-    fn trace_alone(&self, tracer: &mut Tracer, dir: Vec3, out: &mut StripRow, k: usize) {
-        let (v, _) = out.members[k];
+    /// The members `out.pending` traced, four at a time as one packet (each
+    /// lane's hit is its ray's traced alone, `bvh/traverse.rs`), as the
+    /// twin batches trace their views.
+    fn trace_pending(&self, tracer: &mut Tracer, dir: Vec3, out: &mut StripRow) {
+        let pending = std::mem::take(&mut out.pending);
+        for chunk in pending.chunks(4) {
+            match chunk.len() {
+                1 => self.trace_lanes::<1>(tracer, dir, out, chunk),
+                2 => self.trace_lanes::<2>(tracer, dir, out, chunk),
+                _ => self.trace_lanes::<4>(tracer, dir, out, chunk),
+            }
+        }
+        out.pending = pending;
+        out.pending.clear();
+    }
+
+    /// Members `ks` (at most `K`) traced as one packet.
+    fn trace_lanes<const K: usize>(
+        &self,
+        tracer: &mut Tracer,
+        dir: Vec3,
+        out: &mut StripRow,
+        ks: &[usize],
+    ) {
+        let lane = |l: usize| ks[l.min(ks.len() - 1)];
         let packet = Packet {
-            origins: [out.member_origins[k]],
-            dirs: [dir],
+            origins: std::array::from_fn(|l| out.member_origins[lane(l)]),
+            dirs: [dir; K],
             t_min: self.camera.hither,
-            t_max: [f32::INFINITY],
-            mask: 1,
+            t_max: [f32::INFINITY; K],
+            mask: (1u32 << ks.len()) - 1,
         };
-        let h = tracer.eye_hits(&packet, &[v]);
-        out.found[k] = h.has_hit(0).then_some((h.prim[0], h.hit[0]));
-        tracer.counts.runs.traced += 1;
+        let views: [usize; K] = std::array::from_fn(|l| out.members[lane(l)].0);
+        let h = tracer.eye_hits(&packet, &views);
+        for (l, &k) in ks.iter().enumerate() {
+            out.found[k] = h.has_hit(l).then_some((h.prim[l], h.hit[l]));
+        }
+        tracer.counts.runs.traced += ks.len() as u64;
     }
 
     /// Whether the members strictly between `a` and `b` (both traced) are
@@ -300,6 +340,7 @@ impl StripEyePass<'_> {
             (ta + (tb - ta) * w) * (1.0 + FILL_REACH) + self.margin * 0.5
         };
         let shapes = &self.world.scene.shapes;
+        let hit_box = shapes.get(pa as usize).map(|s| primitive_box(&s.bounds()));
         let runs = &mut tracer.counts.runs;
         runs.proofs += 1;
         let family = &out.family;
@@ -312,25 +353,17 @@ impl StripEyePass<'_> {
         }
         for k in a + 1..b {
             let (v, _) = out.members[k];
-            if pa != u32::MAX {
+            if let Some(hit_box) = &hit_box {
                 let (origin, s) = (out.member_origins[k], out.family.s[k]);
-                let shape = &shapes[pa as usize];
                 let hither = self.camera.hither;
-                let kept = shape
+                let kept = shapes[pa as usize]
                     .intersect(&Ray::new(origin, dir), hither, f32::INFINITY)
                     .filter(|h| {
-                        (h.t as f64) <= bound(s)
-                            && ray_reaches(
-                                &primitive_box(&shape.bounds()),
-                                origin,
-                                dir,
-                                hither,
-                                h.t,
-                            )
+                        (h.t as f64) <= bound(s) && ray_reaches(hit_box, origin, dir, hither, h.t)
                     });
                 let Some(hit) = kept else {
                     tracer.counts.runs.fill_refused += 1;
-                    self.trace_alone(tracer, dir, out, k);
+                    out.pending.push(k);
                     continue;
                 };
                 out.found[k] = Some((pa, hit));
