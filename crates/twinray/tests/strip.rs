@@ -296,9 +296,7 @@ fn eye_runs_equal_independent_renders() {
             assert_eq!(reference.counts.rays, runs.counts.rays, "{what}");
             let r = runs.counts.runs;
             assert_eq!(r.traced + r.filled, runs.counts.rays.eye, "{what}: {r:?}");
-            // Traced rays go four (or fewer) to a packet.
-            assert!(runs.counts.eye_traversals * 4 >= r.traced, "{what}: {r:?}");
-            assert!(runs.counts.eye_traversals <= r.traced, "{what}: {r:?}");
+            assert_eq!(runs.counts.eye_traversals, r.traced, "{what}: {r:?}");
             if views >= 8 {
                 assert!(r.filled > r.traced, "{what}: {r:?}");
                 assert!(r.proofs_failed > 0, "{what}: {r:?}");

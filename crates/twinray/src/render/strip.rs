@@ -269,17 +269,15 @@ impl StripEyePass<'_> {
         }
     }
 
-    /// The members `out.pending` traced, four at a time as one packet (each
-    /// lane's hit is its ray's traced alone, `bvh/traverse.rs`), as the
-    /// twin batches trace their views.
+    /// The members `out.pending` traced, each alone, by the independent
+    /// method's routine (a one-lane packet: the four-wide tree's single-ray
+    /// descent). Not four to a packet: wider packets descend the binary
+    /// tree, whose hits differed from the single ray's in one pixel of the
+    /// SPD tree (docs/benchmarks.md, "Issue 16, fourth pass").
     fn trace_pending(&self, tracer: &mut Tracer, dir: Vec3, out: &mut StripRow) {
         let pending = std::mem::take(&mut out.pending);
-        for chunk in pending.chunks(4) {
-            match chunk.len() {
-                1 => self.trace_lanes::<1>(tracer, dir, out, chunk),
-                2 => self.trace_lanes::<2>(tracer, dir, out, chunk),
-                _ => self.trace_lanes::<4>(tracer, dir, out, chunk),
-            }
+        for k in pending.chunks(1) {
+            self.trace_lanes::<1>(tracer, dir, out, k);
         }
         out.pending = pending;
         out.pending.clear();
