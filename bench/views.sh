@@ -8,7 +8,11 @@
 # MODES (default "exact shared") may add shared-b8: the shared shading with
 # batches of 8 views (--views-per-batch 8) instead of 4; shared-keys: the
 # shared shading with adaptive key views for mirrors and glass (--key-spacing
-# 0; the default, 1, has none); and shared-b8-keys: both.
+# 0; the default, 1, has none); and shared-b8-keys: both. A mode ending in
+# -runs adds the eye runs (--eye-runs), in -strip the strip pass (--strip):
+# exact-runs, exact-strip, shared-runs; every mode but exact is compared with
+# exact (the exact ones must give max_abs 0). The CSV's eye_pass_s is
+# --stats eye_pass_cpu_s (thread time of the eye pass, twin method only).
 #
 # Time: CPU seconds (user + sys) of the whole command, on THREADS threads
 # (default 1), so that other work on a shared machine does not count; the
@@ -46,28 +50,31 @@ cpu() { /usr/bin/time -f "%U %S %e" -o "$tmp/time" "$@"; read -r u s e < "$tmp/t
 render_s() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time']['render_s'])" "$1"; }
 counter() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))[sys.argv[2]])" "$1" "$2"; }
 shadow_rays() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['rays']['shadow'])" "$1"; }
+eye_pass() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time'].get('eye_pass_cpu_s') or '')" "$1"; }
 secondary_rays() { python3 -c "import json,sys; r=json.load(open(sys.argv[1]))['rays']; print(r['reflected'] + r['refracted'])" "$1"; }
 
-echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals,cache_colour_hits,secondary_rays,key_view_samples,interpolated_samples,key_view_fallbacks,fan_queries,fan_free" > "$csv"
+echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals,cache_colour_hits,secondary_rays,key_view_samples,interpolated_samples,key_view_fallbacks,fan_queries,fan_free,eye_pass_s" > "$csv"
 for scene in "${scenes[@]}"; do
   name=$(basename "$scene" .nff)
   mono=$(cpu "$bin" render "$scene" -o "$tmp/mono.pfm" "${common[@]}" --stats "$tmp/mono.json" 2>/dev/null)
-  echo "$name,$size,$threads,0,mono,$mono,1,$(cat "$tmp/wall"),$(render_s "$tmp/mono.json"),,,$(shadow_rays "$tmp/mono.json"),0,0,0,0,0,$(secondary_rays "$tmp/mono.json"),0,0,0,0,0" >> "$csv"
+  echo "$name,$size,$threads,0,mono,$mono,1,$(cat "$tmp/wall"),$(render_s "$tmp/mono.json"),,,$(shadow_rays "$tmp/mono.json"),0,0,0,0,0,$(secondary_rays "$tmp/mono.json"),0,0,0,0,0,$(eye_pass "$tmp/mono.json")" >> "$csv"
   for n in ${counts//,/ }; do
-    rm -f "$tmp"/exact_*.pfm "$tmp"/shared*_*.pfm
+    rm -f "$tmp"/*_*.pfm
     rig=(--views "$n" --interaxial "$b")
     [[ $n -eq 1 ]] && rig=()
     for mode in $modes; do
       extra=()
-      [[ $mode == shared* && $n -eq 1 ]] && continue
+      [[ $mode != exact && $n -eq 1 ]] && continue
       [[ $mode == shared* ]] && extra=(--share-shading)
       [[ $mode == shared-b8* ]] && extra+=(--views-per-batch 8)
       [[ $mode == *-keys ]] && extra+=(--key-spacing 0)
+      [[ $mode == *-runs ]] && extra+=(--eye-runs)
+      [[ $mode == *-strip ]] && extra+=(--strip)
       s=$(cpu "$bin" render "$scene" -o "$tmp/$mode.pfm" "${common[@]}" "${rig[@]}" "${extra[@]}" \
         --stats "$tmp/$mode.json" 2>/dev/null)
       wall=$(cat "$tmp/wall")
       worst=inf; maxabs=0
-      if [[ $mode == shared* ]]; then
+      if [[ $mode != exact ]]; then
         # exact_0.pfm ... (a pair: exact_L.pfm, exact_R.pfm); one line per view.
         for e in "$tmp"/exact_*.pfm; do
           "$bin" compare "$e" "$tmp/${mode}_${e#"$tmp"/exact_}"
@@ -87,7 +94,7 @@ for scene in "${scenes[@]}"; do
       done
       keys_csv=$(IFS=,; echo "${keys[*]}")
       ratio=$(python3 -c "print(f'{$s / $mono:.3f}')")
-      echo "$name,$size,$threads,$n,$mode,$s,$ratio,$wall,$(render_s "$tmp/$mode.json"),$worst,$maxabs,$shadow,$hits,$entries,$fb,$edge,$whole,$(secondary_rays "$tmp/$mode.json"),$keys_csv" >> "$csv"
+      echo "$name,$size,$threads,$n,$mode,$s,$ratio,$wall,$(render_s "$tmp/$mode.json"),$worst,$maxabs,$shadow,$hits,$entries,$fb,$edge,$whole,$(secondary_rays "$tmp/$mode.json"),$keys_csv,$(eye_pass "$tmp/$mode.json")" >> "$csv"
       printf '%-8s %4s views %-6s %7.3f CPU s %8s x mono  worst %s dB  max %s\n' "$name" "$n" "$mode" "$s" "$ratio" "$worst" "$maxabs"
     done
   done

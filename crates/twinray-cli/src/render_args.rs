@@ -168,6 +168,12 @@ pub struct RenderArgs {
     #[arg(long)]
     pub strip: bool,
 
+    /// Twin method: find the eye hits of the views along a camera column by
+    /// tracing a few of them and proving the views between (the same
+    /// images; see docs/stereo.md)
+    #[arg(long)]
+    pub eye_runs: bool,
+
     #[command(flatten)]
     pub sampling: SamplingArgs,
 
@@ -394,6 +400,7 @@ impl RenderArgs {
                 },
                 views_per_batch: self.views_per_batch,
                 strip: self.strip,
+                eye_runs: self.eye_runs,
             },
             sampling: self.sampling.spec(self.spd),
             approximations: ApproximationSpec {

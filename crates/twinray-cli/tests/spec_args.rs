@@ -90,6 +90,8 @@ fn specs() -> Vec<JobSpec> {
     let mut studio = base.clone();
     studio.rig.views = Some(6);
     studio.approximations.share_shading = true;
+    studio.rig.strip = true;
+    studio.rig.eye_runs = true;
     studio.approximations.share_tolerance = 0.005;
     studio.output.linear = true;
     studio.output.exposure = -1.5;

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use crate::bvh::{StripStats, TraversalStats};
+use crate::bvh::{RunStats, StripStats, TraversalStats};
 use crate::render::MAX_VIEWS;
 
 /// Ray counts. A stereo method counts one eye ray per view and pixel sample, as
@@ -85,6 +85,9 @@ pub struct TraceCounts {
     /// those, the fans proved free of occluders (`fan_free`).
     pub fan_queries: u64,
     pub fan_free: u64,
+    /// `--eye-runs`: families, rays traced alone and filled by proofs, the
+    /// proofs and their work (`bvh::RunStats`).
+    pub runs: RunStats,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -141,6 +144,7 @@ impl TraceCounts {
         self.key_view_skipped_groups += o.key_view_skipped_groups;
         self.fan_queries += o.fan_queries;
         self.fan_free += o.fan_free;
+        self.runs.add(&o.runs);
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -262,6 +266,8 @@ pub struct Report {
     /// `--strip`: the eye pass's descents for all the views of a camera
     /// column, their nodes, family and single-ray primitive tests.
     pub strip: StripStats,
+    /// `--eye-runs`: see `TraceCounts::runs`.
+    pub eye_runs: RunStats,
 }
 
 impl Report {
@@ -301,6 +307,7 @@ impl Report {
         self.key_view_skipped_groups = c.key_view_skipped_groups;
         self.fan_queries = c.fan_queries;
         self.fan_free = c.fan_free;
+        self.eye_runs = c.runs;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
         self.primitive_tests = c.prim_tests;

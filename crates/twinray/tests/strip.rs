@@ -3,7 +3,9 @@
 //! scenes made to trouble a family of rays: triangles whose edges and corners
 //! lie exactly on sample rays, coincident triangles (ties in distance), a quad
 //! split along a shared edge, triangles parallel to the rays, a pole so thin
-//! that one view at most sees it in a column, spheres and a cone.
+//! that one view at most sees it in a column, spheres and a cone. The same
+//! for eye runs (`--eye-runs`), and their counts on a bare wall and with the
+//! pole in front of it.
 
 mod common;
 
@@ -112,6 +114,18 @@ fn render(world: &World, camera: &Camera, rig: &Rig, method: Method, strip: bool
     run(world, camera, rig, &opts)
 }
 
+/// The twin method with eye runs (`--eye-runs`).
+fn runs_options() -> RenderOptions {
+    RenderOptions {
+        eye_runs: true,
+        ..options(Method::Twin, Sampling::Centers)
+    }
+}
+
+fn render_runs(world: &World, camera: &Camera, rig: &Rig) -> RenderOutput {
+    run(world, camera, rig, &runs_options())
+}
+
 fn bits(img: &twinray::Image) -> Vec<[u32; 3]> {
     img.pixels
         .iter()
@@ -216,6 +230,9 @@ fn thin_cones_and_spheres_as_the_single_ray_descent_sees_them() {
             strip.counts.strip.unbounded > 0,
             "cones are tested view by view"
         );
+        let runs = render_runs(&world, &camera, &rig);
+        assert_same_views(&reference, &runs, &format!("{views} views, eye runs"));
+        assert!(runs.counts.runs.filled > 0, "{:?}", runs.counts.runs);
     }
 }
 
@@ -259,4 +276,123 @@ fn rays_grazing_a_box_face_are_decided_by_the_single_ray_slab_test() {
     let reference = render(&world, &camera, &rig, Method::Independent, false);
     let strip = render(&world, &camera, &rig, Method::Twin, true);
     assert_same_views(&reference, &strip, "grazing spheres");
+    let runs = render_runs(&world, &camera, &rig);
+    assert_same_views(&reference, &runs, "grazing spheres, eye runs");
+}
+
+/// Eye runs (`--eye-runs`): bit for bit the independent renders, for 2 to 48
+/// views, converged at infinity and at 6 units, on the scene of grazed edges
+/// and corners, ties, rays along polygons, spheres, a cone and the thin pole;
+/// the same rays counted; and runs did fill views between traced ones.
+#[test]
+fn eye_runs_equal_independent_renders() {
+    for views in [2, 5, 8, 16, 48] {
+        for convergence in [None, Some(6.0)] {
+            let (world, camera, rig) = scene(views, convergence);
+            let reference = render(&world, &camera, &rig, Method::Independent, false);
+            let runs = render_runs(&world, &camera, &rig);
+            let what = format!("{views} views, convergence {convergence:?}");
+            assert_same_views(&reference, &runs, &what);
+            assert_eq!(reference.counts.rays, runs.counts.rays, "{what}");
+            let r = runs.counts.runs;
+            assert_eq!(r.traced + r.filled, runs.counts.rays.eye, "{what}: {r:?}");
+            assert_eq!(runs.counts.eye_traversals, r.traced, "{what}: {r:?}");
+            if views >= 8 {
+                assert!(r.filled > r.traced, "{what}: {r:?}");
+                assert!(r.proofs_failed > 0, "{what}: {r:?}");
+            }
+        }
+    }
+}
+
+/// The shipped example scene (spheres, a cone, polygons): eye runs give the
+/// independent renders, bit for bit.
+#[test]
+fn eye_runs_on_the_example_scene() {
+    let world = world("example.nff");
+    let camera = camera(&world, 64, 48);
+    for (views, convergence) in [
+        (2, None),
+        (5, Some(8.0)),
+        (8, None),
+        (16, Some(8.0)),
+        (48, None),
+    ] {
+        let rig = Rig::multi_view(&camera, views, 0.05, convergence).expect("rig");
+        let reference = render(&world, &camera, &rig, Method::Independent, false);
+        let runs = render_runs(&world, &camera, &rig);
+        assert_same_views(&reference, &runs, &format!("example.nff, {views} views"));
+    }
+}
+
+/// Eye runs give the same images on 1, 2 and 5 threads.
+#[test]
+fn eye_runs_do_not_depend_on_threads() {
+    let (world, camera, rig) = scene(16, Some(6.0));
+    let one = run_on_threads(1, &world, &camera, &rig, &runs_options());
+    for threads in [2, 5] {
+        let many = run_on_threads(threads, &world, &camera, &rig, &runs_options());
+        assert_eq!(one.images, many.images, "{threads} threads");
+    }
+}
+
+/// One large triangle facing the eyes, filling the image, and optionally a
+/// pole 0.003 wide in front of it (at most one of views 0.01 apart sees it
+/// per column; the outer views' rays pass beside it onto the wall).
+fn wall(pole: bool) -> (World, Camera, Rig) {
+    let mut text = String::from(
+        "b 0.1 0.1 0.2\nv\nfrom 0 -8 2\nat 0 0 2\nup 0 0 1\nangle 30\nhither 0.01\n\
+         resolution 48 36\nl -5 -5 6 0.6 0.6 0.6\n\
+         f 0.8 0.8 0.7 0.6 0.3 20 0 1\np 3\n-40 0 -30\n40 0 -30\n0 0 40\n",
+    );
+    if pole {
+        text += POLE;
+    }
+    let scene = parse_nff(
+        &text,
+        std::path::Path::new("wall.nff"),
+        &LoadOptions::default(),
+    )
+    .expect("generated scene");
+    let world = World::new(scene);
+    let camera = Camera::new(&world.scene.viewpoint, WIDTH, HEIGHT);
+    let rig = Rig::multi_view(&camera, 48, 0.01, None).expect("rig");
+    (world, camera, rig)
+}
+
+/// A wall seen by 48 views, nothing in front: every family (a camera column,
+/// its 48 views at infinite convergence) is its two end views traced and one
+/// proof that fills the 46 between.
+#[test]
+fn a_bare_wall_is_two_traced_views_and_one_proof_per_family() {
+    let (world, camera, rig) = wall(false);
+    let runs = render_runs(&world, &camera, &rig);
+    let r = runs.counts.runs;
+    let families = WIDTH as u64 * HEIGHT as u64;
+    assert_eq!(r.families, families, "{r:?}");
+    assert_eq!(r.traced, 2 * families, "{r:?}");
+    assert_eq!(r.proofs, families, "{r:?}");
+    assert_eq!(r.proofs_failed, 0, "{r:?}");
+    assert_eq!(r.filled, 46 * families, "{r:?}");
+    let reference = render(&world, &camera, &rig, Method::Independent, false);
+    assert_same_views(&reference, &runs, "bare wall");
+}
+
+/// The 0.003-wide pole in front of the wall, between the end views of many
+/// families whose ends both hit the wall: the proofs find it, subdivision
+/// traces down to it, and every view that sees it (some do, not all) shows it.
+#[test]
+fn a_pole_between_two_views_on_one_wall_is_found() {
+    let (world, camera, rig) = wall(true);
+    let runs = render_runs(&world, &camera, &rig);
+    let reference = render(&world, &camera, &rig, Method::Independent, false);
+    assert_same_views(&reference, &runs, "pole before a wall");
+    let r = runs.counts.runs;
+    assert!(r.proofs_failed > 0, "{r:?}");
+    let (bare, _, _) = wall(false);
+    let without = render_runs(&bare, &camera, &rig);
+    let seen = (0..48)
+        .filter(|&v| bits(&runs.images[v]) != bits(&without.images[v]))
+        .count();
+    assert!(seen > 0 && seen < 48, "{seen} of 48 views see the pole");
 }

@@ -12,6 +12,7 @@
 pub(crate) mod brute_force;
 mod build;
 mod leaf;
+mod run;
 mod splice;
 mod strip;
 mod traverse;
@@ -20,6 +21,7 @@ mod wide;
 mod wide8;
 
 pub use build::{primitive_box, BuildOptions, PAD};
+pub use run::{ray_reaches, RunRegion, RunStats, FILL_REACH, RUN_REACH};
 pub use splice::{splice, Placed};
 pub use strip::{Cover, Family, FamilyTest, Interval, StripScratch, StripStats, FAMILY_EPS};
 pub use traverse::{

@@ -130,6 +130,10 @@ pub struct RigSpec {
     /// Twin method: the eye pass of every view in one descent per camera
     /// column (`--strip`); the same images.
     pub strip: bool,
+    /// Twin method: the strip's families resolved by eye runs (`--eye-runs`:
+    /// a few views traced alone, the views between proved); the same images.
+    #[serde(default)]
+    pub eye_runs: bool,
 }
 
 impl Default for RigSpec {
@@ -146,6 +150,7 @@ impl Default for RigSpec {
             method: MethodSpec::Twin,
             views_per_batch: None,
             strip: false,
+            eye_runs: false,
         }
     }
 }

@@ -195,6 +195,10 @@ pub struct RenderOptions {
     /// camera column in one descent (`strip`), where the rig and the sampling
     /// allow it; the images are the same.
     pub strip: bool,
+    /// Twin method (`--eye-runs`): the strip pass's families resolved by
+    /// eye runs (`bvh/run.rs`): a few views traced alone, the views between
+    /// two that hit one primitive proved; the images are the same.
+    pub eye_runs: bool,
 }
 
 impl Default for RenderOptions {
@@ -206,6 +210,7 @@ impl Default for RenderOptions {
             approx: Approximations::default(),
             views_per_batch: 0,
             strip: false,
+            eye_runs: false,
         }
     }
 }
@@ -372,9 +377,10 @@ pub fn render_rows(
         Method::Twin => twin_batches(&job, views_per_batch(views, opts.views_per_batch))?,
     };
     let paper = matches!(opts.approx.reproject, Some(r) if r.mode == ReprojectMode::Paper);
-    let strip = (opts.strip && opts.method == Method::Twin && !paper)
+    let strip = ((opts.strip || opts.eye_runs) && opts.method == Method::Twin && !paper)
         .then(|| strip::StripEyePass::new(world, camera, rig))
-        .flatten();
+        .flatten()
+        .map(|p| if opts.eye_runs { p.with_runs() } else { p });
     let run = Run {
         job: &job,
         batches: &batches,

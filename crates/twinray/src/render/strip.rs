@@ -14,7 +14,10 @@
 
 use super::sampler::SampleRow;
 use super::Tracer;
-use crate::bvh::{Cover, Family, FamilyTest, Interval, StripScratch, FAMILY_EPS};
+use crate::bvh::{
+    primitive_box, ray_reaches, Cover, Family, FamilyTest, Interval, Packet, RunRegion,
+    StripScratch, FAMILY_EPS, FILL_REACH,
+};
 use crate::math::{Ray, Vec3};
 use crate::rig::{Camera, Rig};
 use crate::shapes::{Shape, Sphere, SurfaceHit, Triangle};
@@ -42,6 +45,13 @@ pub(super) struct StripEyePass<'a> {
     min_shift: i32,
     max_shift: i32,
     scene_scale: f32,
+    /// `--eye-runs`: each family's hits by eye runs (`bvh/run.rs`) instead
+    /// of the family descent.
+    runs: bool,
+    /// Eye runs: the rounding margin of their regions, and a distance past
+    /// the scene's bounds from any eye.
+    margin: f64,
+    beyond: f64,
 }
 
 /// A row's eye hits for every view of the rig, and the strip's buffers.
@@ -60,6 +70,11 @@ pub(super) struct StripRow {
     /// Every single-ray primitive test the strip made: (view, sample, prim).
     #[cfg(test)]
     tested: Vec<(usize, usize, u32)>,
+    /// Eye runs: spans of members (ends traced) still to resolve, those of
+    /// the next round, and the members to trace before it.
+    spans: Vec<(usize, usize)>,
+    next_spans: Vec<(usize, usize)>,
+    pending: Vec<usize>,
 }
 
 impl<'a> StripEyePass<'a> {
@@ -78,10 +93,23 @@ impl<'a> StripEyePass<'a> {
         views.sort_by(|a, b| a.1.total_cmp(&b.1));
         let bounds = world.bvh.bounds();
         let scene_scale = bounds.min.abs().max(bounds.max.abs()).max_element();
+        let origins: Vec<Vec3> = rig.views.iter().map(|v| camera.eye_at(v.offset)).collect();
+        let origin_scale = origins
+            .iter()
+            .fold(0.0f32, |m, o| m.max(o.abs().max_element()));
+        let size = (bounds.max - bounds.min).length() as f64;
+        let far = bounds.center().as_dvec3();
+        let beyond = origins
+            .iter()
+            .map(|o| (o.as_dvec3() - far).length())
+            .fold(0.0f64, f64::max);
         Some(StripEyePass {
             world,
             camera,
-            origins: rig.views.iter().map(|v| camera.eye_at(v.offset)).collect(),
+            origins,
+            runs: false,
+            margin: RUN_MARGIN * scene_scale.max(origin_scale).max(1e-3) as f64,
+            beyond: (beyond + size) * 1.01,
             min_shift: views.iter().map(|v| v.2).min().unwrap_or(0),
             max_shift: views.iter().map(|v| v.2).max().unwrap_or(0),
             views,
@@ -146,6 +174,15 @@ impl<'a> StripEyePass<'a> {
                 continue;
             }
             out.family.finish();
+            if self.runs {
+                self.trace_runs(tracer, dir, out);
+                for (&(v, i), found) in out.members.iter().zip(&out.found) {
+                    if let Some(hit) = found {
+                        out.hits[v][i] = *hit;
+                    }
+                }
+                continue;
+            }
             let mut test = ShapeFamily {
                 shapes,
                 origins: &out.member_origins,
@@ -179,6 +216,240 @@ impl<'a> StripEyePass<'a> {
                 }
             }
         }
+    }
+}
+
+/// Eye runs' regions are grown by this much of the scene's scale: it bounds
+/// the rounding of the eyes, of the slab tests and of the region's tests.
+const RUN_MARGIN: f64 = 3e-5;
+
+impl StripEyePass<'_> {
+    /// The pass with every family's hits found by eye runs (`--eye-runs`).
+    pub(super) fn with_runs(mut self) -> Self {
+        self.runs = true;
+        self
+    }
+
+    /// The family's hits (`out.found`, by member) by eye runs: its two end
+    /// rays traced, then round by round each span between traced rays
+    /// either proved (`prove_run`) or split at its middle ray, the round's
+    /// middle rays traced together (`bvh/run.rs`).
+    fn trace_runs(&self, tracer: &mut Tracer, dir: Vec3, out: &mut StripRow) {
+        let n = out.members.len();
+        out.found.clear();
+        out.found.resize(n, None);
+        tracer.counts.runs.families += 1;
+        out.pending.clear();
+        out.pending.push(0);
+        if n > 1 {
+            out.pending.push(n - 1);
+        }
+        out.spans.clear();
+        if n > 2 {
+            out.spans.push((0, n - 1));
+        }
+        loop {
+            self.trace_pending(tracer, dir, out);
+            if out.spans.is_empty() {
+                break;
+            }
+            let mut spans = std::mem::take(&mut out.spans);
+            out.next_spans.clear();
+            for &(a, b) in &spans {
+                if b - a < 2 || self.prove_run(tracer, dir, out, a, b) {
+                    continue;
+                }
+                let m = (a + b) / 2;
+                out.pending.push(m);
+                out.next_spans.push((a, m));
+                out.next_spans.push((m, b));
+            }
+            spans.clear();
+            out.spans = std::mem::replace(&mut out.next_spans, spans);
+        }
+    }
+
+    /// The members `out.pending` traced, each alone, by the independent
+    /// method's routine (a one-lane packet: the four-wide tree's single-ray
+    /// descent). Not four to a packet: wider packets descend the binary
+    /// tree, whose hits differed from the single ray's in one pixel of the
+    /// SPD tree (docs/benchmarks.md, "Issue 16, fourth pass").
+    fn trace_pending(&self, tracer: &mut Tracer, dir: Vec3, out: &mut StripRow) {
+        let pending = std::mem::take(&mut out.pending);
+        for k in pending.chunks(1) {
+            self.trace_lanes::<1>(tracer, dir, out, k);
+        }
+        out.pending = pending;
+        out.pending.clear();
+    }
+
+    /// Members `ks` (at most `K`) traced as one packet.
+    fn trace_lanes<const K: usize>(
+        &self,
+        tracer: &mut Tracer,
+        dir: Vec3,
+        out: &mut StripRow,
+        ks: &[usize],
+    ) {
+        let lane = |l: usize| ks[l.min(ks.len() - 1)];
+        let packet = Packet {
+            origins: std::array::from_fn(|l| out.member_origins[lane(l)]),
+            dirs: [dir; K],
+            t_min: self.camera.hither,
+            t_max: [f32::INFINITY; K],
+            mask: (1u32 << ks.len()) - 1,
+        };
+        let views: [usize; K] = std::array::from_fn(|l| out.members[lane(l)].0);
+        let h = tracer.eye_hits(&packet, &views);
+        for (l, &k) in ks.iter().enumerate() {
+            out.found[k] = h.has_hit(l).then_some((h.prim[l], h.hit[l]));
+        }
+        tracer.counts.runs.traced += ks.len() as u64;
+    }
+
+    /// Whether the members strictly between `a` and `b` (both traced) are
+    /// given their hits by a proof: both ends on one primitive, or both
+    /// missing, and nothing else in the region between (`Bvh::run_is_free`).
+    /// Then each is filled with its own test of that primitive, or traced
+    /// where that test does not give a hit inside the region.
+    fn prove_run(
+        &self,
+        tracer: &mut Tracer,
+        dir: Vec3,
+        out: &mut StripRow,
+        a: usize,
+        b: usize,
+    ) -> bool {
+        let prim_of = |f: &Option<(u32, SurfaceHit)>| f.map_or(u32::MAX, |h| h.0);
+        let (pa, pb) = (prim_of(&out.found[a]), prim_of(&out.found[b]));
+        let (sa, sb) = (out.family.s[a], out.family.s[b]);
+        if pa != pb || sb <= sa {
+            return false;
+        }
+        let t_of = |f: &Option<(u32, SurfaceHit)>| f.map_or(self.beyond, |h| h.1.t as f64);
+        let (ta, tb) = (t_of(&out.found[a]), t_of(&out.found[b]));
+        let (oa, ob) = (out.member_origins[a], out.member_origins[b]);
+        let Some(region) = RunRegion::new(oa, ob, dir, ta, tb, self.margin) else {
+            return false;
+        };
+        // How far a kept hit may lie at parameter `s` (see `bvh/run.rs`).
+        let bound = |s: f64| {
+            let w = (s - sa) / (sb - sa);
+            (ta + (tb - ta) * w) * (1.0 + FILL_REACH) + self.margin * 0.5
+        };
+        let shapes = &self.world.scene.shapes;
+        let hit_box = shapes.get(pa as usize).map(|s| primitive_box(&s.bounds()));
+        let runs = &mut tracer.counts.runs;
+        runs.proofs += 1;
+        let family = &out.family;
+        let free = self.world.bvh.run_is_free(&region, pa, runs, |prim| {
+            may_meet(&shapes[prim as usize], &region, family, (sa, sb), &bound)
+        });
+        if !free {
+            runs.proofs_failed += 1;
+            return false;
+        }
+        for k in a + 1..b {
+            let (v, _) = out.members[k];
+            if let Some(hit_box) = &hit_box {
+                let (origin, s) = (out.member_origins[k], out.family.s[k]);
+                let hither = self.camera.hither;
+                let kept = shapes[pa as usize]
+                    .intersect(&Ray::new(origin, dir), hither, f32::INFINITY)
+                    .filter(|h| {
+                        (h.t as f64) <= bound(s) && ray_reaches(hit_box, origin, dir, hither, h.t)
+                    });
+                let Some(hit) = kept else {
+                    tracer.counts.runs.fill_refused += 1;
+                    out.pending.push(k);
+                    continue;
+                };
+                out.found[k] = Some((pa, hit));
+            } else {
+                out.found[k] = None;
+            }
+            let counts = &mut tracer.counts;
+            counts.runs.filled += 1;
+            counts.rays.eye += 1;
+            if pa != u32::MAX {
+                counts.rays.eye_hit += 1;
+                if let Some(h) = counts.per_view_hits.0.get_mut(v) {
+                    *h += 1;
+                }
+            }
+        }
+        true
+    }
+}
+
+/// Whether `shape` (not the run's primitive) may give some ray of `family`
+/// with parameter in `span` a hit no farther than `bound` (conservative:
+/// `false` only where proved; see `bvh/run.rs`). Its box outside the region:
+/// no. Else the family's bounds on the single-ray routine: the rays it may
+/// hit, and for those the nearest distance it may report.
+fn may_meet(
+    shape: &Shape,
+    region: &RunRegion,
+    family: &Family,
+    span: (f64, f64),
+    bound: &impl Fn(f64) -> f64,
+) -> bool {
+    if !region.may_meet_box(&primitive_box(&shape.bounds())) {
+        return false;
+    }
+    let cover = match shape {
+        Shape::Triangle(t) => triangle_cover(t, family),
+        Shape::Sphere(s) => sphere_cover(s, family),
+        Shape::Cone(_) => return true,
+    };
+    let iv = match cover {
+        Cover::Miss => return false,
+        Cover::Unbounded => return true,
+        Cover::Interval(iv) => iv,
+    };
+    let (lo, hi) = (iv.lo.max(span.0), iv.hi.min(span.1));
+    if lo > hi {
+        return false;
+    }
+    // The nearest distance the routine may report is bounded below by a
+    // linear function of the parameter: beyond `bound` at both ends, beyond
+    // it everywhere between.
+    let beyond = |s: f64| nearest_report(shape, family, s).is_some_and(|t| t > bound(s));
+    !(beyond(lo) && beyond(hi))
+}
+
+/// A lower bound, linear in `s`, on the distance of any hit the single-ray
+/// routine may report for the family's ray with parameter `s` on `shape`;
+/// `None` where the family's arithmetic cannot bound it.
+fn nearest_report(shape: &Shape, f: &Family, s: f64) -> Option<f64> {
+    let o = f.base + f.step * s;
+    let d = f.dir;
+    match shape {
+        Shape::Triangle(t) => {
+            // Triangle::intersect's distance from the plane, -n·(o - v0) / n·d.
+            let (n, v0) = (t.plane_normal.as_dvec3(), t.v0.as_dvec3());
+            let nd = n.dot(d);
+            let (ln, ld) = (n.length(), d.length());
+            if nd.is_nan() || nd.abs() <= FAMILY_EPS * 16.0 * ln * ld {
+                return None;
+            }
+            let w = o - v0;
+            let t = -n.dot(w) / nd;
+            let m = w.length() + f.origin_scale + v0.length();
+            let tol = FAMILY_EPS * (4.0 * m * ln / nd.abs() + t.abs() * 4.0 * ln * ld / nd.abs());
+            Some(t - tol)
+        }
+        Shape::Sphere(sp) => {
+            // Sphere::intersect: the centre's projection on the ray, less the
+            // half chord (at most the radius, up to the rounding of its square).
+            let c = sp.center.as_dvec3();
+            let r = sp.radius.abs() as f64;
+            let x = c - o;
+            let reach = x.length() + f.origin_scale + c.length() + r;
+            let tol = FAMILY_EPS * reach * reach;
+            Some(x.dot(d) / d.length_squared() - r - tol.sqrt() - FAMILY_EPS * reach * 4.0)
+        }
+        Shape::Cone(_) => None,
     }
 }
 
