@@ -85,6 +85,9 @@ pub struct TraceCounts {
     /// those, the fans proved free of occluders (`fan_free`).
     pub fan_queries: u64,
     pub fan_free: u64,
+    /// `--shadow-fans`: eye hits' shadow rays not traced, their run's fan
+    /// toward the light proved free (`rays.shadow` counts the rays traced).
+    pub shadow_rays_proved: u64,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -141,6 +144,7 @@ impl TraceCounts {
         self.key_view_skipped_groups += o.key_view_skipped_groups;
         self.fan_queries += o.fan_queries;
         self.fan_free += o.fan_free;
+        self.shadow_rays_proved += o.shadow_rays_proved;
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -237,6 +241,8 @@ pub struct Report {
     pub key_view_skipped_groups: u64,
     pub fan_queries: u64,
     pub fan_free: u64,
+    /// `--shadow-fans`: see `TraceCounts`.
+    pub shadow_rays_proved: u64,
     pub nodes_visited: u64,
     pub box_tests: u64,
     pub primitive_tests: u64,
@@ -301,6 +307,7 @@ impl Report {
         self.key_view_skipped_groups = c.key_view_skipped_groups;
         self.fan_queries = c.fan_queries;
         self.fan_free = c.fan_free;
+        self.shadow_rays_proved = c.shadow_rays_proved;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
         self.primitive_tests = c.prim_tests;

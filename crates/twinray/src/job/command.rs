@@ -116,6 +116,7 @@ impl JobSpec {
         }
         a.maybe("--views-per-batch", r.views_per_batch);
         a.flag("--strip", r.strip);
+        a.flag("--shadow-fans", r.shadow_fans);
     }
 
     fn studio_args(&self, a: &mut Args) {

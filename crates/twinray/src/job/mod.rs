@@ -1037,6 +1037,7 @@ impl Checked {
                 approx,
                 views_per_batch: rig.views_per_batch.unwrap_or(0),
                 strip: rig.strip,
+                shadow_fans: rig.shadow_fans,
             },
         })
     }

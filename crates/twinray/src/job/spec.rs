@@ -130,6 +130,11 @@ pub struct RigSpec {
     /// Twin method: the eye pass of every view in one descent per camera
     /// column (`--strip`); the same images.
     pub strip: bool,
+    /// Twin method: shadow rays of runs of views' hits on one primitive
+    /// proved free by one shadow fan per light (`--shadow-fans`); the same
+    /// images.
+    #[serde(default)]
+    pub shadow_fans: bool,
 }
 
 impl Default for RigSpec {
@@ -146,6 +151,7 @@ impl Default for RigSpec {
             method: MethodSpec::Twin,
             views_per_batch: None,
             strip: false,
+            shadow_fans: false,
         }
     }
 }
