@@ -79,6 +79,7 @@ fn exact_on(
     );
     let opts = RenderOptions {
         shadow_fans: true,
+        shadow_fan_min_run: 2,
         strip,
         ..options(Method::Twin, Sampling::Centers)
     };
@@ -264,5 +265,22 @@ fn the_same_on_one_two_and_five_threads() {
             one.counts.shadow_rays_proved, many.counts.shadow_rays_proved,
             "{threads} threads"
         );
+    }
+}
+
+/// By default (`shadow_fan_min_run` 0) runs of fewer than 8 hits trace their
+/// rays: 5 parallel views ask no fan, 8 do.
+#[test]
+fn by_default_runs_of_fewer_than_eight_hits_ask_no_fan() {
+    let world = parse(&format!("{FLOOR}{}", LIGHTS[0]));
+    for (views, asked) in [(5, false), (8, true)] {
+        let (camera, rig) = camera_rig(&world, views, None);
+        let opts = RenderOptions {
+            shadow_fans: true,
+            ..options(Method::Twin, Sampling::Centers)
+        };
+        let out = run(&world, &camera, &rig, &opts);
+        assert_eq!(out.counts.fan_queries > 0, asked, "{views} views");
+        assert_eq!(out.counts.shadow_rays_proved > 0, asked, "{views} views");
     }
 }

@@ -40,6 +40,11 @@ pub struct ShadowFan<'a> {
 
 /// Distance from `p` to the segment `a`–`b`.
 pub fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
+    distance_squared_to_segment(p, a, b).sqrt()
+}
+
+/// The square of `distance_to_segment`.
+fn distance_squared_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
     let ab = b - a;
     let len2 = ab.length_squared();
     let s = if len2 > 0.0 {
@@ -47,7 +52,7 @@ pub fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
     } else {
         0.0
     };
-    (p - (a + ab * s)).length()
+    (p - (a + ab * s)).length_squared()
 }
 
 impl<'a> ShadowFan<'a> {
@@ -65,10 +70,13 @@ impl<'a> ShadowFan<'a> {
                     .total_cmp(&(*q - first).length_squared())
             })
             .unwrap_or(first);
+        // One square root for the largest distance (the same value: the
+        // square root is monotonic and correctly rounded).
         let off_line = origins
             .iter()
-            .map(|&p| distance_to_segment(p, first, far))
-            .fold(0.0f32, f32::max);
+            .map(|&p| distance_squared_to_segment(p, first, far))
+            .fold(0.0f32, f32::max)
+            .sqrt();
         let scale = origins
             .iter()
             .chain(std::iter::once(&light))

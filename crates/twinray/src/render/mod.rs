@@ -200,6 +200,9 @@ pub struct RenderOptions {
     /// hits on one primitive are proved free by one shadow fan per light
     /// (`row_shadows`) where they can be; the images are the same.
     pub shadow_fans: bool,
+    /// `shadow_fans`: the fewest hits of a run whose fan is asked for (0: the
+    /// default, 8; at least 2).
+    pub shadow_fan_min_run: usize,
 }
 
 impl Default for RenderOptions {
@@ -212,6 +215,7 @@ impl Default for RenderOptions {
             views_per_batch: 0,
             strip: false,
             shadow_fans: false,
+            shadow_fan_min_run: 0,
         }
     }
 }
@@ -382,7 +386,7 @@ pub fn render_rows(
         .then(|| strip::StripEyePass::new(world, camera, rig))
         .flatten();
     let fans = (opts.shadow_fans && opts.method == Method::Twin && !paper)
-        .then(|| row_shadows::RowShadowPass::new(world, camera, rig))
+        .then(|| row_shadows::RowShadowPass::new(world, camera, rig, opts.shadow_fan_min_run))
         .flatten();
     let run = Run {
         job: &job,

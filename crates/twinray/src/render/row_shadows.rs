@@ -30,9 +30,11 @@ use crate::world::World;
 /// The fewest hits a fan is asked for: a run of one view has no ray to share.
 pub(super) const MIN_RUN: usize = 2;
 
-/// A run whose fan is met is split in two and each half asked once, if both
-/// halves have at least `MIN_RUN` hits and the run at least this many.
-const SPLIT_RUN: usize = 4;
+/// The fewest hits a fan is asked for by default (`RenderOptions::
+/// shadow_fan_min_run` 0): a fan's descent costs about as much as 50 shadow
+/// rays in packets of 4 (docs/benchmarks.md, "Issue 16, fourth pass"); of
+/// 2, 4, 8 and 16, 8 and 16 cost least, 8 shares more.
+pub(super) const DEFAULT_MIN_RUN: usize = 8;
 
 /// What every row of a render's shared shadows shares: the views by
 /// ascending offset and the lights a fan can express.
@@ -48,6 +50,8 @@ pub(super) struct RowShadowPass<'a> {
     lights: Vec<(usize, Vec3)>,
     min_shift: i32,
     max_shift: i32,
+    /// The fewest hits a fan is asked for.
+    min_run: usize,
 }
 
 /// One row's proofs, kept in the tracer (a tracer serves one task, whose rows
@@ -65,6 +69,9 @@ pub(crate) struct RowShadows {
     index_of: Vec<u32>,
     members: Vec<Member>,
     origins: Vec<Vec3>,
+    /// Every run asked about: (view, sample, primitive) of its members.
+    #[cfg(test)]
+    runs: Vec<Vec<(usize, usize, u32)>>,
 }
 
 /// A view's sample along a camera column, its hit, and where its shadow rays
@@ -84,8 +91,18 @@ struct Member {
 impl<'a> RowShadowPass<'a> {
     /// The shared shadows of `rig`, or `None` where there is nothing to share
     /// (one view, no light with a position) or the eye pass needs more than
-    /// every view's nearest hit (a cut of the object tree).
-    pub(super) fn new(world: &'a World, camera: &'a Camera, rig: &Rig) -> Option<Self> {
+    /// every view's nearest hit (a cut of the object tree). Runs of fewer than
+    /// `min_run` hits (0: `DEFAULT_MIN_RUN`) trace their rays.
+    pub(super) fn new(
+        world: &'a World,
+        camera: &'a Camera,
+        rig: &Rig,
+        min_run: usize,
+    ) -> Option<Self> {
+        let min_run = match min_run {
+            0 => DEFAULT_MIN_RUN,
+            n => n.max(MIN_RUN),
+        };
         let lights: Vec<(usize, Vec3)> = world
             .scene
             .lights
@@ -93,7 +110,7 @@ impl<'a> RowShadowPass<'a> {
             .enumerate()
             .filter_map(|(i, l)| l.position().map(|p| (i, p)))
             .collect();
-        if world.far.is_some() || rig.views.len() < MIN_RUN || lights.is_empty() {
+        if world.far.is_some() || rig.views.len() < min_run || lights.is_empty() {
             return None;
         }
         let mut order: Vec<(usize, f32, i32)> = rig
@@ -111,6 +128,7 @@ impl<'a> RowShadowPass<'a> {
             views: order.iter().map(|&(v, _, shift)| (v, shift)).collect(),
             origins: rig.views.iter().map(|v| camera.eye_at(v.offset)).collect(),
             lights,
+            min_run,
         })
     }
 
@@ -185,34 +203,29 @@ impl RowShadows {
 
     /// The fans of the run in `members` toward every light with a position.
     fn prove_run(&mut self, pass: &RowShadowPass, tracer: &mut Tracer) {
-        if self.members.len() < MIN_RUN {
+        if self.members.len() < pass.min_run {
             return;
         }
         let members = std::mem::take(&mut self.members);
+        #[cfg(test)]
+        self.runs
+            .push(members.iter().map(|m| (m.view, m.sample, m.prim)).collect());
         for &(light, position) in &pass.lights {
             // A hit whose surface faces away from the light puts its segment
             // through its own primitive: the fan cannot be free.
             if members.iter().any(|m| m.off.dot(position - m.point) <= 0.0) {
                 continue;
             }
-            if !self.prove_fan(tracer, &members, light, position) && members.len() >= SPLIT_RUN {
-                let (a, b) = members.split_at(members.len() / 2);
-                self.prove_fan(tracer, a, light, position);
-                self.prove_fan(tracer, b, light, position);
-            }
+            // A fan that is met is not split and asked again: measured,
+            // the halves' descents cost more than the rays they save.
+            self.prove_fan(tracer, &members, light, position);
         }
         self.members = members;
     }
 
     /// Asks the fan of `run`'s segments toward `position`; marks them lit if
     /// it is free.
-    fn prove_fan(
-        &mut self,
-        tracer: &mut Tracer,
-        run: &[Member],
-        light: usize,
-        position: Vec3,
-    ) -> bool {
+    fn prove_fan(&mut self, tracer: &mut Tracer, run: &[Member], light: usize, position: Vec3) {
         self.origins.clear();
         self.origins.extend(run.iter().map(|m| m.origin));
         // A shadow ray ends at origin + dir × |light − point|: off the light
@@ -224,12 +237,11 @@ impl RowShadows {
             end_error = end_error.max((m.origin - m.point).length() * 1.01 + round);
         }
         if !tracer.fan_is_free(&self.origins, position, end_error) {
-            return false;
+            return;
         }
         for m in run {
             self.proved[(m.view * self.len + m.sample) * self.lights + light] = true;
         }
-        true
     }
 
     /// Sets the lanes of the next eye shading: lane `v` is view
@@ -297,5 +309,91 @@ impl RowShadowPass<'_> {
             origin: offset_point(point, off, hit.t),
             off,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::loaders::nff::parse_nff;
+    use crate::loaders::LoadOptions;
+    use crate::render::sampler::Pattern;
+    use crate::render::strip::StripEyePass;
+    use crate::render::TraceSettings;
+
+    /// A floor of two triangles, spheres on it and a pole, 12 converged
+    /// views: every run is a maximal sequence of consecutive views (by
+    /// offset) along one camera column whose hits lie on one primitive that
+    /// takes light, of at least `MIN_RUN`; and runs are found on several
+    /// primitives.
+    #[test]
+    fn runs_are_maximal_and_on_one_primitive() {
+        let text = "b 0.1 0.1 0.2\nv\nfrom 0 -6 5\nat 0 0 0\nup 0 0 1\nangle 45\nhither 0.01\n\
+            resolution 32 24\nl 3 2 10\n\
+            f 0.8 0.8 0.7 0.7 0 20 0 1\np 4\n-20 -20 0\n20 -20 0\n20 20 0\n-20 20 0\n\
+            f 0.9 0.2 0.2 0.7 0 30 0 1\ns -1 0 0.5 0.5\ns 1 1 0.4 0.4\n\
+            f 0.9 0.3 0.2 0.8 0 10 0 1\nc\n0.3 -1 0 0.05\n0.3 -1 2 0.05\n";
+        let scene = parse_nff(text, std::path::Path::new("t.nff"), &LoadOptions::default())
+            .expect("test scene");
+        let world = World::new(scene);
+        let camera = Camera::new(&world.scene.viewpoint, 32, 24);
+        let rig = Rig::multi_view(&camera, 12, 0.05, Some(7.0)).expect("rig");
+        let strip = StripEyePass::new(&world, &camera, &rig).expect("strip");
+        let pass = RowShadowPass::new(&world, &camera, &rig, MIN_RUN).expect("fans");
+        let mut tracer = Tracer::new(&world, TraceSettings::default());
+        let mut eye = StripRow::default();
+        let order: Vec<usize> = pass.views.iter().map(|v| v.0).collect();
+        let (mut runs, mut prims) = (0, std::collections::HashSet::new());
+        for y in 0..24 {
+            let row = SampleRow::full(
+                32,
+                Pattern::Fixed {
+                    dx: 0.0,
+                    y: y as f32,
+                },
+            );
+            strip.trace_row(&mut tracer, &row, &mut eye);
+            tracer.row_shadows.runs.clear();
+            pass.prove_row(&mut tracer, &row, &eye);
+            let lit = |v: usize, i: usize| {
+                let (prim, _) = eye.hits[v][i];
+                (prim != PacketHits::<1>::NO_HIT && world.material_of(prim).kd > 0.0)
+                    .then_some(prim)
+            };
+            // The sample of the view at position `k` (by offset) in the
+            // column of the run's first member.
+            let column_sample = |run: &[(usize, usize, u32)], k: usize| {
+                let (v0, i0, _) = run[0];
+                let column = i0 as i32 + rig.views[v0].shift;
+                let i = column - rig.views[order[k]].shift;
+                (0..32).contains(&i).then_some(i as usize)
+            };
+            for run in &tracer.row_shadows.runs {
+                assert!(run.len() >= MIN_RUN, "row {y}: {run:?}");
+                let prim = run[0].2;
+                let k0 = order.iter().position(|&v| v == run[0].0).expect("a view");
+                for (j, &(v, i, p)) in run.iter().enumerate() {
+                    assert_eq!(p, prim, "row {y}: one primitive, {run:?}");
+                    assert_eq!(order[k0 + j], v, "row {y}: consecutive views");
+                    assert_eq!(column_sample(run, k0 + j), Some(i), "row {y}: one column");
+                    assert_eq!(lit(v, i), Some(prim), "row {y}: the hit's primitive");
+                }
+                // Maximal: the views just before and after see something else.
+                let k1 = k0 + run.len();
+                for k in [k0.wrapping_sub(1), k1] {
+                    if k < order.len() {
+                        let other = column_sample(run, k).and_then(|i| lit(order[k], i));
+                        assert_ne!(other, Some(prim), "row {y}: {run:?} not maximal");
+                    }
+                }
+                runs += 1;
+                prims.insert(prim);
+            }
+        }
+        assert!(
+            runs > 100 && prims.len() >= 4,
+            "{runs} runs on {} primitives",
+            prims.len()
+        );
     }
 }
