@@ -31,7 +31,7 @@ use crate::world::World;
 pub(super) const MIN_RUN: usize = 2;
 
 /// The fewest hits a fan is asked for by default (`RenderOptions::
-/// shadow_fan_min_run` 0): a fan's descent costs about as much as 50 shadow
+/// shadow_fan_min_run` 0): a fan's descent costs a hundred or more shadow
 /// rays in packets of 4 (docs/benchmarks.md, "Issue 16, fourth pass"); of
 /// 2, 4, 8 and 16, 8 and 16 cost least, 8 shares more.
 pub(super) const DEFAULT_MIN_RUN: usize = 8;
