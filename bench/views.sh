@@ -8,11 +8,15 @@
 # MODES (default "exact shared") may add shared-b8: the shared shading with
 # batches of 8 views (--views-per-batch 8) instead of 4; shared-keys: the
 # shared shading with adaptive key views for mirrors and glass (--key-spacing
-# 0; the default, 1, has none); and shared-b8-keys: both. A mode ending in
-# -runs adds the eye runs (--eye-runs), in -strip the strip pass (--strip):
-# exact-runs, exact-strip, shared-runs; every mode but exact is compared with
-# exact (the exact ones must give max_abs 0). The CSV's eye_pass_s is
-# --stats eye_pass_cpu_s (thread time of the eye pass, twin method only).
+# 0; the default, 1, has none); and shared-b8-keys: both. Exact modes: strip
+# (--strip), fans (the shared shadows, --shadow-fans), fans-strip (both);
+# their views are compared with the exact ones too (they must be identical).
+# A mode ending in -runs adds the eye runs (--eye-runs): exact-runs,
+# shared-runs. The CSV's eye_pass_s is --stats eye_pass_cpu_s (thread time
+# of the eye pass, twin method only).
+# ROUNDS (default 1) repeats each scene's measurements, interleaved (mono,
+# then every N and mode, then again), one CSV line per round (column round).
+# PLOT (default docs/images/views-cost.png; empty: none) is the plot written.
 #
 # Time: CPU seconds (user + sys) of the whole command, on THREADS threads
 # (default 1), so that other work on a shared machine does not count; the
@@ -39,6 +43,8 @@ fi
 bin=${TWINRAY:-target/release/twinray}
 threads=${THREADS:-1}
 modes=${MODES:-exact shared}
+rounds=${ROUNDS:-1}
+plot=${PLOT-docs/images/views-cost.png}
 [[ -x $bin ]] || { echo "build first: cargo build --release" >&2; exit 2; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
@@ -50,14 +56,15 @@ cpu() { /usr/bin/time -f "%U %S %e" -o "$tmp/time" "$@"; read -r u s e < "$tmp/t
 render_s() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time']['render_s'])" "$1"; }
 counter() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))[sys.argv[2]])" "$1" "$2"; }
 shadow_rays() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['rays']['shadow'])" "$1"; }
-eye_pass() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time'].get('eye_pass_cpu_s') or '')" "$1"; }
 secondary_rays() { python3 -c "import json,sys; r=json.load(open(sys.argv[1]))['rays']; print(r['reflected'] + r['refracted'])" "$1"; }
 
-echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals,cache_colour_hits,secondary_rays,key_view_samples,interpolated_samples,key_view_fallbacks,fan_queries,fan_free,eye_pass_s" > "$csv"
+eye_pass() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time'].get('eye_pass_cpu_s') or '')" "$1"; }
+echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals,cache_colour_hits,secondary_rays,key_view_samples,interpolated_samples,key_view_fallbacks,fan_queries,fan_free,shadow_rays_proved,round,eye_pass_s" > "$csv"
 for scene in "${scenes[@]}"; do
-  name=$(basename "$scene" .nff)
+ name=$(basename "$scene" .nff)
+ for round in $(seq "$rounds"); do
   mono=$(cpu "$bin" render "$scene" -o "$tmp/mono.pfm" "${common[@]}" --stats "$tmp/mono.json" 2>/dev/null)
-  echo "$name,$size,$threads,0,mono,$mono,1,$(cat "$tmp/wall"),$(render_s "$tmp/mono.json"),,,$(shadow_rays "$tmp/mono.json"),0,0,0,0,0,$(secondary_rays "$tmp/mono.json"),0,0,0,0,0,$(eye_pass "$tmp/mono.json")" >> "$csv"
+  echo "$name,$size,$threads,0,mono,$mono,1,$(cat "$tmp/wall"),$(render_s "$tmp/mono.json"),,,$(shadow_rays "$tmp/mono.json"),0,0,0,0,0,$(secondary_rays "$tmp/mono.json"),0,0,0,0,0,0,$round,$(eye_pass "$tmp/mono.json")" >> "$csv"
   for n in ${counts//,/ }; do
     rm -f "$tmp"/*_*.pfm
     rig=(--views "$n" --interaxial "$b")
@@ -68,13 +75,14 @@ for scene in "${scenes[@]}"; do
       [[ $mode == shared* ]] && extra=(--share-shading)
       [[ $mode == shared-b8* ]] && extra+=(--views-per-batch 8)
       [[ $mode == *-keys ]] && extra+=(--key-spacing 0)
+      [[ $mode == fans* ]] && extra=(--shadow-fans)
+      [[ $mode == *strip ]] && extra+=(--strip)
       [[ $mode == *-runs ]] && extra+=(--eye-runs)
-      [[ $mode == *-strip ]] && extra+=(--strip)
       s=$(cpu "$bin" render "$scene" -o "$tmp/$mode.pfm" "${common[@]}" "${rig[@]}" "${extra[@]}" \
         --stats "$tmp/$mode.json" 2>/dev/null)
       wall=$(cat "$tmp/wall")
       worst=inf; maxabs=0
-      if [[ $mode != exact ]]; then
+      if [[ $mode != exact && $n -gt 1 && " $modes " == *" exact "* ]]; then
         # exact_0.pfm ... (a pair: exact_L.pfm, exact_R.pfm); one line per view.
         for e in "$tmp"/exact_*.pfm; do
           "$bin" compare "$e" "$tmp/${mode}_${e#"$tmp"/exact_}"
@@ -92,15 +100,19 @@ for scene in "${scenes[@]}"; do
       for k in key_view_samples interpolated_samples key_view_fallbacks fan_queries fan_free; do
         keys+=("$(counter "$tmp/$mode.json" "$k")")
       done
+      keys+=("$(counter "$tmp/$mode.json" shadow_rays_proved)" "$round")
       keys_csv=$(IFS=,; echo "${keys[*]}")
       ratio=$(python3 -c "print(f'{$s / $mono:.3f}')")
       echo "$name,$size,$threads,$n,$mode,$s,$ratio,$wall,$(render_s "$tmp/$mode.json"),$worst,$maxabs,$shadow,$hits,$entries,$fb,$edge,$whole,$(secondary_rays "$tmp/$mode.json"),$keys_csv,$(eye_pass "$tmp/$mode.json")" >> "$csv"
-      printf '%-8s %4s views %-6s %7.3f CPU s %8s x mono  worst %s dB  max %s\n' "$name" "$n" "$mode" "$s" "$ratio" "$worst" "$maxabs"
+      printf '%-8s %4s views %-10s %7.3f CPU s %8s x mono  worst %s dB  max %s\n' "$name" "$n" "$mode" "$s" "$ratio" "$worst" "$maxabs"
     done
   done
+ done
 done
-if python3 -c "import matplotlib" 2>/dev/null; then
-  python3 bench/plot_views.py "$csv" docs/images/views-cost.png
+if [[ -z $plot ]]; then
+  :
+elif python3 -c "import matplotlib" 2>/dev/null; then
+  python3 bench/plot_views.py "$csv" "$plot"
 else
   echo "(matplotlib not installed: no plot; pip install matplotlib)" >&2
 fi

@@ -173,6 +173,11 @@ pub struct RenderArgs {
     /// images; see docs/stereo.md)
     #[arg(long)]
     pub eye_runs: bool,
+    /// Twin method: prove the shadow rays of consecutive views' hits on one
+    /// surface free with one shadow fan per light, instead of one ray per
+    /// view (the same images; see docs/stereo.md)
+    #[arg(long)]
+    pub shadow_fans: bool,
 
     #[command(flatten)]
     pub sampling: SamplingArgs,
@@ -401,6 +406,7 @@ impl RenderArgs {
                 views_per_batch: self.views_per_batch,
                 strip: self.strip,
                 eye_runs: self.eye_runs,
+                shadow_fans: self.shadow_fans,
             },
             sampling: self.sampling.spec(self.spd),
             approximations: ApproximationSpec {

@@ -88,6 +88,9 @@ pub struct TraceCounts {
     /// `--eye-runs`: families, rays traced alone and filled by proofs, the
     /// proofs and their work (`bvh::RunStats`).
     pub runs: RunStats,
+    /// `--shadow-fans`: eye hits' shadow rays not traced, their run's fan
+    /// toward the light proved free (`rays.shadow` counts the rays traced).
+    pub shadow_rays_proved: u64,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -145,6 +148,7 @@ impl TraceCounts {
         self.fan_queries += o.fan_queries;
         self.fan_free += o.fan_free;
         self.runs.add(&o.runs);
+        self.shadow_rays_proved += o.shadow_rays_proved;
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -241,6 +245,8 @@ pub struct Report {
     pub key_view_skipped_groups: u64,
     pub fan_queries: u64,
     pub fan_free: u64,
+    /// `--shadow-fans`: see `TraceCounts`.
+    pub shadow_rays_proved: u64,
     pub nodes_visited: u64,
     pub box_tests: u64,
     pub primitive_tests: u64,
@@ -308,6 +314,7 @@ impl Report {
         self.fan_queries = c.fan_queries;
         self.fan_free = c.fan_free;
         self.eye_runs = c.runs;
+        self.shadow_rays_proved = c.shadow_rays_proved;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
         self.primitive_tests = c.prim_tests;

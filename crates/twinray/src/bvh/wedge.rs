@@ -40,6 +40,11 @@ pub struct ShadowFan<'a> {
 
 /// Distance from `p` to the segment `a`–`b`.
 pub fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
+    distance_squared_to_segment(p, a, b).sqrt()
+}
+
+/// The square of `distance_to_segment`.
+fn distance_squared_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
     let ab = b - a;
     let len2 = ab.length_squared();
     let s = if len2 > 0.0 {
@@ -47,7 +52,7 @@ pub fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
     } else {
         0.0
     };
-    (p - (a + ab * s)).length()
+    (p - (a + ab * s)).length_squared()
 }
 
 impl<'a> ShadowFan<'a> {
@@ -65,10 +70,13 @@ impl<'a> ShadowFan<'a> {
                     .total_cmp(&(*q - first).length_squared())
             })
             .unwrap_or(first);
+        // One square root for the largest distance (the same value: the
+        // square root is monotonic and correctly rounded).
         let off_line = origins
             .iter()
-            .map(|&p| distance_to_segment(p, first, far))
-            .fold(0.0f32, f32::max);
+            .map(|&p| distance_squared_to_segment(p, first, far))
+            .fold(0.0f32, f32::max)
+            .sqrt();
         let scale = origins
             .iter()
             .chain(std::iter::once(&light))
@@ -154,25 +162,43 @@ impl<'a> ShadowFan<'a> {
                 if !(n.length_squared() > 0.5 && n.is_finite()) {
                     return true;
                 }
-                // The signed distance of `p` from the plane, rounded toward
-                // 0 by a bound on its rounding (16 ulp of the coordinates
-                // involved: a shadow ray starts 2e-5 of its point's scale
-                // off its surface, far beyond this).
+                // The signed distance of `p` from the plane, as computed,
+                // and two bounds on its rounding: `loose`, 16 ulp of the
+                // coordinates involved; `tight`, twice the first-order bound
+                // of a dot product of a difference, 2ε Σ|n_i||d_i| (the
+                // same for this computation and the shadow ray's, in any
+                // order of operations, fused or not), small where the plane
+                // is nearly axis-aligned however far the vertex is.
                 let side = |p: Vec3| {
                     let d = p - t.v0;
-                    let round = 16.0
+                    let loose = 16.0
                         * f32::EPSILON
                         * (p.abs().max(t.v0.abs()).max_element() + d.abs().max_element());
-                    let s = n.dot(d);
-                    if s.abs() <= round {
-                        0.0
-                    } else {
-                        s
-                    }
+                    let tight = 4.4 * f32::EPSILON * n.abs().dot(d.abs()) + f32::MIN_POSITIVE;
+                    (n.dot(d), loose, tight)
                 };
-                let light = side(self.light);
-                !(light > 0.0 && self.origins.iter().all(|&o| side(o) > 0.0)
-                    || light < 0.0 && self.origins.iter().all(|&o| side(o) < 0.0))
+                let (light, light_loose, _) = side(self.light);
+                if light.abs() <= light_loose {
+                    return true;
+                }
+                let sign = light.signum();
+                let light = light * sign;
+                !self.origins.iter().all(|&o| {
+                    let (h, loose, tight) = side(o);
+                    let h = h * sign;
+                    // Every triangle routine computes t = −n·(o − v0) / n·dir
+                    // (`shapes::triangle::intersect_lanes`, `Triangle::intersect`).
+                    // With n·(o − v0) computed on the light's side (`tight`)
+                    // and the light farther from the plane than the origin
+                    // by more than the origin's offset from its hit point
+                    // (within `margin`) and the rounding of `dir`, n·dir is
+                    // computed on that side too: t < 0, no hit, wherever
+                    // the segment crosses the triangle's extent. Else the
+                    // loose bound, as the origins' side alone.
+                    let reach = 8.0 * f32::EPSILON * ((self.light - o).length() + self.margin);
+                    h > loose
+                        || (h > tight && light - light_loose > h + tight + self.margin + reach)
+                })
             }
             Shape::Cone(_) => true,
         }
@@ -363,6 +389,110 @@ mod tests {
                 "occluder {kind} aside"
             );
         }
+    }
+
+    /// A floor triangle a hundred units wide, the origins on it moved off by
+    /// the shading's own offset (2e-5 of their scale, less than the loose
+    /// bound of a dot product with a far vertex): its plane separates them
+    /// from the light, level or tilted (the tight bound); the points on the
+    /// plane itself, not moved off, are met.
+    #[test]
+    fn a_wide_floor_does_not_meet_the_runs_on_it() {
+        let floor = |tilt: f32| {
+            triangle(
+                Vec3::new(-100.0, -100.0, -100.0 * tilt),
+                Vec3::new(100.0, -100.0, -100.0 * tilt),
+                Vec3::new(0.0, 100.0, 100.0 * tilt),
+            )
+        };
+        let light = Vec3::new(3.0, 2.0, 10.0);
+        for (tilt, off, free) in [
+            (0.0, true, true),
+            (1e-3, true, true),
+            (0.3, true, true),
+            (0.0, false, false),
+            (0.3, false, false),
+        ] {
+            let shapes = vec![floor(tilt)];
+            let Shape::Triangle(t) = &shapes[0] else {
+                unreachable!()
+            };
+            let n = t.plane_normal;
+            let origins: Vec<Vec3> = (0..8)
+                .map(|i| {
+                    let x = Vec3::new(0.5 + i as f32 * 0.01, 1.0, 0.0);
+                    let p = x - n * n.dot(x - t.v0);
+                    if off {
+                        crate::shading::offset_point(p, n * n.z.signum(), 8.0)
+                    } else {
+                        p
+                    }
+                })
+                .collect();
+            let fan = ShadowFan::new(&origins, light, 1e-3).expect("finite");
+            let got = tree(&shapes).fan_is_free(&fan, &shapes, &mut FanWork::default());
+            assert_eq!(got, free, "tilt {tilt}, moved off {off}");
+        }
+    }
+
+    /// Runs on wide triangles at random tilts, their origins moved off by
+    /// the shading's offset or by less, their shadow rays built as the
+    /// shading builds them (from the hit point toward the light, from the
+    /// moved origin): a fan proved free has no segment the triangle's own
+    /// routine hits, and the tight bound proves many.
+    #[test]
+    fn runs_on_wide_triangles_are_free_only_where_no_ray_hits() {
+        let mut rng = fastrand::Rng::with_seed(1616);
+        let (mut free, mut fans) = (0, 0);
+        for _ in 0..3000 {
+            let size = 1.0 + rng.f32() * 200.0;
+            let centre = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5) * 20.0;
+            let mut corner = || {
+                centre + Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, (rng.f32() - 0.5) * 0.4) * size
+            };
+            let shapes = vec![triangle(corner(), corner(), corner())];
+            let Shape::Triangle(t) = &shapes[0] else {
+                unreachable!()
+            };
+            let n = t.plane_normal;
+            let light =
+                centre + n * (rng.f32() * 20.0 + 1e-3) + Vec3::new(rng.f32(), rng.f32(), 0.0);
+            let scale = [1.0, 0.1, 0.01][rng.usize(..3)];
+            let start = t.v0 + t.e1 * rng.f32() * 0.5 + t.e2 * rng.f32() * 0.4;
+            let step = t.e1 * (rng.f32() * 0.01);
+            let points: Vec<(Vec3, Vec3)> = (0..6)
+                .map(|i| {
+                    let p = start + step * i as f32;
+                    let dist_along = rng.f32() * 20.0;
+                    let full = crate::shading::offset_point(p, n, dist_along);
+                    (p, p + (full - p) * scale)
+                })
+                .collect();
+            let origins: Vec<Vec3> = points.iter().map(|x| x.1).collect();
+            let end_error = points
+                .iter()
+                .map(|(p, o)| {
+                    (*o - *p).length() * 1.01 + 8.0 * f32::EPSILON * (light - *p).length()
+                })
+                .fold(0.0, f32::max);
+            let Some(fan) = ShadowFan::new(&origins, light, end_error) else {
+                continue;
+            };
+            let is_free = tree(&shapes).fan_is_free(&fan, &shapes, &mut FanWork::default());
+            let hit = points.iter().any(|&(p, o)| {
+                let to = light - p;
+                let dist = to.length();
+                let ray = Ray::new(o, to / dist);
+                shapes[0].intersect(&ray, 0.0, dist).is_some()
+            });
+            assert!(
+                !(is_free && hit),
+                "free, yet a ray hits: {shapes:?} {origins:?}"
+            );
+            fans += 1;
+            free += usize::from(is_free);
+        }
+        assert!(free > fans / 3, "{free} of {fans} free");
     }
 
     /// The floor the origins lie on (a triangle, its plane below them, the

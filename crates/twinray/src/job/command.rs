@@ -117,6 +117,7 @@ impl JobSpec {
         a.maybe("--views-per-batch", r.views_per_batch);
         a.flag("--strip", r.strip);
         a.flag("--eye-runs", r.eye_runs);
+        a.flag("--shadow-fans", r.shadow_fans);
     }
 
     fn studio_args(&self, a: &mut Args) {

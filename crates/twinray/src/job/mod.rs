@@ -706,6 +706,13 @@ impl Job {
                 r.refined_pixels
             )),
         ];
+        if o.shadow_fans {
+            let c = &r.counts;
+            m.push(Message::info(format!(
+                "shared shadows: fans asked {}, free {}; shadow rays proved (not traced) {}, traced {}",
+                c.fan_queries, c.fan_free, c.shadow_rays_proved, c.rays.shadow
+            )));
+        }
         if self.is_approximate() {
             let c = &r.counts;
             m.push(Message::info(format!(
@@ -1038,6 +1045,8 @@ impl Checked {
                 views_per_batch: rig.views_per_batch.unwrap_or(0),
                 strip: rig.strip,
                 eye_runs: rig.eye_runs,
+                shadow_fans: rig.shadow_fans,
+                shadow_fan_min_run: 0,
             },
         })
     }

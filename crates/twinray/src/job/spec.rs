@@ -134,6 +134,11 @@ pub struct RigSpec {
     /// a few views traced alone, the views between proved); the same images.
     #[serde(default)]
     pub eye_runs: bool,
+    /// Twin method: shadow rays of runs of views' hits on one primitive
+    /// proved free by one shadow fan per light (`--shadow-fans`); the same
+    /// images.
+    #[serde(default)]
+    pub shadow_fans: bool,
 }
 
 impl Default for RigSpec {
@@ -151,6 +156,7 @@ impl Default for RigSpec {
             views_per_batch: None,
             strip: false,
             eye_runs: false,
+            shadow_fans: false,
         }
     }
 }

@@ -27,6 +27,7 @@ mod adaptive;
 mod film;
 mod grouping;
 mod independent;
+mod row_shadows;
 pub mod sampler;
 mod shading_cache;
 mod strip;
@@ -199,6 +200,13 @@ pub struct RenderOptions {
     /// eye runs (`bvh/run.rs`): a few views traced alone, the views between
     /// two that hit one primitive proved; the images are the same.
     pub eye_runs: bool,
+    /// Twin method (`--shadow-fans`): the shadow rays of runs of views' eye
+    /// hits on one primitive are proved free by one shadow fan per light
+    /// (`row_shadows`) where they can be; the images are the same.
+    pub shadow_fans: bool,
+    /// `shadow_fans`: the fewest hits of a run whose fan is asked for (0: the
+    /// default, 8; at least 2).
+    pub shadow_fan_min_run: usize,
 }
 
 impl Default for RenderOptions {
@@ -211,6 +219,8 @@ impl Default for RenderOptions {
             views_per_batch: 0,
             strip: false,
             eye_runs: false,
+            shadow_fans: false,
+            shadow_fan_min_run: 0,
         }
     }
 }
@@ -381,10 +391,14 @@ pub fn render_rows(
         .then(|| strip::StripEyePass::new(world, camera, rig))
         .flatten()
         .map(|p| if opts.eye_runs { p.with_runs() } else { p });
+    let fans = (opts.shadow_fans && opts.method == Method::Twin && !paper)
+        .then(|| row_shadows::RowShadowPass::new(world, camera, rig, opts.shadow_fan_min_run))
+        .flatten();
     let run = Run {
         job: &job,
         batches: &batches,
         strip: strip.as_ref(),
+        fans: fans.as_ref(),
         views,
         width: camera.width as usize,
         height: camera.height as usize,
@@ -485,12 +499,28 @@ trait RowWorker {
         let _ = eye;
         self.trace(tracer, row, out);
     }
+
+    /// The eye pass alone: the nearest hit of each of the batch's views
+    /// through every sample of `row`, into `hits[v]`, for `trace_with_hits`
+    /// to shade; `false` for a worker that has no separate eye pass.
+    fn eye_hits(
+        &mut self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        hits: &mut [Vec<(u32, crate::shapes::SurfaceHit)>],
+    ) -> bool {
+        let _ = (tracer, row, hits);
+        false
+    }
 }
 
 /// One thread's workers, one per batch: traces a row for every view.
 struct RowContext<'b> {
     workers: Vec<(usize, Box<dyn RowWorker + 'b>)>,
     strip: Option<RowStrip<'b>>,
+    /// `--shadow-fans`: the rows' shared shadows, and (without the strip
+    /// pass) the row's eye hits gathered from the batches' eye passes.
+    fans: Option<(&'b row_shadows::RowShadowPass<'b>, strip::StripRow)>,
 }
 
 impl RowContext<'_> {
@@ -507,16 +537,69 @@ impl RowContext<'_> {
             pass.trace_row(tracer, row, hits);
             tracer.counts.eye_pass_ns += start.elapsed().as_nanos() as u64;
         }
+        let eye = self.shared_shadows(tracer, row, views);
         let mut first = 0;
         for (n, worker) in &mut self.workers {
             let out = &mut out[first..first + *n];
-            match &self.strip {
-                Some((_, hits)) if hits.traced => worker.trace_with_hits(tracer, row, hits, out),
-                _ => worker.trace(tracer, row, out),
+            match eye {
+                Some(Known::Strip) => {
+                    if let Some((_, hits)) = &self.strip {
+                        worker.trace_with_hits(tracer, row, hits, out)
+                    }
+                }
+                Some(Known::Batches) => {
+                    if let Some((_, hits)) = &self.fans {
+                        worker.trace_with_hits(tracer, row, hits, out)
+                    }
+                }
+                None => worker.trace(tracer, row, out),
             }
             first += *n;
         }
+        tracer.row_shadows.clear();
     }
+
+    /// `--shadow-fans`: the row's shadow rays proved free, into the tracer;
+    /// without the strip pass, every batch's eye pass is run first to know
+    /// every view's hits. Returns where the row's eye hits are (`None`: each
+    /// batch traces its own).
+    fn shared_shadows(
+        &mut self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        views: usize,
+    ) -> Option<Known> {
+        let strip = self.strip.as_ref().filter(|(_, hits)| hits.traced);
+        let Some((pass, gathered)) = &mut self.fans else {
+            return strip.map(|_| Known::Strip);
+        };
+        if let Some((_, hits)) = strip {
+            pass.prove_row(tracer, row, hits);
+            return Some(Known::Strip);
+        }
+        let start = Instant::now();
+        gathered.hits.resize_with(views, Vec::new);
+        let mut first = 0;
+        for (n, worker) in &mut self.workers {
+            if !worker.eye_hits(tracer, row, &mut gathered.hits[first..first + *n]) {
+                return None;
+            }
+            first += *n;
+        }
+        gathered.traced = true;
+        tracer.counts.eye_pass_ns += start.elapsed().as_nanos() as u64;
+        pass.prove_row(tracer, row, gathered);
+        Some(Known::Batches)
+    }
+}
+
+/// Where a row's eye hits for every view are known.
+#[derive(Clone, Copy)]
+enum Known {
+    /// The strip pass traced them.
+    Strip,
+    /// The batches' eye passes did, for the shared shadows.
+    Batches,
 }
 
 /// The images of a sampling, with what it cost.
@@ -539,6 +622,8 @@ struct Run<'j, 'a> {
     batches: &'j [Box<dyn ViewBatch + 'a>],
     /// `--strip`: the eye pass of every view at once, where it applies.
     strip: Option<&'j strip::StripEyePass<'a>>,
+    /// `--shadow-fans`: the shared shadows of the eye hits.
+    fans: Option<&'j row_shadows::RowShadowPass<'a>>,
     views: usize,
     width: usize,
     height: usize,
@@ -567,6 +652,7 @@ impl Run<'_, '_> {
                 .map(|b| (b.view_count(), b.worker()))
                 .collect(),
             strip: self.strip.map(|p| (p, strip::StripRow::default())),
+            fans: self.fans.map(|p| (p, strip::StripRow::default())),
         };
         let cancel = self.job.cancel;
         let results: Vec<(T, TraceCounts)> = (0..count)

@@ -59,6 +59,9 @@ pub struct Tracer<'a> {
     /// `--share-shading`: the current row's cache, shared by its batches of
     /// views (a tracer serves one task, whose rows are traced in order).
     pub(super) shading_cache: super::shading_cache::ShadingCache,
+    /// `--shadow-fans`: the current row's shadow rays proved free, and the
+    /// lanes of the next eye shading they cover (`row_shadows`).
+    pub(super) row_shadows: super::row_shadows::RowShadows,
 }
 
 /// How the lanes' reflected and refracted rays are traced.
@@ -165,6 +168,7 @@ impl<'a> Tracer<'a> {
             traversal: TraversalStats::default(),
             shadow_cache: vec![None; world.scene.lights.len() * super::MAX_LANES],
             shading_cache: Default::default(),
+            row_shadows: Default::default(),
         }
     }
 
@@ -426,7 +430,10 @@ impl<'a> Tracer<'a> {
         let (through, secondary) = record.unzip();
         let surfaces = self.surfaces(packet, hits, level, weights, tree);
         let mut out = surfaces.ambient;
-        self.direct_light(packet, &surfaces, &mut out, through);
+        self.direct_light(packet, &surfaces, &mut out, through, level == 1);
+        if level == 1 {
+            self.row_shadows.done();
+        }
         if level < self.settings.max_depth {
             self.secondary(&surfaces, level, &weights, tree, &mut out, secondary);
         }
@@ -555,13 +562,15 @@ impl<'a> Tracer<'a> {
     /// Stage 2: diffuse and highlight from every light not in shadow. The lanes'
     /// shadow rays toward a light go as one packet. With `record`, lane 0's
     /// transmittance toward each light is written there (0 where no shadow ray
-    /// was cast), for the reprojection of its shading to other views.
+    /// was cast), for the reprojection of its shading to other views. At the
+    /// eye hits (`eye`), lanes `row_shadows` proved lit trace no shadow ray.
     fn direct_light<const K: usize>(
         &mut self,
         packet: &Packet<K>,
         s: &Surfaces<'a, K>,
         out: &mut [Color; K],
         mut record: Option<&mut [f32]>,
+        eye: bool,
     ) {
         if s.lit == 0 {
             return;
@@ -592,7 +601,8 @@ impl<'a> Tracer<'a> {
             if seg.mask == 0 {
                 continue;
             }
-            let through = self.light_transmittance(i, &mut seg);
+            let proved = if eye { self.row_shadows.lanes(i) } else { 0 };
+            let through = self.light_transmittance(i, &mut seg, proved);
             if let Some(r) = record.as_deref_mut() {
                 r[i] = if seg.mask & 1 != 0 { through[0] } else { 0.0 };
             }
@@ -613,16 +623,23 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    /// What of light `i` reaches the start of each lane's shadow segment: the
-    /// shadow cache's opaque object first, then one packet traversal for the rest.
+    /// What of light `i` reaches the start of each lane's shadow segment: 1
+    /// for the lanes in `proved` (a shadow fan proved their segments meet
+    /// nothing: what their rays would return, leaving the cache as it is),
+    /// the shadow cache's opaque object first, then one packet traversal for
+    /// the rest.
     fn light_transmittance<const K: usize>(
         &mut self,
         i: usize,
         seg: &mut SegmentPacket<K>,
+        proved: u32,
     ) -> [f32; K] {
         let world = self.world;
-        self.counts.rays.shadow += seg.mask.count_ones() as u64;
         let with_shadow_ray = seg.mask;
+        let proved = proved & seg.mask;
+        seg.mask &= !proved;
+        self.counts.shadow_rays_proved += proved.count_ones() as u64;
+        self.counts.rays.shadow += seg.mask.count_ones() as u64;
         let mut through = [1.0f32; K];
         let mut lanes = seg.mask;
         while lanes != 0 {

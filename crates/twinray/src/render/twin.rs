@@ -413,6 +413,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             return;
         }
         let (packet, hits) = self.group_packet(scratch, group);
+        tracer.row_shadows.select(self.first_view, group);
         let colors = tracer.shade_eye(&packet, &hits, self.secondary);
         for (v, sample) in group.iter().enumerate() {
             if let Some(i) = *sample {
@@ -667,6 +668,22 @@ impl<const K: usize> RowWorker for TwinWorker<'_, '_, K> {
     ) {
         self.batch
             .trace_row(tracer, row, &mut self.scratch, Some(eye), out);
+    }
+
+    fn eye_hits(
+        &mut self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        hits: &mut [Vec<(u32, SurfaceHit)>],
+    ) -> bool {
+        if self.batch.world.far.is_some() {
+            return false; // hits beyond a cut are the centre ray's (`far_ray`)
+        }
+        self.batch.eye_pass(tracer, row, &mut self.scratch, None);
+        for (out, found) in hits.iter_mut().zip(&self.scratch.hits) {
+            out.clone_from(found);
+        }
+        true
     }
 }
 
