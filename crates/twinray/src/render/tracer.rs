@@ -9,6 +9,7 @@
 //! view's reference render gets.
 
 mod key_views;
+mod lean_surfaces;
 mod shadow_fans;
 
 pub use key_views::{Chain, Link};
@@ -59,6 +60,9 @@ pub struct Tracer<'a> {
     /// `--share-shading`: the current row's cache, shared by its batches of
     /// views (a tracer serves one task, whose rows are traced in order).
     pub(super) shading_cache: super::shading_cache::ShadingCache,
+    /// Hits whose shading reads no normal skip it (`lean_surfaces`); off
+    /// only in the test that compares against the full computation.
+    lean_surfaces: bool,
 }
 
 /// How the lanes' reflected and refracted rays are traced.
@@ -165,6 +169,7 @@ impl<'a> Tracer<'a> {
             traversal: TraversalStats::default(),
             shadow_cache: vec![None; world.scene.lights.len() * super::MAX_LANES],
             shading_cache: Default::default(),
+            lean_surfaces: true,
         }
     }
 
@@ -469,7 +474,12 @@ impl<'a> Tracer<'a> {
             let d = packet.dirs[l];
             let shape = &scene.shapes[prim];
             let point = packet.origins[l] + d * hit.t;
-            let surface = scene.surface_at(prim, hit, point);
+            let surface = match self.lean_surfaces
+                && !lean_surfaces::needs_normal(scene, world.material_of(prim as u32), spawn_more)
+            {
+                true => scene.surface_colour_at(prim, hit),
+                false => scene.surface_at(prim, hit, point),
+            };
             let (material, normal) = (surface.material, surface.normal);
             let coverage = surface.coverage;
             tree.largest_coefficient = tree
