@@ -359,13 +359,19 @@ impl Scene {
             coverage: 1.0,
             offset_normal: normal,
         };
-        // Per-corner colours (PLY) on a triangle with a corner record.
-        if let Shape::Triangle(t) = shape {
-            if let TriangleNormals::Patch(i) = t.normals {
-                if let Some([a, b, c]) = self.corner_colors.get(i as usize) {
-                    sample.color *= *a * (1.0 - hit.u - hit.v) + *b * hit.u + *c * hit.v;
-                }
-            }
+        // Per-corner colours (PLY) on a triangle with a corner record (a
+        // scene without any does not read the shape: a lean sample reads
+        // none of it).
+        let patch = match shape {
+            _ if self.corner_colors.is_empty() => None,
+            Shape::Triangle(t) => match t.normals {
+                TriangleNormals::Patch(i) => Some(i),
+                _ => None,
+            },
+            _ => None,
+        };
+        if let Some([a, b, c]) = patch.and_then(|i| self.corner_colors.get(i as usize)) {
+            sample.color *= *a * (1.0 - hit.u - hit.v) + *b * hit.u + *c * hit.v;
         }
         let blend = material.alpha_mode == AlphaMode::Blend;
         if blend {
