@@ -345,7 +345,7 @@ impl Scene {
     }
 
     /// `surface_at`, with the normal only when given the `point`.
-    #[inline]
+    #[inline(always)]
     fn sample_at(&self, prim: usize, hit: &SurfaceHit, point: Option<Vec3>) -> SurfaceSample<'_> {
         let shape = &self.shapes[prim];
         let material = &self.materials[self.shape_material[prim] as usize];

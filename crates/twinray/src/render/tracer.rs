@@ -925,6 +925,17 @@ mod tests {
         World::new(scene)
     }
 
+    /// The camera's eye ray through the centre of pixel (`x`, `y`).
+    pub(super) fn pixel_ray(camera: &Camera, x: u32, y: u32) -> Packet<1> {
+        Packet {
+            origins: [camera.eye],
+            dirs: [camera.direction(x as f32, y as f32)],
+            t_min: camera.hither,
+            t_max: [f32::INFINITY],
+            mask: 1,
+        }
+    }
+
     fn bits(c: Color) -> [u32; 3] {
         c.to_array().map(f32::to_bits)
     }
@@ -1038,13 +1049,7 @@ mod tests {
         let (mut mirrors, mut diffuse) = (0, 0);
         for y in 0..48 {
             for x in 0..64 {
-                let packet = Packet {
-                    origins: [camera.eye],
-                    dirs: [camera.direction(x as f32, y as f32)],
-                    t_min: camera.hither,
-                    t_max: [f32::INFINITY],
-                    mask: 1,
-                };
+                let packet = pixel_ray(&camera, x, y);
                 let hits = tracer.eye_hits(&packet, &[0]);
                 let traced = tracer.shade_eye(&packet, &hits, SecondaryRays::Own)[0];
                 tracer.shade_donor(&packet, &hits, SecondaryRays::Own, &mut donor);

@@ -26,10 +26,10 @@ pub(super) fn needs_normal(scene: &Scene, material: &Material, spawn: bool) -> b
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::Packet;
     use crate::environment::Environment;
     use crate::loaders::{nff::parse_nff, LoadOptions};
     use crate::math::{Color, Vec3};
+    use crate::render::tracer::tests::pixel_ray;
     use crate::render::tracer::{SecondaryRays, ShadingTree};
     use crate::render::{TraceSettings, Tracer};
     use crate::rig::Camera;
@@ -120,13 +120,7 @@ mod tests {
             let mut out = Vec::new();
             for y in 0..camera.height {
                 for x in 0..camera.width {
-                    let packet = Packet {
-                        origins: [camera.eye],
-                        dirs: [camera.direction(x as f32, y as f32)],
-                        t_min: camera.hither,
-                        t_max: [f32::INFINITY],
-                        mask: 1,
-                    };
+                    let packet = pixel_ray(&camera, x, y);
                     let hits = tracer.eye_hits(&packet, &[0]);
                     let mut tree = ShadingTree::new(SecondaryRays::Own);
                     let first = tracer.surfaces(&packet, &hits, 1, [1.0], &mut tree);
