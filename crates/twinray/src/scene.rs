@@ -332,9 +332,24 @@ impl Scene {
     /// The shading normal, colour and material where a ray met primitive `prim`.
     #[inline]
     pub fn surface_at(&self, prim: usize, hit: &SurfaceHit, point: Vec3) -> SurfaceSample<'_> {
+        self.sample_at(prim, hit, Some(point))
+    }
+
+    /// [`Scene::surface_at`] without the normal (`normal` and
+    /// `offset_normal` are zero, no normal map is read): the colour, the
+    /// light emitted, occlusion and coverage, for a hit whose shading reads
+    /// no normal (no light, environment or secondary ray needs it).
+    #[inline]
+    pub fn surface_colour_at(&self, prim: usize, hit: &SurfaceHit) -> SurfaceSample<'_> {
+        self.sample_at(prim, hit, None)
+    }
+
+    /// `surface_at`, with the normal only when given the `point`.
+    #[inline(always)]
+    fn sample_at(&self, prim: usize, hit: &SurfaceHit, point: Option<Vec3>) -> SurfaceSample<'_> {
         let shape = &self.shapes[prim];
         let material = &self.materials[self.shape_material[prim] as usize];
-        let normal = shape.normal(point, hit, &self.corners);
+        let normal = point.map_or(Vec3::ZERO, |point| shape.normal(point, hit, &self.corners));
         let mut sample = SurfaceSample {
             normal,
             color: material.color,
@@ -344,13 +359,19 @@ impl Scene {
             coverage: 1.0,
             offset_normal: normal,
         };
-        // Per-corner colours (PLY) on a triangle with a corner record.
-        if let Shape::Triangle(t) = shape {
-            if let TriangleNormals::Patch(i) = t.normals {
-                if let Some([a, b, c]) = self.corner_colors.get(i as usize) {
-                    sample.color *= *a * (1.0 - hit.u - hit.v) + *b * hit.u + *c * hit.v;
-                }
-            }
+        // Per-corner colours (PLY) on a triangle with a corner record (a
+        // scene without any does not read the shape: a lean sample reads
+        // none of it).
+        let patch = match shape {
+            _ if self.corner_colors.is_empty() => None,
+            Shape::Triangle(t) => match t.normals {
+                TriangleNormals::Patch(i) => Some(i),
+                _ => None,
+            },
+            _ => None,
+        };
+        if let Some([a, b, c]) = patch.and_then(|i| self.corner_colors.get(i as usize)) {
+            sample.color *= *a * (1.0 - hit.u - hit.v) + *b * hit.u + *c * hit.v;
         }
         let blend = material.alpha_mode == AlphaMode::Blend;
         if blend {
@@ -359,7 +380,7 @@ impl Scene {
         let textured = material.texture.is_some()
             || material.emission_texture.is_some()
             || material.occlusion_texture.is_some()
-            || material.normal_map.is_some()
+            || (material.normal_map.is_some() && point.is_some())
             || (blend && material.alpha_texture.is_some());
         if !textured {
             return sample;
@@ -368,7 +389,7 @@ impl Scene {
             return sample;
         };
         let texel = |tex: u32| self.textures[tex as usize].sample(uv.x, uv.y);
-        if let Some(map) = &material.normal_map {
+        if let (Some(map), true) = (&material.normal_map, point.is_some()) {
             let texture = &self.textures[map.texture as usize];
             let tangent = self.tangent_at(prim, hit);
             sample.normal =

@@ -521,6 +521,8 @@ struct RowContext<'b> {
     /// `--shadow-fans`: the rows' shared shadows, and (without the strip
     /// pass) the row's eye hits gathered from the batches' eye passes.
     fans: Option<(&'b row_shadows::RowShadowPass<'b>, strip::StripRow)>,
+    /// A row's colours per view, reused from row to row (`Run::lattice`).
+    colors: Vec<RowColors>,
 }
 
 impl RowContext<'_> {
@@ -643,6 +645,17 @@ impl Run<'_, '_> {
         count: usize,
         task: impl Fn(&mut RowContext, &mut Tracer, usize) -> T + Sync,
     ) -> Option<(Vec<T>, TraceCounts)> {
+        self.tasks_over(vec![(); count], |ctx, tracer, i, ()| task(ctx, tracer, i))
+    }
+
+    /// [`Run::tasks`], task `i` also given `items[i]` (its share of the
+    /// output, written in place). The counts are summed as the tasks finish
+    /// (sums of integers: the same in any order), not kept per task.
+    fn tasks_over<I: Send, T: Send>(
+        &self,
+        items: Vec<I>,
+        task: impl Fn(&mut RowContext, &mut Tracer, usize, I) -> T + Sync,
+    ) -> Option<(Vec<T>, TraceCounts)> {
         let world = self.job.world;
         let settings = self.job.opts.trace;
         let context = || RowContext {
@@ -653,28 +666,31 @@ impl Run<'_, '_> {
                 .collect(),
             strip: self.strip.map(|p| (p, strip::StripRow::default())),
             fans: self.fans.map(|p| (p, strip::StripRow::default())),
+            colors: Vec::new(),
         };
         let cancel = self.job.cancel;
-        let results: Vec<(T, TraceCounts)> = (0..count)
+        let total = std::sync::Mutex::new(TraceCounts::default());
+        let results: Vec<T> = items
             .into_par_iter()
-            .map_init(context, |ctx, i| {
+            .enumerate()
+            .map_init(context, |ctx, (i, item)| {
                 if cancel.is_cancelled() {
                     return None;
                 }
                 let mut tracer = Tracer::new(world, settings);
-                let result = task(ctx, &mut tracer, i);
+                let result = task(ctx, &mut tracer, i, item);
                 let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
                 (self.job.progress)(done, self.total.load(Ordering::Relaxed));
-                Some((result, tracer.finish()))
+                // A poisoned lock means a task panicked, and the panic goes on up.
+                total
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .add(&tracer.finish());
+                Some(result)
             })
             .collect::<Option<_>>()?;
-        let mut counts = TraceCounts::default();
-        let mut out = Vec::with_capacity(results.len());
-        for (r, c) in results {
-            counts.add(&c);
-            out.push(r);
-        }
-        Some((out, counts))
+        let counts = total.into_inner().unwrap_or_else(|e| e.into_inner());
+        Some((results, counts))
     }
 
     /// Tells the progress how many tasks the whole render has.
@@ -683,25 +699,31 @@ impl Run<'_, '_> {
     }
 
     /// Every row of a lattice of `columns` x `rows` samples at `pattern(row)`:
-    /// per view, the colours row-major.
+    /// per view, the colours row-major. Each task writes its row straight
+    /// into the grids (no row of colours kept per task, no copy of the whole).
     fn lattice(
         &self,
         columns: usize,
         rows: usize,
         pattern: impl Fn(usize) -> Pattern + Sync,
     ) -> Option<(Vec<Vec<Color>>, TraceCounts)> {
-        let (per_row, counts) = self.tasks(rows, |ctx, tracer, j| {
-            let row = SampleRow::full(columns, pattern(j));
-            let mut out = Vec::new();
-            ctx.trace(tracer, &row, &mut out);
-            out
-        })?;
-        let mut grids = vec![Vec::with_capacity(columns * rows); self.views];
-        for row in per_row {
-            for (g, r) in grids.iter_mut().zip(row) {
-                g.extend(r);
+        let mut grids = vec![vec![Color::ZERO; columns * rows]; self.views];
+        let mut shares: Vec<Vec<&mut [Color]>> =
+            (0..rows).map(|_| Vec::with_capacity(self.views)).collect();
+        for grid in &mut grids {
+            for (share, row) in shares.iter_mut().zip(grid.chunks_mut(columns.max(1))) {
+                share.push(row);
             }
         }
+        let (_, counts) = self.tasks_over(shares, |ctx, tracer, j, mut share| {
+            let row = SampleRow::full(columns, pattern(j));
+            let mut colors = std::mem::take(&mut ctx.colors);
+            ctx.trace(tracer, &row, &mut colors);
+            for (to, from) in share.iter_mut().zip(&colors) {
+                to.copy_from_slice(from);
+            }
+            ctx.colors = colors;
+        })?;
         Some((grids, counts))
     }
 

@@ -9,6 +9,7 @@
 //! view's reference render gets.
 
 mod key_views;
+mod lean_surfaces;
 mod shadow_fans;
 
 pub use key_views::{Chain, Link};
@@ -62,6 +63,9 @@ pub struct Tracer<'a> {
     /// `--shadow-fans`: the current row's shadow rays proved free, and the
     /// lanes of the next eye shading they cover (`row_shadows`).
     pub(super) row_shadows: super::row_shadows::RowShadows,
+    /// Hits whose shading reads no normal skip it (`lean_surfaces`); off
+    /// only in the test that compares against the full computation.
+    lean_surfaces: bool,
 }
 
 /// How the lanes' reflected and refracted rays are traced.
@@ -169,6 +173,7 @@ impl<'a> Tracer<'a> {
             shadow_cache: vec![None; world.scene.lights.len() * super::MAX_LANES],
             shading_cache: Default::default(),
             row_shadows: Default::default(),
+            lean_surfaces: true,
         }
     }
 
@@ -476,7 +481,12 @@ impl<'a> Tracer<'a> {
             let d = packet.dirs[l];
             let shape = &scene.shapes[prim];
             let point = packet.origins[l] + d * hit.t;
-            let surface = scene.surface_at(prim, hit, point);
+            let surface = match self.lean_surfaces
+                && !lean_surfaces::needs_normal(scene, world.material_of(prim as u32), spawn_more)
+            {
+                true => scene.surface_colour_at(prim, hit),
+                false => scene.surface_at(prim, hit, point),
+            };
             let (material, normal) = (surface.material, surface.normal);
             let coverage = surface.coverage;
             tree.largest_coefficient = tree
@@ -932,6 +942,17 @@ mod tests {
         World::new(scene)
     }
 
+    /// The camera's eye ray through the centre of pixel (`x`, `y`).
+    pub(super) fn pixel_ray(camera: &Camera, x: u32, y: u32) -> Packet<1> {
+        Packet {
+            origins: [camera.eye],
+            dirs: [camera.direction(x as f32, y as f32)],
+            t_min: camera.hither,
+            t_max: [f32::INFINITY],
+            mask: 1,
+        }
+    }
+
     fn bits(c: Color) -> [u32; 3] {
         c.to_array().map(f32::to_bits)
     }
@@ -1045,13 +1066,7 @@ mod tests {
         let (mut mirrors, mut diffuse) = (0, 0);
         for y in 0..48 {
             for x in 0..64 {
-                let packet = Packet {
-                    origins: [camera.eye],
-                    dirs: [camera.direction(x as f32, y as f32)],
-                    t_min: camera.hither,
-                    t_max: [f32::INFINITY],
-                    mask: 1,
-                };
+                let packet = pixel_ray(&camera, x, y);
                 let hits = tracer.eye_hits(&packet, &[0]);
                 let traced = tracer.shade_eye(&packet, &hits, SecondaryRays::Own)[0];
                 tracer.shade_donor(&packet, &hits, SecondaryRays::Own, &mut donor);

@@ -102,22 +102,24 @@ pub(super) struct RowScratch<const K: usize> {
     keys: key_views::KeyScratch,
 }
 
+/// Sizes `v` to `views` rows of `len` copies of `fill`.
+fn fit<T: Clone>(v: &mut Vec<Vec<T>>, views: usize, len: usize, fill: T) {
+    v.resize_with(views, Vec::new);
+    for row in v.iter_mut() {
+        row.clear();
+        row.resize(len, fill.clone());
+    }
+}
+
 impl<const K: usize> RowScratch<K> {
-    /// Sizes the buffers for `views` views of a row of `len` samples.
+    /// Sizes the buffers every mode uses for `views` views of a row of `len`
+    /// samples; `far` (a cut) and `received` (the paper's reprojection) are
+    /// sized by the stages that use them.
     fn reset(&mut self, views: usize, len: usize) {
-        fn fit<T: Clone>(v: &mut Vec<Vec<T>>, views: usize, len: usize, fill: T) {
-            v.resize_with(views, Vec::new);
-            for row in v.iter_mut() {
-                row.clear();
-                row.resize(len, fill.clone());
-            }
-        }
         fit(&mut self.dirs, views, len, Vec3::Z);
         fit(&mut self.hits, views, len, (PacketHits::<K>::NO_HIT, NONE));
         fit(&mut self.points, views, len, None);
-        fit(&mut self.far, views, len, false);
         fit(&mut self.claimed, views, len, false);
-        fit(&mut self.received, views, len, None);
     }
 }
 
@@ -189,6 +191,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         }
         let cut = self.world.far.is_some();
         if cut {
+            fit(&mut scratch.far, n, row.len(), false);
             scratch.first_column = row.pixels.first().copied().unwrap_or(0) + self.min_shift;
             let last = row.pixels.last().copied().unwrap_or(0) + self.max_shift;
             let columns = (last - scratch.first_column + 1).max(0) as usize;
@@ -394,9 +397,11 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
     ) {
         // Samples whose hit lies beyond a cut are shaded already (`shade_cut`).
         let mut group = *group;
-        for (v, sample) in group.iter_mut().enumerate() {
-            if sample.is_some_and(|i| scratch.far[v][i]) {
-                *sample = None;
+        if self.world.far.is_some() {
+            for (v, sample) in group.iter_mut().enumerate() {
+                if sample.is_some_and(|i| scratch.far[v][i]) {
+                    *sample = None;
+                }
             }
         }
         let group = &group;
@@ -546,6 +551,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
     ) {
         let n = self.views;
         scratch.reset(n, row.len());
+        fit(&mut scratch.received, n, row.len(), None);
         let mut donor = std::mem::take(&mut scratch.donor);
         for v in 0..n {
             for i in 0..row.len() {
