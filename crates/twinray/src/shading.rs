@@ -210,13 +210,6 @@ impl<const K: usize, const ALPHA: bool> AnyHitTest for ShadowTest<'_, K, ALPHA> 
         Some([a, b].map(|l| self.met_block(&hits[l], prims, l)))
     }
 
-    /// A missed primitive is `Continue`, untouched: the leaves may cull
-    /// spheres and cones.
-    #[inline(always)]
-    fn lane_ray(&self, lane: usize) -> Option<Ray> {
-        Some(self.ray(lane))
-    }
-
     #[inline(always)]
     fn test_pair(&mut self, prim: u32) -> [AnyHit; 2] {
         let (a, b) = (0, 1 % K);

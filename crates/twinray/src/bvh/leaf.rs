@@ -6,11 +6,6 @@
 //! starts at a slot that is a multiple of `BLOCK`, so its blocks are found
 //! from the node's first slot and count alone (`LeafBlocks::of_leaf`).
 //!
-//! A leaf with spheres or cones has `Quadric4` blocks instead: where the
-//! test gives the lane's ray (`NearestTest::lane_ray`), a block culls the
-//! primitives that ray cannot meet, four at a time, and the others are tested
-//! one by one as before.
-//!
 //! Exactness: a block's lane `i` is `Triangle::intersect` of the leaf's
 //! primitive `i`, bit for bit, and its hits are offered in index order with
 //! the scalar path's rules, so a lane's nearest hit (ties to the lower
@@ -19,17 +14,14 @@
 
 use super::traverse::LaneHit;
 use super::{AnyHit, AnyHitTest, Bvh, NearestTest, PacketHits, TraversalStats};
-use crate::math::Ray;
-use crate::shapes::{BlockHits, LeafBlocks, Quadric4, Shape, Triangle4, BLOCK};
+use crate::shapes::{BlockHits, LeafBlocks, Shape, Triangle4, BLOCK};
 
 /// A leaf: its primitives, and their blocks if the tree holds them so (one
-/// per `BLOCK` primitives, in order): triangles, or spheres and cones to
-/// cull (`quadrics`); else none.
+/// per `BLOCK` primitives, in order), else none.
 #[derive(Clone, Copy)]
 pub(super) struct Leaf<'a> {
     pub(super) prims: &'a [u32],
     pub(super) blocks: &'a [Triangle4],
-    pub(super) quadrics: &'a [Quadric4],
 }
 
 impl<'a> Leaf<'a> {
@@ -46,17 +38,15 @@ impl Bvh {
     #[inline(always)]
     pub(super) fn leaf(&self, first: u32, count: u32) -> Leaf<'_> {
         let (first, count) = (first as usize, count as usize);
-        let (blocks, quadrics) = self.blocks.leaf(first, count);
         Leaf {
             prims: &self.order[first..first + count],
-            blocks,
-            quadrics,
+            blocks: self.blocks.of_leaf(first, count),
         }
     }
 
-    /// Makes the blocks of the leaves (`shapes` indexed by the order's
-    /// primitive indices): of triangles, or of spheres and cones to cull;
-    /// leaves that do not start a block keep the scalar tests.
+    /// Makes the blocks of the leaves of triangles (`shapes` indexed by the
+    /// order's primitive indices); leaves that do not start a block, or hold
+    /// another shape, keep the scalar tests.
     pub fn attach_blocks(&mut self, shapes: &[Shape]) {
         self.blocks = LeafBlocks::new(shapes, self.order.len(), self.leaf_slots());
     }
@@ -92,27 +82,7 @@ pub(super) fn leaf_lane<T: NearestTest>(
         }
     }
     if leaf.blocks.is_empty() {
-        let ray = test.lane_ray(lane);
-        for (k, prims) in leaf.prims.chunks(BLOCK).enumerate() {
-            let live = may_hit(leaf.quadrics, k, ray.as_ref());
-            for (i, &prim) in prims.iter().enumerate() {
-                if live & (1 << i) != 0 {
-                    if let Some(h) = test.test(prim, lane, state.best.next_up()) {
-                        state.offer(prim, h);
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// The lanes of the leaf's block `k` that `ray` may hit: those `quadrics`
-/// does not cull, or all without quadric blocks or a ray.
-#[inline(always)]
-fn may_hit(quadrics: &[Quadric4], k: usize, ray: Option<&Ray>) -> u32 {
-    match (quadrics.get(k), ray) {
-        (Some(q), Some(ray)) => q.may_hit(ray),
-        _ => u32::MAX,
+        scalar_lane(leaf.prims, lane, state, test);
     }
 }
 
@@ -155,17 +125,11 @@ pub(super) fn test_leaf<const K: usize, T: NearestTest>(
                         (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
                     }
                 }
-                None => scalar_pair(prims, [u32::MAX; 2], best, out, test),
+                None => scalar_pair(prims, best, out, test),
             }
         }
         if leaf.blocks.is_empty() {
-            let rays = [test.lane_ray(0), test.lane_ray(1 % K)];
-            for (k, prims) in leaf.prims.chunks(BLOCK).enumerate() {
-                let live = rays
-                    .each_ref()
-                    .map(|r| may_hit(leaf.quadrics, k, r.as_ref()));
-                scalar_pair(prims, live, best, out, test);
-            }
+            scalar_pair(leaf.prims, best, out, test);
         }
         return;
     }
@@ -179,26 +143,16 @@ pub(super) fn test_leaf<const K: usize, T: NearestTest>(
     }
 }
 
-/// Both rays of a pair against one primitive at once, primitive by primitive
-/// (at most `BLOCK`: the ones of `live[l]`'s bits for lane `l`, culled by a
-/// `Quadric4` block; a primitive that one lane alone may hit is tested for
-/// it alone).
+/// Both rays of a pair against one primitive at once, primitive by primitive.
 #[inline(always)]
 fn scalar_pair<const K: usize, T: NearestTest>(
     prims: &[u32],
-    live: [u32; 2],
     best: &mut [f32; K],
     out: &mut PacketHits<K>,
     test: &mut T,
 ) {
-    for (i, &prim) in prims.iter().enumerate() {
-        let bounds = [best[0].next_up(), best[1 % K].next_up()];
-        let found = match (live[0] >> i & 1 != 0, live[1] >> i & 1 != 0) {
-            (true, true) => test.test_pair(prim, bounds),
-            (true, false) => [test.test(prim, 0, bounds[0]), None],
-            (false, true) => [None, test.test(prim, 1 % K, bounds[1])],
-            (false, false) => continue,
-        };
+    for &prim in prims {
+        let found = test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
         for (l, h) in found.into_iter().enumerate() {
             if let Some(h) = h {
                 if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
@@ -239,14 +193,10 @@ pub(super) fn occlusion_lane<T: AnyHitTest>(
         }
     }
     if leaf.blocks.is_empty() {
-        let ray = test.lane_ray(lane);
-        for (k, prims) in leaf.prims.chunks(BLOCK).enumerate() {
-            let live = may_hit(leaf.quadrics, k, ray.as_ref());
-            for (i, &prim) in prims.iter().enumerate() {
-                *prims_tested += 1;
-                if live & (1 << i) != 0 && test.test(prim, lane) == AnyHit::Stop {
-                    return true;
-                }
+        for &prim in leaf.prims {
+            *prims_tested += 1;
+            if test.test(prim, lane) == AnyHit::Stop {
+                return true;
             }
         }
     }
@@ -266,17 +216,7 @@ pub(super) fn occlusion_leaf<T: AnyHitTest>(
 ) {
     if leaf.blocks.is_empty() {
         stats.prim_tests += (leaf.prims.len() * (mask & *live).count_ones() as usize) as u64;
-        // A pair's lanes are culled (packets of more lanes are not).
-        let rays: [Option<Ray>; 2] = match pair && !leaf.quadrics.is_empty() {
-            true => [test.lane_ray(0), test.lane_ray(1)],
-            false => [None, None],
-        };
-        for (k, prims) in leaf.prims.chunks(BLOCK).enumerate() {
-            let may = rays
-                .each_ref()
-                .map(|r| may_hit(leaf.quadrics, k, r.as_ref()));
-            occlusion_prims(prims, pair, mask, may, live, test);
-        }
+        occlusion_prims(leaf.prims, pair, mask, live, test);
         return;
     }
     for (k, block) in leaf.blocks.iter().enumerate() {
@@ -309,20 +249,17 @@ pub(super) fn occlusion_leaf<T: AnyHitTest>(
 }
 
 /// The live lanes of `mask` against `prims` one by one (a pair's both
-/// lanes against each primitive at once), skipping primitive `i` for pair
-/// lane `l` where bit `i` of `may[l]` is clear (culled).
+/// lanes against each primitive at once).
 #[inline(always)]
 fn occlusion_prims<T: AnyHitTest>(
     prims: &[u32],
     pair: bool,
     mask: u32,
-    may: [u32; 2],
     live: &mut u32,
     test: &mut T,
 ) {
-    for (i, &prim) in prims.iter().enumerate() {
-        let may_i = (may[0] >> i & 1) | (may[1] >> i & 1) << 1;
-        if pair && mask & *live == 0b11 && may_i == 0b11 {
+    for &prim in prims {
+        if pair && mask & *live == 0b11 {
             for (l, a) in test.test_pair(prim).into_iter().enumerate() {
                 if a == AnyHit::Stop {
                     *live &= !(1 << l);
@@ -330,7 +267,7 @@ fn occlusion_prims<T: AnyHitTest>(
             }
             continue;
         }
-        let mut lanes = mask & *live & if pair { may_i } else { u32::MAX };
+        let mut lanes = mask & *live;
         while lanes != 0 {
             let l = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;

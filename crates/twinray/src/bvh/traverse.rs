@@ -16,7 +16,7 @@
 
 use super::leaf::{leaf_lane, occlusion_lane, occlusion_leaf, test_leaf};
 use super::{Bvh, Node};
-use crate::math::{Aabb, Ray, Vec3};
+use crate::math::{Aabb, Vec3};
 use crate::shapes::{BlockHits, SurfaceHit, Triangle4};
 use arrayvec::ArrayVec;
 use wide::f32x4;
@@ -128,15 +128,6 @@ pub trait NearestTest {
             self.test_block(block, 1, t_max[1])?,
         ])
     }
-
-    /// Lane `lane`'s ray, if `test` on a primitive is that primitive's
-    /// `Shape::intersect` of it: the leaves then cull spheres and cones four
-    /// at a time (`shapes::Quadric4`) and skip the ones it cannot meet.
-    /// `None`: every primitive of a leaf is tested.
-    #[inline(always)]
-    fn lane_ray(&self, _lane: usize) -> Option<Ray> {
-        None
-    }
 }
 
 impl<F: FnMut(u32, usize, f32) -> Option<SurfaceHit>> NearestTest for F {
@@ -174,15 +165,6 @@ pub trait AnyHitTest {
             self.test_block(block, prims, 0)?,
             self.test_block(block, prims, 1)?,
         ])
-    }
-
-    /// Lane `lane`'s segment as a ray, if `test` is `Continue`, with no
-    /// effect, for every primitive whose `Shape::intersect` misses it: the
-    /// leaves then cull spheres and cones four at a time
-    /// (`shapes::Quadric4`). `None`: every primitive of a leaf is tested.
-    #[inline(always)]
-    fn lane_ray(&self, _lane: usize) -> Option<Ray> {
-        None
     }
 }
 

@@ -885,12 +885,6 @@ impl<const K: usize> NearestTest for NearestShape<'_, K> {
         let rays = [self.ray(0), self.ray(1 % K)];
         Some(block.intersect_pair(&rays, self.packet.t_min, t_max))
     }
-
-    /// `test` is `Shape::intersect`: the leaves may cull spheres and cones.
-    #[inline(always)]
-    fn lane_ray(&self, lane: usize) -> Option<Ray> {
-        Some(self.ray(lane))
-    }
 }
 
 #[cfg(test)]

@@ -95,12 +95,6 @@ impl Cone {
         None
     }
 
-    /// The unit axis from base to apex, and the radius change per unit of
-    /// height: the terms `intersect` works with (`Quadric4` repeats them).
-    pub(super) fn axis_and_slope(&self) -> (Vec3, f32) {
-        (self.axis, self.slope)
-    }
-
     pub fn bounds(&self) -> Aabb {
         // Each end is a disc: its extent along world axis i is r * sqrt(1 - axis_i^2).
         let disc = |c: Vec3, r: f32| {

@@ -5,13 +5,11 @@
 //! or the per-vertex normals of its patch, so shading never sees the split.
 
 mod cone;
-mod quadric4;
 mod sphere;
 mod triangle;
 mod triangle4;
 
 pub use cone::Cone;
-pub use quadric4::Quadric4;
 pub use sphere::Sphere;
 pub use triangle::{Corners, Triangle, TriangleNormals, Uv};
 pub use triangle4::{BlockHits, LeafBlocks, Triangle4, BLOCK};

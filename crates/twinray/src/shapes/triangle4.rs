@@ -9,7 +9,7 @@
 //! triangle `i`. Every method (mono, twin, shared, quilt) calls this one routine.
 
 use super::triangle::{intersect_lanes, kept_lanes};
-use super::{Quadric4, Shape, SurfaceHit, Triangle};
+use super::{Shape, SurfaceHit, Triangle};
 use crate::math::Ray;
 use wide::{f32x4, f32x8};
 
@@ -142,36 +142,22 @@ impl Triangle4 {
     }
 }
 
-/// A hierarchy's leaves as blocks, indexed by slot: block `k` holds the
-/// primitives in slots `BLOCK * k ..` of a leaf that starts at a multiple of
-/// `BLOCK` (`bvh::BuildOptions::block`). A leaf made only of triangles has
-/// `Triangle4` blocks; a leaf with a sphere or a cone has `Quadric4` blocks
-/// that cull them. The traversals find a leaf's blocks of either kind from
-/// its first slot and count, by one look-up of its first block's entry.
+/// A hierarchy's leaves of triangles as blocks, indexed by slot: block `k`
+/// holds the triangles in slots `BLOCK * k ..` of a leaf that starts at a
+/// multiple of `BLOCK` (`bvh::BuildOptions::block`). The traversals find a
+/// leaf's blocks from its first slot and count, with no table between.
 #[derive(Clone, Debug, Default)]
 pub struct LeafBlocks {
     pub(crate) tris: Vec<Triangle4>,
     /// Per block: how many of its lanes hold triangles of a leaf made only of
-    /// triangles; or `QUADRICS` for the first block of a leaf of `Quadric4`
-    /// blocks; 0: the leaf's primitives are tested one by one.
+    /// triangles (0: the leaf's primitives are tested one by one).
     pub(crate) lanes: Vec<u8>,
-    /// The leaves' `Quadric4` blocks, each leaf's together.
-    pub(crate) quadrics: Vec<Quadric4>,
-    /// Per block that starts a leaf of `Quadric4` blocks: where they start in
-    /// `quadrics` (empty if there are none).
-    pub(crate) quadric_at: Vec<u32>,
 }
-
-/// `LeafBlocks::lanes` of a leaf whose blocks are `Quadric4`.
-const QUADRICS: u8 = 0x80;
 
 impl LeafBlocks {
     /// Number of blocks that hold triangles.
     pub fn len(&self) -> usize {
-        self.lanes
-            .iter()
-            .filter(|&&l| l != 0 && l != QUADRICS)
-            .count()
+        self.lanes.iter().filter(|&&l| l != 0).count()
     }
 
     pub fn is_empty(&self) -> bool {
@@ -180,58 +166,32 @@ impl LeafBlocks {
 
     /// Triangles held in blocks.
     pub fn triangles(&self) -> usize {
-        self.lanes
-            .iter()
-            .filter(|&&l| l != QUADRICS)
-            .map(|&l| l as usize)
-            .sum()
-    }
-
-    /// Number of `Quadric4` blocks.
-    pub fn quadric_blocks(&self) -> usize {
-        self.quadrics.len()
+        self.lanes.iter().map(|&l| l as usize).sum()
     }
 
     /// Memory held, in bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.tris.len() * std::mem::size_of::<Triangle4>()
-            + self.lanes.len()
-            + self.quadrics.len() * std::mem::size_of::<Quadric4>()
-            + self.quadric_at.len() * 4
+        self.tris.len() * std::mem::size_of::<Triangle4>() + self.lanes.len()
     }
 
-    /// The triangle blocks of the leaf at slots `first..first + count`, or
-    /// none if they are not held as blocks.
+    /// The blocks of the leaf at slots `first..first + count`, or none if
+    /// they are not held as blocks.
     #[inline(always)]
     pub fn of_leaf(&self, first: usize, count: usize) -> &[Triangle4] {
-        self.leaf(first, count).0
-    }
-
-    /// The blocks of the leaf at slots `first..first + count`: its triangle
-    /// blocks, or its `Quadric4` blocks, or neither (tested one by one).
-    #[inline(always)]
-    pub fn leaf(&self, first: usize, count: usize) -> (&[Triangle4], &[Quadric4]) {
         let k = first / BLOCK;
         match self.lanes.get(k) {
             Some(&l) if l != 0 && first.is_multiple_of(BLOCK) => {
-                let n = count.div_ceil(BLOCK);
-                if l == QUADRICS {
-                    let at = self.quadric_at[k] as usize;
-                    (&[], &self.quadrics[at..at + n])
-                } else {
-                    (&self.tris[k..k + n], &[])
-                }
+                &self.tris[k..k + count.div_ceil(BLOCK)]
             }
-            _ => (&[], &[]),
+            _ => &[],
         }
     }
 
     /// Blocks for every leaf `(first, prims)` (its first slot and its
     /// primitives, indices into `shapes`) that starts at a multiple of
-    /// `BLOCK`: `Triangle4` blocks if it holds only triangles, `Quadric4`
-    /// blocks if it holds a sphere or a cone. Other leaves keep the scalar
-    /// tests. No such leaf: no blocks at all. The triangle blocks are made
-    /// on all threads (each from its own slots).
+    /// `BLOCK` and holds only triangles; `slots`: the length of the order.
+    /// Other leaves keep the scalar tests. No such leaf: no blocks at all.
+    /// The blocks are made on all threads (each from its own slots).
     pub fn new<'a>(
         shapes: &[Shape],
         slots: usize,
@@ -244,48 +204,18 @@ impl LeafBlocks {
         };
         // Per block: the primitives of its lanes (a leaf's, `BLOCK` at a time).
         let mut lanes: Vec<&[u32]> = Vec::new();
-        let mut kinds: Vec<u8> = Vec::new();
-        let (mut quadrics, mut quadric_at) = (Vec::new(), Vec::new());
         for (first, prims) in leaves {
-            if !first.is_multiple_of(BLOCK) || prims.is_empty() {
-                continue;
-            }
-            let quadric = |&p: &u32| {
-                matches!(
-                    shapes.get(p as usize),
-                    Some(Shape::Sphere(_) | Shape::Cone(_))
-                )
-            };
-            if prims.iter().any(quadric) {
-                if quadric_at.is_empty() {
-                    quadric_at = vec![u32::MAX; slots.div_ceil(BLOCK)];
-                }
-                if kinds.is_empty() {
-                    kinds = vec![0; slots.div_ceil(BLOCK)];
-                }
-                kinds[first / BLOCK] = QUADRICS;
-                quadric_at[first / BLOCK] = quadrics.len() as u32;
-                for chunk in prims.chunks(BLOCK) {
-                    let of: arrayvec::ArrayVec<&Shape, BLOCK> = chunk
-                        .iter()
-                        .filter_map(|&p| shapes.get(p as usize))
-                        .collect();
-                    quadrics.push(Quadric4::new(&of));
-                }
-                continue;
-            }
-            if !prims.iter().all(|&p| triangle(p).is_some()) {
+            if !first.is_multiple_of(BLOCK)
+                || prims.is_empty()
+                || !prims.iter().all(|&p| triangle(p).is_some())
+            {
                 continue;
             }
             if lanes.is_empty() {
                 lanes = vec![&[]; slots.div_ceil(BLOCK)];
             }
-            if kinds.is_empty() {
-                kinds = vec![0; slots.div_ceil(BLOCK)];
-            }
             for (i, chunk) in prims.chunks(BLOCK).enumerate() {
                 lanes[first / BLOCK + i] = chunk;
-                kinds[first / BLOCK + i] = chunk.len() as u8;
             }
         }
         let tris = lanes
@@ -298,9 +228,7 @@ impl LeafBlocks {
             .collect();
         LeafBlocks {
             tris,
-            lanes: kinds,
-            quadrics,
-            quadric_at,
+            lanes: lanes.iter().map(|p| p.len() as u8).collect(),
         }
     }
 }
@@ -452,7 +380,7 @@ mod tests {
         assert_eq!(
             blocks.len(),
             3,
-            "the leaf with a sphere has no triangle block"
+            "the leaf with a sphere keeps the scalar test"
         );
         assert_eq!(blocks.triangles(), 3 + 6);
         assert_eq!(blocks.of_leaf(0, 3).len(), 1);
@@ -469,12 +397,8 @@ mod tests {
         assert_eq!(leaf[1].intersect(&down(2.2), 0.0, 9.0).mask, 0b0010);
         assert_eq!(leaf[1].intersect(&down(4.2), 0.0, 9.0).mask, 0);
         assert_eq!(std::mem::size_of::<Triangle4>(), 192);
-        // The leaf with the sphere has one block that culls it.
-        assert_eq!(blocks.quadric_blocks(), 1);
-        assert_eq!(blocks.leaf(4, 2).1.len(), 1);
-        assert!(blocks.leaf(0, 3).1.is_empty());
-        // No leaf that starts a block: no blocks.
-        let none = LeafBlocks::new(&shapes, 20, [(17, &order[3..4])].into_iter());
+        // No leaf of triangles: no blocks.
+        let none = LeafBlocks::new(&shapes, 20, [(4, &order[3..4])].into_iter());
         assert_eq!(none.memory_bytes(), 0);
     }
 }
