@@ -192,69 +192,79 @@ fn collapse_by<const W: usize>(
     out
 }
 
-/// One ray prepared for the four-wide slab test: per axis, which of a node's
-/// bound arrays is its entry plane and which its exit plane, and its numbers
-/// splatted.
-#[derive(Clone, Copy)]
-struct WideRay {
-    near: [usize; 3],
-    far: [usize; 3],
-    inv: [f32x4; 3],
-    org: [f32x4; 3],
-    t_min: f32x4,
-}
-
-impl WideRay {
-    #[inline(always)]
-    fn new(r: &SingleRay) -> WideRay {
-        let side = |a: usize| r.neg[a] as usize;
-        WideRay {
-            near: [0, 1, 2].map(|a| 2 * a + side(a)),
-            far: [0, 1, 2].map(|a| 2 * a + 1 - side(a)),
-            inv: r.inv.map(f32x4::splat),
-            org: r.origin.map(f32x4::splat),
-            t_min: f32x4::splat(r.t_min),
+/// One ray prepared for a `W`-wide slab test (`$name`, registers `$simd`, nodes
+/// `WideNode<$w>`): per axis, which of a node's bound arrays is its entry plane
+/// and which its exit plane, and its numbers splatted. A macro, so that the
+/// four- and the eight-wide trees share one text of the test.
+macro_rules! wide_ray {
+    ($name:ident, $simd:ty, $w:expr) => {
+        #[derive(Clone, Copy)]
+        struct $name {
+            near: [usize; 3],
+            far: [usize; 3],
+            inv: [$simd; 3],
+            org: [$simd; 3],
+            t_min: $simd,
         }
-    }
 
-    /// Entry and exit distances of the four children: per lane, the binary
-    /// descent's `entry` (and `segment_enters_node` with `t_min = 0`).
-    #[inline(always)]
-    fn slabs(&self, node: &Node4) -> (f32x4, f32x4) {
-        let plane = |i: usize, a: usize| f32x4::from(node.bounds[i]) * self.inv[a] - self.org[a];
-        let (nx, ny, nz) = (
-            plane(self.near[0], 0),
-            plane(self.near[1], 1),
-            plane(self.near[2], 2),
-        );
-        let (fx, fy, fz) = (
-            plane(self.far[0], 0),
-            plane(self.far[1], 1),
-            plane(self.far[2], 2),
-        );
-        // `fast_max(a, b)` is `maxps(a, b)`: `a > b ? a : b`, i.e. `fmax(a, b)`.
-        let tn = nx.fast_max(ny).fast_max(nz.fast_max(self.t_min));
-        let tf = fx.fast_min(fy).fast_min(fz) * f32x4::splat(ROBUST);
-        (tn, tf)
-    }
+        impl $name {
+            #[inline(always)]
+            fn new(r: &SingleRay) -> $name {
+                let side = |a: usize| r.neg[a] as usize;
+                $name {
+                    near: [0, 1, 2].map(|a| 2 * a + side(a)),
+                    far: [0, 1, 2].map(|a| 2 * a + 1 - side(a)),
+                    inv: r.inv.map(<$simd>::splat),
+                    org: r.origin.map(<$simd>::splat),
+                    t_min: <$simd>::splat(r.t_min),
+                }
+            }
 
-    /// The children a ray enters before `best * CULL_SLACK`, as a bit mask,
-    /// and their entry distances.
-    #[inline(always)]
-    fn enter(&self, node: &Node4, best: f32) -> (u32, [f32; WIDTH]) {
-        let (tn, tf) = self.slabs(node);
-        let bound = f32x4::splat(best * CULL_SLACK);
-        let m = (tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask();
-        (m, tn.to_array())
-    }
+            /// Entry and exit distances of the children: per lane, the
+            /// binary descent's `entry` (and `segment_enters_node` with
+            /// `t_min = 0`).
+            #[inline(always)]
+            fn slabs(&self, node: &WideNode<{ $w }>) -> ($simd, $simd) {
+                let plane =
+                    |i: usize, a: usize| <$simd>::from(node.bounds[i]) * self.inv[a] - self.org[a];
+                let (nx, ny, nz) = (
+                    plane(self.near[0], 0),
+                    plane(self.near[1], 1),
+                    plane(self.near[2], 2),
+                );
+                let (fx, fy, fz) = (
+                    plane(self.far[0], 0),
+                    plane(self.far[1], 1),
+                    plane(self.far[2], 2),
+                );
+                // `fast_max(a, b)` is `maxps(a, b)`: `a > b ? a : b`, i.e. `fmax(a, b)`.
+                let tn = nx.fast_max(ny).fast_max(nz.fast_max(self.t_min));
+                let tf = fx.fast_min(fy).fast_min(fz) * <$simd>::splat(ROBUST);
+                (tn, tf)
+            }
 
-    /// The children a segment `0 < t < t_max` enters, as a bit mask.
-    #[inline(always)]
-    fn enters(&self, node: &Node4, t_max: f32) -> u32 {
-        let (tn, tf) = self.slabs(node);
-        tn.simd_le(tf.fast_min(f32x4::splat(t_max))).to_bitmask()
-    }
+            /// The children a ray enters before `best * CULL_SLACK`, as a
+            /// bit mask, and their entry distances.
+            #[inline(always)]
+            fn enter(&self, node: &WideNode<{ $w }>, best: f32) -> (u32, [f32; $w]) {
+                let (tn, tf) = self.slabs(node);
+                let bound = <$simd>::splat(best * CULL_SLACK);
+                let m = (tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask();
+                (m, tn.to_array())
+            }
+
+            /// The children a segment `0 < t < t_max` enters, as a bit mask.
+            #[inline(always)]
+            fn enters(&self, node: &WideNode<{ $w }>, t_max: f32) -> u32 {
+                let (tn, tf) = self.slabs(node);
+                tn.simd_le(tf.fast_min(<$simd>::splat(t_max))).to_bitmask()
+            }
+        }
+    };
 }
+pub(super) use wide_ray;
+
+wide_ray!(WideRay, f32x4, WIDTH);
 
 /// Two rays (a stereo pair) prepared to meet a node's four children in one
 /// eight-wide register: lanes 0-3 the first ray's, 4-7 the second's. Per lane,

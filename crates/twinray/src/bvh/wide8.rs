@@ -18,7 +18,7 @@
 
 use super::leaf::{leaf_lane, occlusion_lane};
 use super::traverse::{LaneHit, SingleRay, CULL_SLACK, NO_SURFACE, ROBUST, STACK};
-use super::wide::{collapse_sah, take_nearest, Entry, WideNode};
+use super::wide::{collapse_sah, take_nearest, wide_ray, Entry, WideNode};
 use super::TraversalStats;
 use super::{AnyHitTest, Bvh, NearestTest, Node, Packet, PacketHits, SegmentPacket};
 use arrayvec::ArrayVec;
@@ -36,69 +36,8 @@ pub fn collapse8(nodes: &[Node]) -> Vec<Node8> {
     collapse_sah::<WIDTH8>(nodes)
 }
 
-/// One ray prepared for the eight-wide slab test: per axis, which of a node's
-/// bound arrays is its entry plane and which its exit plane, and its numbers
-/// splatted.
-#[derive(Clone, Copy)]
-struct Ray8 {
-    near: [usize; 3],
-    far: [usize; 3],
-    inv: [f32x8; 3],
-    org: [f32x8; 3],
-    t_min: f32x8,
-}
-
-impl Ray8 {
-    #[inline(always)]
-    fn new(r: &SingleRay) -> Ray8 {
-        let side = |a: usize| r.neg[a] as usize;
-        Ray8 {
-            near: [0, 1, 2].map(|a| 2 * a + side(a)),
-            far: [0, 1, 2].map(|a| 2 * a + 1 - side(a)),
-            inv: r.inv.map(f32x8::splat),
-            org: r.origin.map(f32x8::splat),
-            t_min: f32x8::splat(r.t_min),
-        }
-    }
-
-    /// Entry and exit distances of the eight children: per lane, the binary
-    /// descent's `entry` (and `segment_enters_node` with `t_min = 0`).
-    #[inline(always)]
-    fn slabs(&self, node: &Node8) -> (f32x8, f32x8) {
-        let plane = |i: usize, a: usize| f32x8::from(node.bounds[i]) * self.inv[a] - self.org[a];
-        let (nx, ny, nz) = (
-            plane(self.near[0], 0),
-            plane(self.near[1], 1),
-            plane(self.near[2], 2),
-        );
-        let (fx, fy, fz) = (
-            plane(self.far[0], 0),
-            plane(self.far[1], 1),
-            plane(self.far[2], 2),
-        );
-        // `fast_max(a, b)` is `maxps(a, b)`: `a > b ? a : b`, i.e. `fmax(a, b)`.
-        let tn = nx.fast_max(ny).fast_max(nz.fast_max(self.t_min));
-        let tf = fx.fast_min(fy).fast_min(fz) * f32x8::splat(ROBUST);
-        (tn, tf)
-    }
-
-    /// The children a ray enters before `best * CULL_SLACK`, as a bit mask,
-    /// and their entry distances.
-    #[inline(always)]
-    fn enter(&self, node: &Node8, best: f32) -> (u32, [f32; WIDTH8]) {
-        let (tn, tf) = self.slabs(node);
-        let bound = f32x8::splat(best * CULL_SLACK);
-        let m = (tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask();
-        (m, tn.to_array())
-    }
-
-    /// The children a segment `0 < t < t_max` enters, as a bit mask.
-    #[inline(always)]
-    fn enters(&self, node: &Node8, t_max: f32) -> u32 {
-        let (tn, tf) = self.slabs(node);
-        tn.simd_le(tf.fast_min(f32x8::splat(t_max))).to_bitmask()
-    }
-}
+// One ray prepared for the eight-wide slab test.
+wide_ray!(Ray8, f32x8, WIDTH8);
 
 impl Bvh {
     /// `closest` with each active lane traced alone on the eight-wide tree
