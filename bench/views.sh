@@ -54,7 +54,7 @@ common=(--size "$size" --samples 1 -q --threads "$threads")
 cpu() { /usr/bin/time -f "%U %S %e" -o "$tmp/time" "$@"; read -r u s e < "$tmp/time"; echo "$e" > "$tmp/wall"; python3 -c "print($u + $s)"; }
 # A render's --stats render_s, and a counter of it.
 render_s() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time']['render_s'])" "$1"; }
-counter() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))[sys.argv[2]])" "$1" "$2"; }
+counter() { python3 -c "import json,sys; print(json.load(open(sys.argv[1])).get(sys.argv[2], 0))" "$1" "$2"; }
 shadow_rays() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['rays']['shadow'])" "$1"; }
 secondary_rays() { python3 -c "import json,sys; r=json.load(open(sys.argv[1]))['rays']; print(r['reflected'] + r['refracted'])" "$1"; }
 
