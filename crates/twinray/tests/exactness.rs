@@ -39,6 +39,22 @@ fn assert_same_pixels(a: &Image, b: &Image, what: &str) {
     }
 }
 
+/// The independent and the twin renders of `rig`, centre sampling.
+fn independent_and_twin(
+    world: &twinray::World,
+    cam: &twinray::rig::Camera,
+    rig: &Rig,
+) -> (twinray::render::RenderOutput, twinray::render::RenderOutput) {
+    let reference = run(
+        world,
+        cam,
+        rig,
+        &options(Method::Independent, Sampling::Centers),
+    );
+    let twin = run(world, cam, rig, &options(Method::Twin, Sampling::Centers));
+    (reference, twin)
+}
+
 fn check_scene(name: &str, width: u32, height: u32, interaxials: &[f32], sampling: Sampling) {
     let world = world(name);
     let cam = camera(&world, width, height);
@@ -120,18 +136,7 @@ fn multi_view_twin_equals_independent() {
     let cam = camera(&world, 64, 48);
     for count in [3, 5, 8] {
         let rig = Rig::multi_view(&cam, count, 0.12, Some(default_convergence(&world))).unwrap();
-        let reference = run(
-            &world,
-            &cam,
-            &rig,
-            &options(Method::Independent, Sampling::Centers),
-        );
-        let twin = run(
-            &world,
-            &cam,
-            &rig,
-            &options(Method::Twin, Sampling::Centers),
-        );
+        let (reference, twin) = independent_and_twin(&world, &cam, &rig);
         for v in 0..count {
             assert_same_pixels(
                 &reference.images[v],
@@ -230,18 +235,7 @@ fn thin_far_branches_twin_equals_independent() {
     let world = twinray::World::new(scene);
     let cam = camera(&world, 160, 160);
     let rig = Rig::multi_view(&cam, 8, 0.02, Some(18.0)).unwrap();
-    let reference = run(
-        &world,
-        &cam,
-        &rig,
-        &options(Method::Independent, Sampling::Centers),
-    );
-    let twin = run(
-        &world,
-        &cam,
-        &rig,
-        &options(Method::Twin, Sampling::Centers),
-    );
+    let (reference, twin) = independent_and_twin(&world, &cam, &rig);
     for v in 0..8 {
         assert_same_pixels(
             &reference.images[v],
