@@ -422,32 +422,6 @@ fn eight_wide_nodes_cut_the_inner_nodes_an_eye_ray_visits() {
     );
 }
 
-/// The eight-wide tree, like the binary and four-wide ones, is the same
-/// whatever the number of build threads.
-#[test]
-fn the_eight_wide_tree_is_the_same_on_one_two_and_five_threads() {
-    let (shapes, _) = mesh(240);
-    let boxes: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
-    assert!(
-        boxes.len() > 100_000,
-        "large enough to bin on several threads"
-    );
-    let on = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("thread pool");
-        pool.install(|| build(&boxes, &BuildOptions::triangle_blocks()))
-    };
-    let one = on(1);
-    assert!(one.wide8.len() > 1000);
-    for threads in [2, 5] {
-        let other = on(threads);
-        assert_eq!(other.nodes, one.nodes, "{threads} threads");
-        assert_eq!(other.wide8, one.wide8, "{threads} threads");
-    }
-}
-
 #[test]
 fn nearest_child_first_stops_a_ray_at_the_first_of_a_row() {
     // 256 spheres in a row along z; a ray down the row hits the first. Nearest

@@ -356,8 +356,9 @@ mod tests {
         );
     }
 
-    /// The tree is the same whatever the number of threads: the images do
-    /// not depend on it (ties go to the lower index of a leaf order).
+    /// The tree (binary, four- and eight-wide) is the same whatever the
+    /// number of threads: the images do not depend on it (ties go to the
+    /// lower index of a leaf order).
     #[test]
     fn the_tree_is_the_same_on_one_two_and_five_threads() {
         let shapes = terrain(240);
@@ -374,11 +375,13 @@ mod tests {
             pool.install(|| build(&boxes, &BuildOptions::triangle_blocks()))
         };
         let one = on(1);
+        assert!(one.wide8.len() > 1000);
         for threads in [2, 5] {
             let other = on(threads);
             assert_eq!(other.nodes, one.nodes, "{threads} threads");
             assert_eq!(other.order, one.order, "{threads} threads");
             assert_eq!(other.wide, one.wide, "{threads} threads");
+            assert_eq!(other.wide8, one.wide8, "{threads} threads");
         }
     }
 }
