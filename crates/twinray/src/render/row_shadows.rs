@@ -113,13 +113,7 @@ impl<'a> RowShadowPass<'a> {
         if world.far.is_some() || rig.views.len() < min_run || lights.is_empty() {
             return None;
         }
-        let mut order: Vec<(usize, f32, i32)> = rig
-            .views
-            .iter()
-            .enumerate()
-            .map(|(v, view)| (v, view.offset, view.shift))
-            .collect();
-        order.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let order = rig.views_by_offset();
         Some(RowShadowPass {
             world,
             camera,

@@ -84,13 +84,7 @@ impl<'a> StripEyePass<'a> {
         if world.far.is_some() || world.has_alpha || rig.views.len() < 2 {
             return None;
         }
-        let mut views: Vec<(usize, f32, i32)> = rig
-            .views
-            .iter()
-            .enumerate()
-            .map(|(v, view)| (v, view.offset, view.shift))
-            .collect();
-        views.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let views = rig.views_by_offset();
         let bounds = world.bvh.bounds();
         let scene_scale = bounds.min.abs().max(bounds.max.abs()).max_element();
         let origins: Vec<Vec3> = rig.views.iter().map(|v| camera.eye_at(v.offset)).collect();

@@ -41,6 +41,19 @@ pub struct Rig {
 }
 
 impl Rig {
+    /// The views as (index, offset, shift), by ascending offset: their order
+    /// along the camera line, which the row passes of many views walk.
+    pub fn views_by_offset(&self) -> Vec<(usize, f32, i32)> {
+        let mut order: Vec<(usize, f32, i32)> = self
+            .views
+            .iter()
+            .enumerate()
+            .map(|(v, view)| (v, view.offset, view.shift))
+            .collect();
+        order.sort_by(|a, b| a.1.total_cmp(&b.1));
+        order
+    }
+
     pub fn mono() -> Rig {
         Rig {
             views: vec![View {
