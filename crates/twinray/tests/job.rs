@@ -6,7 +6,7 @@ mod common;
 
 use std::sync::Arc;
 
-use twinray::job::{CancelToken, Job, JobSpec, Level};
+use twinray::job::{CancelToken, Job, JobSpec, Level, MethodSpec};
 
 fn pair(interaxial: &str) -> JobSpec {
     let mut spec = JobSpec::new(common::scene_path("example.nff"), "unused.png");
@@ -132,4 +132,25 @@ fn key_spacing_without_shared_shading_is_said_to_do_nothing() {
         .messages()
         .iter()
         .any(|m| m.text.contains("--key-spacing")));
+}
+
+/// `--eye-runs` and `--shadow-fans` share work between the twin method's
+/// views: with `--method independent` each says it does nothing.
+#[test]
+fn view_sharing_flags_with_independent_renders_are_said_to_do_nothing() {
+    for flag in ["--eye-runs", "--shadow-fans"] {
+        let warned = |method: MethodSpec| {
+            let mut spec = pair("0.1");
+            spec.rig.method = method;
+            spec.rig.eye_runs = flag == "--eye-runs";
+            spec.rig.shadow_fans = flag == "--shadow-fans";
+            Job::check(spec)
+                .unwrap()
+                .messages()
+                .iter()
+                .any(|m| m.level == Level::Warning && m.text.contains(flag))
+        };
+        assert!(warned(MethodSpec::Independent), "{flag}");
+        assert!(!warned(MethodSpec::Twin), "{flag}");
+    }
 }

@@ -240,6 +240,18 @@ impl Job {
                 "--key-spacing does nothing without --share-shading (or --fast): key views are part of the shared shading",
             ));
         }
+        if spec.rig.method == MethodSpec::Independent {
+            for (flag, on) in [
+                ("--eye-runs", spec.rig.eye_runs),
+                ("--shadow-fans", spec.rig.shadow_fans),
+            ] {
+                if on {
+                    messages.push(Message::warning(format!(
+                        "{flag} does nothing with --method independent: it shares work between the twin method's views"
+                    )));
+                }
+            }
+        }
         if let Some(bg) = spec.studio.background {
             if !bg.iter().all(|v| v.is_finite() && *v >= 0.0) {
                 return Err(invalid(format!(
