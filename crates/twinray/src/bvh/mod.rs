@@ -14,6 +14,7 @@ mod build;
 mod leaf;
 mod run;
 mod splice;
+mod stack_bound;
 mod strip;
 mod traverse;
 mod wedge;
@@ -23,6 +24,7 @@ mod wide8;
 pub use build::{primitive_box, BuildOptions, PAD};
 pub use run::{ray_reaches, RunRegion, RunStats, FILL_REACH, RUN_REACH};
 pub use splice::{splice, Placed};
+pub use stack_bound::stack_need;
 pub use strip::{Cover, Family, FamilyTest, Interval, StripScratch, StripStats, FAMILY_EPS};
 pub use traverse::{
     segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
@@ -95,6 +97,7 @@ pub struct Bvh {
 pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     let mut bvh = build::build(boxes, opts);
     bvh.wide8 = collapse8(&bvh.nodes);
+    bvh.drop_trees_beyond_stack();
     bvh
 }
 

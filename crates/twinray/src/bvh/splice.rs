@@ -120,13 +120,15 @@ pub fn splice(parts: &[Placed]) -> Bvh {
     }
     let wide = collapse(&nodes);
     let wide8 = collapse8(&nodes);
-    Bvh {
+    let mut bvh = Bvh {
         nodes,
         order,
         wide,
         wide8,
         ..Bvh::default()
-    }
+    };
+    bvh.drop_trees_beyond_stack();
+    bvh
 }
 
 #[cfg(test)]
