@@ -1,6 +1,8 @@
 //! The leaf tests of every descent, binary or four-wide, nearest or any hit,
 //! a lane alone or in a packet: a leaf's primitives one by one, or its
-//! triangles as SIMD blocks (`shapes::Triangle4`) where the tree holds them.
+//! triangles as SIMD blocks (`shapes::Triangle4`) where the tree holds them;
+//! a ray alone meets a leaf's blocks two at a time in one eight-wide test
+//! (`Triangle4::intersect_two`) where its test takes them so.
 //!
 //! A leaf of triangles in a tree built for blocks (`BuildOptions::block`)
 //! starts at a slot that is a multiple of `BLOCK`, so its blocks are found
