@@ -76,6 +76,17 @@ impl<const K: usize> NearestTest for Nearest<'_, K> {
     }
 
     #[inline(always)]
+    fn test_two_blocks(
+        &mut self,
+        blocks: &[Triangle4; 2],
+        lane: usize,
+        t_max: f32,
+    ) -> Option<[BlockHits; 2]> {
+        self.blocks
+            .then(|| Triangle4::intersect_two(blocks, &self.rays[lane], 0.0, t_max))
+    }
+
+    #[inline(always)]
     fn test_block_pair(&mut self, block: &Triangle4, t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
         self.blocks
             .then(|| block.intersect_pair(&[self.rays[0], self.rays[1 % K]], 0.0, t_max))

@@ -119,6 +119,21 @@ pub trait NearestTest {
         None
     }
 
+    /// Lane `lane` against two blocks of a leaf at once
+    /// (`Triangle4::intersect_two`): what two calls of `test_block` return.
+    #[inline(always)]
+    fn test_two_blocks(
+        &mut self,
+        blocks: &[Triangle4; 2],
+        lane: usize,
+        t_max: f32,
+    ) -> Option<[BlockHits; 2]> {
+        Some([
+            self.test_block(&blocks[0], lane, t_max)?,
+            self.test_block(&blocks[1], lane, t_max)?,
+        ])
+    }
+
     /// Lanes 0 and 1 against a block at once: what two calls of `test_block`
     /// return.
     #[inline(always)]

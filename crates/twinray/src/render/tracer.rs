@@ -908,6 +908,22 @@ impl<const K: usize> NearestTest for NearestShape<'_, K> {
     }
 
     #[inline(always)]
+    fn test_two_blocks(
+        &mut self,
+        blocks: &[Triangle4; 2],
+        lane: usize,
+        t_max: f32,
+    ) -> Option<[BlockHits; 2]> {
+        let ray = self.ray(lane);
+        Some(Triangle4::intersect_two(
+            blocks,
+            &ray,
+            self.packet.t_min,
+            t_max,
+        ))
+    }
+
+    #[inline(always)]
     fn test_block_pair(&mut self, block: &Triangle4, t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
         let rays = [self.ray(0), self.ray(1 % K)];
         Some(block.intersect_pair(&rays, self.packet.t_min, t_max))

@@ -128,18 +128,61 @@ impl Triangle4 {
         let hi = each(t_max[0], t_max[1]);
         let mask = kept_lanes!(f32x8, found, f32x8::splat(t_min), hi);
         let [_, u, v, t] = found;
-        let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
-        let half = |h: usize| {
-            let at = |a: &[f32; 8]| [a[4 * h], a[4 * h + 1], a[4 * h + 2], a[4 * h + 3]];
-            BlockHits {
-                mask: (mask >> (BLOCK * h)) & 0xf,
-                t: at(&t),
-                u: at(&u),
-                v: at(&v),
-            }
-        };
-        [half(0), half(1)]
+        halves(mask, t.to_array(), u.to_array(), v.to_array())
     }
+}
+
+impl Triangle4 {
+    /// `intersect` of two blocks at once (a leaf of five to eight
+    /// triangles, its blocks side by side) in one eight-wide register:
+    /// lanes 0-3 `blocks[0]`'s triangles, 4-7 `blocks[1]`'s; per lane the
+    /// same operations as `intersect`, so each half is bit for bit what
+    /// `intersect` gives that block. One register test instead of two: the
+    /// leaf half of an eye ray's work on `--samples 1` renders
+    /// (docs/benchmarks.md, "Issue 17, fifth pass").
+    #[inline(always)]
+    pub fn intersect_two(
+        blocks: &[Triangle4; 2],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> [BlockHits; 2] {
+        let both = |a: f32x4, b: f32x4| {
+            let (a, b) = (a.to_array(), b.to_array());
+            f32x8::from([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]])
+        };
+        let [p, q] = blocks;
+        let join = |a: &[f32x4; 3], b: &[f32x4; 3]| [0, 1, 2].map(|c| both(a[c], b[c]));
+        let tri = [
+            join(&p.v0, &q.v0),
+            join(&p.e1, &q.e1),
+            join(&p.e2, &q.e2),
+            join(&p.n, &q.n),
+        ];
+        let sp = f32x8::splat;
+        let dir = [ray.dir.x, ray.dir.y, ray.dir.z].map(sp);
+        let org = [ray.origin.x, ray.origin.y, ray.origin.z].map(sp);
+        let found = intersect_lanes(dir, org, tri, f32x8::ONE);
+        let mask = kept_lanes!(f32x8, found, sp(t_min), sp(t_max));
+        let [_, u, v, t] = found;
+        halves(mask, t.to_array(), u.to_array(), v.to_array())
+    }
+}
+
+/// An eight-lane answer (`mask`, `t`, `u`, `v`) as two blocks' answers:
+/// lanes 0-3 the first, 4-7 the second.
+#[inline(always)]
+fn halves(mask: u32, t: [f32; 8], u: [f32; 8], v: [f32; 8]) -> [BlockHits; 2] {
+    let half = |h: usize| {
+        let at = |a: &[f32; 8]| [a[4 * h], a[4 * h + 1], a[4 * h + 2], a[4 * h + 3]];
+        BlockHits {
+            mask: (mask >> (BLOCK * h)) & 0xf,
+            t: at(&t),
+            u: at(&u),
+            v: at(&v),
+        }
+    };
+    [half(0), half(1)]
 }
 
 /// A hierarchy's leaves of triangles as blocks, indexed by slot: block `k`
@@ -350,6 +393,68 @@ mod tests {
             }
         }
         assert!(hits > 1000, "{hits}");
+    }
+
+    /// The two-block test gives each block what `intersect` gives it, bit
+    /// for bit, whichever lanes of either block are in use and wherever the
+    /// ray meets them (vertices, shared edges, edge-on, degenerate lanes).
+    #[test]
+    fn the_two_block_test_is_two_block_tests() {
+        let mut g = fastrand::Rng::with_seed(31);
+        let (mut hits, mut second) = (0, 0);
+        for round in 0..3000 {
+            let (a, b, c) = (vec(&mut g, 4.0), vec(&mut g, 4.0), vec(&mut g, 4.0));
+            let d = vec(&mut g, 4.0);
+            let tris = [
+                tri(a, b, c),
+                tri(c, b, d),
+                tri(a, a, a),
+                tri(a + Vec3::Z, b + Vec3::Z, c + Vec3::Z),
+                tri(d, a, c),
+                tri(b, c, c + Vec3::X),
+                tri(a, b, a + (b - a) * 0.5),
+                tri(a - Vec3::Z, c - Vec3::Z, d - Vec3::Z),
+            ];
+            // Five to eight triangles: the first block full, the second not always.
+            let n = 5 + round % 4;
+            let refs: Vec<&Triangle> = tris[..n].iter().collect();
+            let blocks = [
+                Triangle4::new(&refs[..BLOCK]),
+                Triangle4::new(&refs[BLOCK..]),
+            ];
+            let target = match round % 5 {
+                0 => [a, d, c, b][round % 4],
+                1 => b + (c - b) * g.f32(),
+                2 => (a + c) * 0.5,
+                3 => (a + b + c) / 3.0 - Vec3::Z,
+                _ => vec(&mut g, 4.0),
+            };
+            let origin = if round % 7 == 0 {
+                a + (b - a) * 3.0 + (c - a) * -2.0
+            } else {
+                vec(&mut g, 30.0)
+            };
+            let ray = Ray::new(origin, (target - origin).normalize_or(Vec3::Z));
+            let t_max = [f32::INFINITY, g.f32() * 30.0][round % 2];
+            let two = Triangle4::intersect_two(&blocks, &ray, 1e-4, t_max);
+            for (k, block) in blocks.iter().enumerate() {
+                let one = block.intersect(&ray, 1e-4, t_max);
+                assert_eq!(two[k].mask, one.mask, "round {round}, block {k}");
+                for i in 0..BLOCK {
+                    if one.mask & (1 << i) != 0 {
+                        let bits =
+                            |h: &BlockHits| [h.t[i].to_bits(), h.u[i].to_bits(), h.v[i].to_bits()];
+                        assert_eq!(bits(&two[k]), bits(&one), "round {round}, block {k}");
+                        hits += 1;
+                        second += k;
+                    }
+                }
+            }
+        }
+        assert!(
+            hits > 1500 && second > 500,
+            "{hits} hits, {second} in the second block"
+        );
     }
 
     #[test]
