@@ -73,6 +73,7 @@ impl Transmittance {
         AnyHit::Continue
     }
 
+    #[inline]
     pub fn value(&self) -> f32 {
         fn sorted_product(f: &mut [f32]) -> f32 {
             f.sort_unstable_by(f32::total_cmp);

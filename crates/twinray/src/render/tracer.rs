@@ -652,6 +652,7 @@ impl<'a> Tracer<'a> {
     /// nothing: what their rays would return, leaving the cache as it is),
     /// the shadow cache's opaque object first, then one packet traversal for
     /// the rest.
+    #[inline(always)]
     fn light_transmittance<const K: usize>(
         &mut self,
         i: usize,
