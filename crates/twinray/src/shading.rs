@@ -73,13 +73,19 @@ impl Transmittance {
         AnyHit::Continue
     }
 
+    #[inline]
     pub fn value(&self) -> f32 {
         fn sorted_product(f: &mut [f32]) -> f32 {
             f.sort_unstable_by(f32::total_cmp);
             f.iter().product()
         }
+        // No factor, or one: the product needs no copy and no sort (1 · t is
+        // t, bit for bit). These are the common cases: a lit segment, a
+        // segment through one glass object.
         if self.opaque {
             0.0
+        } else if self.inline.len() <= 1 {
+            self.inline.first().copied().unwrap_or(1.0)
         } else if self.spilled.is_empty() {
             sorted_product(&mut self.inline.clone())
         } else {
@@ -324,6 +330,17 @@ mod tests {
         assert_eq!(t.meet(0.0), AnyHit::Stop);
         assert_eq!(t.value(), 0.0);
         assert_eq!(Transmittance::default().value(), 1.0);
+        // One factor, or two, in either order: the value is their product.
+        let mut one = Transmittance::default();
+        one.meet(0.37);
+        assert_eq!(one.value().to_bits(), 0.37f32.to_bits());
+        for pair in [[0.3f32, 0.7], [0.7, 0.3]] {
+            let mut two = Transmittance::default();
+            for t in pair {
+                assert_eq!(two.meet(t), AnyHit::Continue);
+            }
+            assert_eq!(two.value().to_bits(), (0.3f32 * 0.7).to_bits());
+        }
     }
 
     #[test]

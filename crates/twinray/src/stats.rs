@@ -91,6 +91,10 @@ pub struct TraceCounts {
     /// `--shadow-fans`: eye hits' shadow rays not traced, their run's fan
     /// toward the light proved free (`rays.shadow` counts the rays traced).
     pub shadow_rays_proved: u64,
+    /// Shadow rays that first tested the shadow cache's blocker, and of those
+    /// the ones it blocked (no traversal).
+    pub shadow_cache_tests: u64,
+    pub shadow_cache_hits: u64,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -149,6 +153,8 @@ impl TraceCounts {
         self.fan_free += o.fan_free;
         self.runs.add(&o.runs);
         self.shadow_rays_proved += o.shadow_rays_proved;
+        self.shadow_cache_tests += o.shadow_cache_tests;
+        self.shadow_cache_hits += o.shadow_cache_hits;
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -274,6 +280,9 @@ pub struct Report {
     pub strip: StripStats,
     /// `--eye-runs`: see `TraceCounts::runs`.
     pub eye_runs: RunStats,
+    /// See `TraceCounts::shadow_cache_tests`.
+    pub shadow_cache_tests: u64,
+    pub shadow_cache_hits: u64,
 }
 
 impl Report {
@@ -318,6 +327,8 @@ impl Report {
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
         self.primitive_tests = c.prim_tests;
+        self.shadow_cache_tests = c.shadow_cache_tests;
+        self.shadow_cache_hits = c.shadow_cache_hits;
     }
 
     pub fn to_json(&self) -> String {

@@ -54,8 +54,13 @@ pub struct Tracer<'a> {
     pub settings: TraceSettings,
     pub counts: TraceCounts,
     traversal: TraversalStats,
-    /// Per light and lane, the opaque primitive that last blocked a shadow ray
-    /// toward the light (index `light * MAX_LANES + lane`).
+    /// Per ray level, light and lane, the opaque primitive that blocked the
+    /// last traced shadow ray toward the light from a hit of that level,
+    /// `None` if nothing opaque did (index `cache_slot`). One slot per level:
+    /// consecutive eye hits are near each other, and so are their reflections,
+    /// but an eye hit and its reflection's hit are not. A lit segment clears
+    /// its slot: a stale blocker would be tested in vain by the next segments
+    /// (docs/decisions.md).
     shadow_cache: Vec<Option<u32>>,
     /// `--share-shading`: the current row's cache, shared by its batches of
     /// views (a tracer serves one task, whose rows are traced in order).
@@ -117,6 +122,9 @@ struct Surfaces<'a, const K: usize> {
     passed: [Option<Spawn>; K],
 }
 
+/// Ray levels with shadow cache slots of their own (`Tracer::shadow_cache`).
+const CACHED_LEVELS: usize = 8;
+
 /// A ray goes on past at most this many cut-away hits, then stops at the last.
 pub(crate) const MAX_CUTOUT_LAYERS: u32 = 64;
 
@@ -170,7 +178,7 @@ impl<'a> Tracer<'a> {
             settings,
             counts: TraceCounts::default(),
             traversal: TraversalStats::default(),
-            shadow_cache: vec![None; world.scene.lights.len() * super::MAX_LANES],
+            shadow_cache: vec![None; CACHED_LEVELS * world.scene.lights.len() * super::MAX_LANES],
             shading_cache: Default::default(),
             row_shadows: Default::default(),
             lean_surfaces: true,
@@ -435,7 +443,7 @@ impl<'a> Tracer<'a> {
         let (through, secondary) = record.unzip();
         let surfaces = self.surfaces(packet, hits, level, weights, tree);
         let mut out = surfaces.ambient;
-        self.direct_light(packet, &surfaces, &mut out, through, level == 1);
+        self.direct_light(packet, &surfaces, &mut out, through, level);
         if level == 1 {
             self.row_shadows.done();
         }
@@ -580,13 +588,19 @@ impl<'a> Tracer<'a> {
         s: &Surfaces<'a, K>,
         out: &mut [Color; K],
         mut record: Option<&mut [f32]>,
-        eye: bool,
+        level: u32,
     ) {
+        let eye = level == 1;
         if s.lit == 0 {
             return;
         }
         let world = self.world;
         let scene = &world.scene;
+        // Every light's shadow segment of a lane starts at one point.
+        let origins: [Vec3; K] = std::array::from_fn(|l| match &s.points[l] {
+            Some(sp) if s.lit & (1 << l) != 0 => offset_point(sp.point, sp.offset_normal, sp.t),
+            _ => Vec3::ZERO,
+        });
         for (i, light) in scene.lights.iter().enumerate() {
             let mut seg = SegmentPacket {
                 origins: [Vec3::ZERO; K],
@@ -602,7 +616,7 @@ impl<'a> Tracer<'a> {
                 let Some(sp) = &s.points[l] else { continue };
                 if let Some((dir, dist, color)) = toward_light(sp, light) {
                     light_color[l] = color;
-                    seg.origins[l] = offset_point(sp.point, sp.offset_normal, sp.t);
+                    seg.origins[l] = origins[l];
                     seg.dirs[l] = dir;
                     seg.t_max[l] = dist;
                     seg.mask |= 1 << l;
@@ -612,7 +626,7 @@ impl<'a> Tracer<'a> {
                 continue;
             }
             let proved = if eye { self.row_shadows.lanes(i) } else { 0 };
-            let through = self.light_transmittance(i, &mut seg, proved);
+            let through = self.light_transmittance(i, level, &mut seg, proved);
             if let Some(r) = record.as_deref_mut() {
                 r[i] = if seg.mask & 1 != 0 { through[0] } else { 0.0 };
             }
@@ -638,9 +652,11 @@ impl<'a> Tracer<'a> {
     /// nothing: what their rays would return, leaving the cache as it is),
     /// the shadow cache's opaque object first, then one packet traversal for
     /// the rest.
+    #[inline(always)]
     fn light_transmittance<const K: usize>(
         &mut self,
         i: usize,
+        level: u32,
         seg: &mut SegmentPacket<K>,
         proved: u32,
     ) -> [f32; K] {
@@ -651,16 +667,14 @@ impl<'a> Tracer<'a> {
         self.counts.shadow_rays_proved += proved.count_ones() as u64;
         self.counts.rays.shadow += seg.mask.count_ones() as u64;
         let mut through = [1.0f32; K];
+        let slots = self.cache_slot(level, i);
         let mut lanes = seg.mask;
         while lanes != 0 {
             let l = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;
-            let cached = self
-                .shadow_cache
-                .get(i * super::MAX_LANES + l)
-                .copied()
-                .flatten();
+            let cached = self.shadow_cache.get(slots + l).copied().flatten();
             if let Some(prim) = cached {
+                self.counts.shadow_cache_tests += 1;
                 // Trusted only where the traversal would find it too: it tests a
                 // primitive only if the segment enters its box, and a primitive's
                 // test can report a hit outside its box where its arithmetic
@@ -672,6 +686,7 @@ impl<'a> Tracer<'a> {
                     && segment_enters(&primitive_box(&shape.bounds()), o, d, t)
                 {
                     through[l] = 0.0;
+                    self.counts.shadow_cache_hits += 1;
                     seg.mask &= !(1 << l);
                 }
             }
@@ -684,15 +699,21 @@ impl<'a> Tracer<'a> {
                 let l = lanes.trailing_zeros() as usize;
                 lanes &= lanes - 1;
                 through[l] = found[l];
-                if let Some(b) = blocker[l] {
-                    if let Some(slot) = self.shadow_cache.get_mut(i * super::MAX_LANES + l) {
-                        *slot = Some(b);
-                    }
+                if let Some(slot) = self.shadow_cache.get_mut(slots + l) {
+                    *slot = blocker[l];
                 }
             }
         }
         seg.mask = with_shadow_ray;
         through
+    }
+
+    /// The shadow cache's slot of lane 0 toward light `i` from a hit of ray
+    /// level `level` (levels past `CACHED_LEVELS` share the last).
+    #[inline]
+    fn cache_slot(&self, level: u32, i: usize) -> usize {
+        let level = (level.max(1) as usize).min(CACHED_LEVELS) - 1;
+        (level * self.world.scene.lights.len() + i) * super::MAX_LANES
     }
 
     /// Stage 3: the reflected, then the refracted rays, each kind as one packet,
@@ -1060,6 +1081,61 @@ mod tests {
         packets_equal_single_lanes::<4>(&w, 2, 300);
         packets_equal_single_lanes::<8>(&w, 3, 150);
         packets_equal_single_lanes::<32>(&w, 4, 40);
+    }
+
+    /// The shadow cache: per ray level, the blocker of the last traced
+    /// segment. A shadowed segment sets it, the next segments near it take it
+    /// without a traversal, a lit segment clears it (a stale blocker would be
+    /// tested in vain), and a segment from another level leaves it alone.
+    #[test]
+    fn the_shadow_cache_keeps_the_last_blocker_of_each_ray_level() {
+        let w = world(
+            "v\nfrom 0 0 10\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0.01\nresolution 8 8\n\
+             l 0 0 8\nf 1 1 1 1 0 1 0 1\np 4\n-5 -5 0\n5 -5 0\n5 5 0\n-5 5 0\n\
+             s 0 0 2 0.5\n",
+        );
+        let sphere = w
+            .scene
+            .shapes
+            .iter()
+            .position(|s| matches!(s, Shape::Sphere(_)))
+            .map(|i| i as u32);
+        assert!(sphere.is_some());
+        // From the floor at (x, 0) to the light: under the sphere for small x.
+        let toward_light = |x: f32| {
+            let origin = Vec3::new(x, 0.0, 1e-3);
+            let to = Vec3::new(0.0, 0.0, 8.0) - origin;
+            SegmentPacket {
+                origins: [origin],
+                dirs: [to.normalize()],
+                t_max: [to.length()],
+                mask: 1,
+            }
+        };
+        let mut tracer = Tracer::new(&w, TraceSettings::default());
+        // (x, level, transmittance, cache tests and hits after, level 1's slot after)
+        let steps = [
+            (0.0, 1, 0.0, 0, 0, sphere),
+            (0.05, 1, 0.0, 1, 1, sphere),
+            (3.0, 2, 1.0, 1, 1, sphere),
+            (-0.05, 1, 0.0, 2, 2, sphere),
+            (3.0, 1, 1.0, 3, 2, None),
+            (-3.0, 1, 1.0, 3, 2, None),
+        ];
+        for (x, level, through, tests, hits, slot) in steps {
+            let mut seg = toward_light(x);
+            let found = tracer.light_transmittance(0, level, &mut seg, 0);
+            let c = &tracer.counts;
+            let what = format!("x = {x}, level {level}");
+            assert_eq!(found[0], through, "{what}");
+            assert_eq!(
+                (c.shadow_cache_tests, c.shadow_cache_hits),
+                (tests, hits),
+                "{what}"
+            );
+            assert_eq!(tracer.shadow_cache[tracer.cache_slot(1, 0)], slot, "{what}");
+        }
+        assert_eq!(tracer.shadow_cache[tracer.cache_slot(2, 0)], None);
     }
 
     #[test]

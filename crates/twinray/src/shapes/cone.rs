@@ -15,6 +15,9 @@ pub struct Cone {
     /// Radius change per unit of height.
     slope: f32,
     pub inside: bool,
+    /// `slope * slope`, computed once: the only factor of a test that does
+    /// not depend on the ray (the same product, so the same bits).
+    slope_squared: f32,
 }
 
 impl Cone {
@@ -33,6 +36,7 @@ impl Cone {
         {
             return None;
         }
+        let slope = (ra - rb) / height;
         Some(Cone {
             base,
             base_radius: rb,
@@ -40,8 +44,9 @@ impl Cone {
             apex_radius: ra,
             axis: d / height,
             height,
-            slope: (ra - rb) / height,
+            slope,
             inside,
+            slope_squared: slope * slope,
         })
     }
 
@@ -65,7 +70,7 @@ impl Cone {
         let dp = ray.dir - w * dw;
         let cp = co - w * cw;
         let r0 = self.base_radius + k * cw;
-        let a = dp.length_squared() - k * k * dw * dw;
+        let a = dp.length_squared() - self.slope_squared * dw * dw;
         let b = cp.dot(dp) - k * dw * r0; // half of the linear coefficient
         let c = cp.length_squared() - r0 * r0;
         // `t` is from the shifted origin; the hit's distance is `shift + t`.
