@@ -12,7 +12,8 @@
 # (--strip), fans (the shared shadows, --shadow-fans), fans-strip (both);
 # their views are compared with the exact ones too (they must be identical).
 # A mode ending in -runs adds the eye runs (--eye-runs): exact-runs,
-# shared-runs. The CSV's eye_pass_s is --stats eye_pass_cpu_s (thread time
+# shared-runs. exact-bK (K = 1, 2, 4, 8, ...): the exact method in batches
+# of K views (--views-per-batch K; its views compared with the exact ones). The CSV's eye_pass_s is --stats eye_pass_cpu_s (thread time
 # of the eye pass, twin method only).
 # ROUNDS (default 1) repeats each scene's measurements, interleaved (mono,
 # then every N and mode, then again), one CSV line per round (column round).
@@ -78,6 +79,7 @@ for scene in "${scenes[@]}"; do
       [[ $mode == fans* ]] && extra=(--shadow-fans)
       [[ $mode == *strip ]] && extra+=(--strip)
       [[ $mode == *-runs ]] && extra+=(--eye-runs)
+      [[ $mode == exact-b* ]] && extra=(--views-per-batch "${mode#exact-b}")
       s=$(cpu "$bin" render "$scene" -o "$tmp/$mode.pfm" "${common[@]}" "${rig[@]}" "${extra[@]}" \
         --stats "$tmp/$mode.json" 2>/dev/null)
       wall=$(cat "$tmp/wall")

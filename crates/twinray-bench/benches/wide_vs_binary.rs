@@ -1,7 +1,7 @@
 //! Side-by-side rays/s of the four-wide and the binary traversal, in one
 //! process, rounds interleaved so that the machine's load hits both alike:
 //!
-//! `cargo bench -p twinray-bench --bench wide_vs_binary -- [--size N] [--rounds R] [--leaves | --pairs | --eight] SCENE.nff ...`
+//! `cargo bench -p twinray-bench --bench wide_vs_binary -- [--size N] [--rounds R] [--leaves | --pairs | --eight | --packets8] SCENE.nff ...`
 //!
 //! Prints per scene and ray kind the median Mrays/s of each over the rounds and
 //! the ratio wide / binary, on 1 thread (per second of this thread's CPU time,
@@ -9,14 +9,19 @@
 //! With `--leaves`: leaves of triangles tested four at a time against one by
 //! one (block / scalar), on each tree. With `--eight`: the four-wide tree
 //! (pairs and packets in one descent, as the renderer traces them on it)
-//! against the eight-wide tree (every ray and segment alone).
+//! against the eight-wide tree (every ray and segment alone). With
+//! `--packets8`: packets (pairs, four and eight views' eye rays, pairs and
+//! fours of shadow segments) on the eight-wide tree, each lane alone (first)
+//! against the lanes in one descent (second); then the binary tree's packet
+//! descent (first) against each lane alone on the eight-wide tree, and the
+//! four-wide tree's (first; shadow pairs take it today) against the same.
 
 use std::path::Path;
 use std::time::Instant;
 
 use twinray_bench::traversal::{
-    pair_work, pairs_pass, quads_pass, rays_pass, shadow_pairs_pass, shadow_pass, work, RaySets,
-    Tree,
+    octs_pass, pair_work, pairs_pass, quads_pass, rays_pass, shadow_pairs_pass, shadow_pass,
+    shadow_quads_pass, work, RaySets, Tree,
 };
 
 /// This thread's time on a CPU, in seconds (Linux: /proc/thread-self/schedstat),
@@ -87,7 +92,22 @@ fn main() {
         }
         None => false,
     };
-    let compared: &[(Tree, Tree)] = if eight {
+    // `--packets8`: packets on the eight-wide tree, each lane alone (first)
+    // against one descent (second), then binary packets against lanes alone.
+    let packets8 = match args.iter().position(|a| a == "--packets8") {
+        Some(i) => {
+            args.remove(i);
+            true
+        }
+        None => false,
+    };
+    let compared: &[(Tree, Tree)] = if packets8 {
+        &[
+            (Tree::Wide8, Tree::Wide8Packet),
+            (Tree::Binary, Tree::Wide8),
+            (Tree::Wide, Tree::Wide8),
+        ]
+    } else if eight {
         &[(Tree::Wide, Tree::Wide8)]
     } else if pairs {
         &[(Tree::WideEach, Tree::Wide), (Tree::Binary, Tree::WideEach)]
@@ -103,7 +123,7 @@ fn main() {
         "{:<10} {:<10} {:>3} {:>11} {:>11} {:>6} agree",
         "scene", "rays", "thr", "first_Mr/s", "second_Mr/s", "ratio"
     );
-    if !pairs {
+    if !pairs && !packets8 {
         build_time();
     }
     for path in &args {
@@ -131,17 +151,20 @@ fn main() {
             println!("{name} {only}: {sum}");
             continue;
         }
-        if pairs {
-            for tree in [Tree::WideEach, Tree::Wide] {
-                let st = pair_work(&sets, tree);
-                let n = 2.0 * sets.pairs.len() as f64;
-                println!(
-                    "{name:<10} pair work, {tree:?}: {:.2} nodes, {:.2} box tests, {:.2} primitive tests per ray",
-                    st.nodes as f64 / n,
-                    st.box_tests as f64 / n,
-                    st.prim_tests as f64 / n
-                );
-            }
+        let pair_trees = match (pairs, packets8) {
+            (true, _) => vec![Tree::WideEach, Tree::Wide],
+            (_, true) => vec![Tree::Wide8, Tree::Wide8Packet],
+            _ => vec![],
+        };
+        for tree in pair_trees {
+            let st = pair_work(&sets, tree);
+            let n = 2.0 * sets.pairs.len() as f64;
+            println!(
+                "{name:<10} pair work, {tree:?}: {:.2} nodes, {:.2} box tests, {:.2} primitive tests per ray",
+                st.nodes as f64 / n,
+                st.box_tests as f64 / n,
+                st.prim_tests as f64 / n
+            );
         }
         for tree in [Tree::Binary, Tree::Wide, Tree::Wide8] {
             let st = work(&sets, &sets.eye, tree);
@@ -154,7 +177,7 @@ fn main() {
             );
         }
         type Run<'a> = Box<dyn Fn(Tree, usize) -> u64 + 'a>;
-        let kinds: [(&str, usize, Run); 6] = [
+        let kinds: [(&str, usize, Run); 8] = [
             (
                 "eye",
                 sets.eye.len(),
@@ -169,6 +192,16 @@ fn main() {
                 "eye quad",
                 4 * sets.quads.len(),
                 Box::new(|t, n| quads_pass(&sets, t, n)),
+            ),
+            (
+                "eye oct",
+                8 * sets.octs.len(),
+                Box::new(|t, n| octs_pass(&sets, t, n)),
+            ),
+            (
+                "shad. quad",
+                4 * sets.shadow_quads.len(),
+                Box::new(|t, n| shadow_quads_pass(&sets, t, n)),
             ),
             (
                 "shadow",
@@ -191,6 +224,12 @@ fn main() {
             for threads in [1, 2] {
                 for (kind, count, run) in &kinds {
                     if pairs && !kind.starts_with("eye ") {
+                        continue;
+                    }
+                    // `--packets8` times packets only; the other modes
+                    // leave out the kinds it adds.
+                    let added = *kind == "eye oct" || *kind == "shad. quad";
+                    if (packets8 && !kind.contains(' ')) || (!packets8 && added) {
                         continue;
                     }
                     if leaves && kind.starts_with("sha") {

@@ -34,6 +34,10 @@ pub enum Tree {
     /// descending it alone (`Bvh::closest_each_wide8`,
     /// `Bvh::occlusion_wide8`), leaves as blocks.
     Wide8,
+    /// The eight-wide tree, a packet's lanes in one descent
+    /// (`Bvh::closest_packet_wide8`, `Bvh::occlusion_packet_wide8`), leaves
+    /// as blocks.
+    Wide8Packet,
 }
 
 impl Tree {
@@ -44,7 +48,7 @@ impl Tree {
     fn blocks(self) -> bool {
         matches!(
             self,
-            Tree::Binary | Tree::Wide | Tree::WideEach | Tree::Wide8
+            Tree::Binary | Tree::Wide | Tree::WideEach | Tree::Wide8 | Tree::Wide8Packet
         )
     }
 }
@@ -118,6 +122,8 @@ fn nearest<const K: usize>(
         bvh.closest_each_wide(&p, st, test)
     } else if tree == Tree::Wide8 {
         bvh.closest_each_wide8(&p, st, test)
+    } else if tree == Tree::Wide8Packet {
+        bvh.closest_packet_wide8(&p, st, test)
     } else if tree.wide() {
         bvh.closest_wide(&p, st, test)
     } else {
@@ -145,6 +151,12 @@ pub struct RaySets {
     /// along the right axis by 2/3, 4/3 and 2 % of the distance to the
     /// target (a four-lane twin packet).
     pub quads: Vec<[Ray; 4]>,
+    /// Eight views likewise, eyes 2/7 % apart: an eight-lane twin packet
+    /// (`--views-per-batch 8`).
+    pub octs: Vec<[Ray; 8]>,
+    /// Shadow segments of the quads whose four rays all hit: the twin
+    /// method's four-lane shadow packets.
+    pub shadow_quads: Vec<[(Vec3, Vec3, f32); 4]>,
 }
 
 impl RaySets {
@@ -162,8 +174,12 @@ impl RaySets {
         let mut eye = Vec::with_capacity(size * size);
         let mut pairs = Vec::with_capacity(size * size);
         let mut quads = Vec::with_capacity(size * size);
+        let mut octs = Vec::with_capacity(size * size);
         let eyes: [Vec3; 4] = std::array::from_fn(|k| {
             vp.from + right * (0.02 * k as f32 / 3.0 * (vp.at - vp.from).length())
+        });
+        let eyes8: [Vec3; 8] = std::array::from_fn(|k| {
+            vp.from + right * (0.02 * k as f32 / 7.0 * (vp.at - vp.from).length())
         });
         for j in 0..size {
             for i in 0..size {
@@ -173,6 +189,7 @@ impl RaySets {
                 eye.push(Ray::new(vp.from, dir));
                 pairs.push([Ray::new(vp.from, dir), Ray::new(eye2, dir)]);
                 quads.push(eyes.map(|e| Ray::new(e, dir)));
+                octs.push(eyes8.map(|e| Ray::new(e, dir)));
             }
         }
         let light = world
@@ -219,6 +236,16 @@ impl RaySets {
                 shadow_pairs.push([s0, s1]);
             }
         }
+        let shadow_quads = quads
+            .iter()
+            .filter_map(|q| {
+                let s: [Option<(Vec3, Vec3, f32)>; 4] =
+                    std::array::from_fn(|k| Some(spawn(&q[k])?.0));
+                s.iter()
+                    .all(Option::is_some)
+                    .then(|| s.map(|x| x.unwrap_or_default()))
+            })
+            .collect();
         Ok(RaySets {
             world,
             eye,
@@ -227,6 +254,8 @@ impl RaySets {
             reflected,
             shadow_pairs,
             quads,
+            octs,
+            shadow_quads,
         })
     }
 }
@@ -301,6 +330,22 @@ pub fn quads_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
     })
 }
 
+/// Nearest hits of the eight-view packets (`RaySets::octs`).
+pub fn octs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
+    let w = &sets.world;
+    pass(&sets.octs, threads, |rays| {
+        let h = nearest(&w.bvh, w, rays, tree, &mut TraversalStats::default());
+        (0..8).fold(0u64, |a, l| a.wrapping_add(checksum(h.prim[l], h.hit[l].t)))
+    })
+}
+
+/// Any-hit of the four-lane shadow packets (`RaySets::shadow_quads`).
+pub fn shadow_quads_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
+    pass(&sets.shadow_quads, threads, |segs| {
+        any_hits(&sets.world, *segs, tree)
+    })
+}
+
 /// Any-hit of the shadow segments, one at a time, stopping at the first blocker.
 pub fn shadow_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
     pass(&sets.shadow, threads, |s| any_hits(&sets.world, [*s], tree))
@@ -333,6 +378,8 @@ fn any_hits<const K: usize>(w: &World, segs: [(Vec3, Vec3, f32); K], tree: Tree)
     let mut st = TraversalStats::default();
     if tree == Tree::Wide8 {
         w.bvh.occlusion_wide8(&p, &mut st, &mut test)
+    } else if tree == Tree::Wide8Packet {
+        w.bvh.occlusion_packet_wide8(&p, &mut st, &mut test)
     } else if tree.wide() {
         w.bvh.occlusion_wide(&p, &mut st, &mut test)
     } else {

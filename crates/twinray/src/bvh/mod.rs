@@ -20,6 +20,7 @@ mod traverse;
 mod wedge;
 mod wide;
 mod wide8;
+mod wide8_packet;
 
 pub use build::{primitive_box, BuildOptions, PAD};
 pub use run::{ray_reaches, RunRegion, RunStats, FILL_REACH, RUN_REACH};
@@ -87,8 +88,9 @@ pub struct Bvh {
     /// The leaves made only of triangles as SIMD blocks, by slot
     /// (`Bvh::attach_blocks`); empty: every leaf is tested one by one.
     pub blocks: LeafBlocks,
-    /// The same tree collapsed eight-wide (`wide8.rs`), which rays traced
-    /// alone use when it is there (pairs and packets use `wide`).
+    /// The same tree collapsed eight-wide (`wide8.rs`), which every lane
+    /// of a nearest-hit packet and every shadow segment but a pair's
+    /// descends alone when it is there (shadow pairs use `wide`).
     pub wide8: Vec<Node8>,
 }
 

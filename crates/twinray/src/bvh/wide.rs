@@ -1,6 +1,6 @@
-//! The four-wide hierarchy (shadow packets traverse it, and stereo pairs in
-//! one descent where there is no eight-wide tree; rays alone and the rays of
-//! a pair take the eight-wide tree, `wide8.rs`): the binary SAH tree
+//! The four-wide hierarchy (a stereo pair's shadow segments traverse it,
+//! and nearest-hit pairs in one descent where there is no eight-wide tree;
+//! every other ray takes the eight-wide tree alone, `wide8.rs`): the binary SAH tree
 //! collapsed so that each node holds up to four children, their boxes in
 //! structure-of-arrays layout, so that one ray meets all four in one SIMD
 //! stream (`wide::f32x4`, SSE on x86-64). Children are visited nearest first.
@@ -400,13 +400,16 @@ struct PacketEntry<const K: usize> {
 }
 
 impl Bvh {
-    /// Nearest hit per lane (see `closest_binary` for the contract). A ray
-    /// alone, and each ray of a stereo pair, descends the eight-wide tree
-    /// when there is one; without it a pair descends the four-wide tree in
-    /// one descent (`closest_pair_wide`); wider packets the binary tree. All
-    /// give the same hits. Measured in docs/benchmarks.md ("Issue 17, third
-    /// pass: nodes and descent" and "fourth pass: eight-wide nodes": two
-    /// eight-wide descents beat the four-wide pair descent).
+    /// Nearest hit per lane (see `closest_binary` for the contract). Every
+    /// active lane of a packet (a ray alone, a stereo pair, the views of a
+    /// batch) descends the eight-wide tree alone when there is one; without
+    /// it a pair descends the four-wide tree in one descent
+    /// (`closest_pair_wide`), wider packets the binary tree. All give the
+    /// same hits. Measured in docs/benchmarks.md ("Issue 17, fourth pass:
+    /// eight-wide nodes": two eight-wide descents beat the four-wide pair
+    /// descent; "Issues 16 and 17, fifth pass": lanes alone beat both the
+    /// binary packets and one eight-wide descent for the packet,
+    /// `closest_packet_wide8`, at K = 2, 4 and 8).
     #[inline]
     pub fn closest<const K: usize>(
         &self,
@@ -416,16 +419,16 @@ impl Bvh {
     ) -> PacketHits<K> {
         if self.wide.is_empty() {
             self.closest_binary(packet, stats, test)
-        } else if K == 2 && packet.mask == 0b11 && self.wide8.is_empty() {
-            self.closest_pair_wide(packet, stats, test)
-        } else if K <= 2 || packet.mask.count_ones() == 1 {
-            if self.wide8.is_empty() {
+        } else if self.wide8.is_empty() {
+            if K == 2 && packet.mask == 0b11 {
+                self.closest_pair_wide(packet, stats, test)
+            } else if K <= 2 || packet.mask.count_ones() == 1 {
                 self.closest_each_wide(packet, stats, test)
             } else {
-                self.closest_each_wide8(packet, stats, test)
+                self.closest_binary(packet, stats, test)
             }
         } else {
-            self.closest_binary(packet, stats, test)
+            self.closest_each_wide8(packet, stats, test)
         }
     }
 
@@ -461,9 +464,11 @@ impl Bvh {
         out
     }
 
-    /// Any-hit per lane (see `occlusion_binary` for the contract), on the
-    /// four-wide tree when there is one: it measured faster for shadow rays
-    /// (docs/benchmarks.md); a segment alone on the eight-wide tree.
+    /// Any-hit per lane (see `occlusion_binary` for the contract): a
+    /// segment alone, and each segment of a packet of three or more, alone
+    /// on the eight-wide tree; a stereo pair's two segments in one `f32x8`
+    /// on the four-wide tree (it measured faster for shadow pairs,
+    /// docs/benchmarks.md "Issue 17, fourth pass").
     pub fn occlusion<const K: usize>(
         &self,
         packet: &SegmentPacket<K>,
@@ -472,7 +477,7 @@ impl Bvh {
     ) {
         if self.wide.is_empty() {
             self.occlusion_binary(packet, stats, test)
-        } else if !self.wide8.is_empty() && (K == 1 || packet.mask.count_ones() == 1) {
+        } else if !self.wide8.is_empty() && (K != 2 || packet.mask.count_ones() == 1) {
             self.occlusion_wide8(packet, stats, test)
         } else {
             self.occlusion_wide(packet, stats, test)

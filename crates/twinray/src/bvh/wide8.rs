@@ -3,9 +3,9 @@
 //! that one ray meets all eight children in one `f32x8` (one AVX register, one
 //! load per plane). Rays traced alone take it: eye rays, secondary rays and
 //! shadow segments of one lane, and each ray of a stereo pair's nearest-hit
-//! packet. Shadow packets keep the four-wide tree (`wide.rs`), nearest-hit
-//! packets of three or more lanes the binary tree; docs/benchmarks.md
-//! ("Issue 17, fourth pass") has the measurements.
+//! packet, and each lane of wider packets (`Bvh::closest`). Shadow pairs keep
+//! the four-wide tree (`wide.rs`); docs/benchmarks.md ("Issue 17, fourth
+//! pass", "Issues 16 and 17, fifth pass") has the measurements.
 //!
 //! Exactness: as in `wide.rs`, a child's slab test is per register lane the
 //! binary descent's, with its arithmetic (the planes picked by the ray's signs,
