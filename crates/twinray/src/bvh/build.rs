@@ -3,6 +3,7 @@
 use super::{Bvh, Node};
 use crate::math::{Aabb, Vec3};
 use crate::shapes::BLOCK;
+use wide::{bytemuck, f32x4, i32x4};
 
 #[derive(Clone, Copy, Debug)]
 pub struct BuildOptions {
@@ -88,14 +89,7 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     let refs: Vec<PrimRef> = boxes
         .par_iter()
         .enumerate()
-        .map(|(i, b)| {
-            let b = primitive_box(b);
-            PrimRef {
-                bounds: b,
-                centroid: b.center(),
-                index: i as u32,
-            }
-        })
+        .map(|(i, b)| PrimRef::new(&primitive_box(b), i as u32))
         .collect();
     let mut refs = refs;
     let tree = build_subtree(&mut refs, opts);
@@ -124,11 +118,93 @@ pub fn primitive_box(b: &Aabb) -> Aabb {
     }
 }
 
+/// A box in two SIMD registers: the minima and the maxima of x, y and z in
+/// lanes 0 to 2. Lane 3 is no part of the box (a `PrimRef` keeps its index
+/// in `hi`'s): unions carry it along and nothing reads it.
+///
+/// Exactness: `union` and `grow` give, lane for lane, `Aabb::union`'s and
+/// `Aabb::grow`'s numbers, NaN and signed zeros included: glam's
+/// `min`/`max` are `if a < b { a } else { b }`, which is what
+/// `minps`/`maxps` compute with the operands in the same order. So the
+/// tree is the one the scalar `Aabb` arithmetic built (`tests/bvh_build.rs`).
 #[derive(Clone, Copy)]
-struct PrimRef {
-    bounds: Aabb,
-    centroid: Vec3,
-    index: u32,
+struct Box4 {
+    lo: f32x4,
+    hi: f32x4,
+}
+
+impl Box4 {
+    const EMPTY: Box4 = Box4 {
+        lo: f32x4::splat(f32::INFINITY),
+        hi: f32x4::splat(f32::NEG_INFINITY),
+    };
+
+    #[inline(always)]
+    fn union(self, o: Box4) -> Box4 {
+        Box4 {
+            lo: self.lo.fast_min(o.lo),
+            hi: self.hi.fast_max(o.hi),
+        }
+    }
+
+    #[inline(always)]
+    fn grow(self, p: f32x4) -> Box4 {
+        Box4 {
+            lo: self.lo.fast_min(p),
+            hi: self.hi.fast_max(p),
+        }
+    }
+
+    fn aabb(self) -> Aabb {
+        let (lo, hi) = (self.lo.to_array(), self.hi.to_array());
+        Aabb {
+            min: Vec3::new(lo[0], lo[1], lo[2]),
+            max: Vec3::new(hi[0], hi[1], hi[2]),
+        }
+    }
+
+    #[inline(always)]
+    fn half_area(self) -> f32 {
+        self.aabb().half_area()
+    }
+}
+
+/// Lanes 0 to 2 of a register, lane 3 cleared.
+const XYZ: f32x4 = f32x4::new([
+    f32::from_bits(u32::MAX),
+    f32::from_bits(u32::MAX),
+    f32::from_bits(u32::MAX),
+    0.0,
+]);
+
+/// A primitive's padded box (32 bytes: half a cache line), its index in the
+/// fourth lane of `hi`.
+#[derive(Clone, Copy)]
+struct PrimRef(Box4);
+
+impl PrimRef {
+    fn new(b: &Aabb, index: u32) -> PrimRef {
+        PrimRef(Box4 {
+            lo: f32x4::new([b.min.x, b.min.y, b.min.z, 0.0]),
+            hi: f32x4::new([b.max.x, b.max.y, b.max.z, f32::from_bits(index)]),
+        })
+    }
+
+    #[inline(always)]
+    fn bounds(&self) -> Box4 {
+        self.0
+    }
+
+    /// `Aabb::center` of the box, lane for lane (lane 3: 0).
+    #[inline(always)]
+    fn centroid(&self) -> f32x4 {
+        (self.0.lo + (self.0.hi & XYZ)) * f32x4::splat(0.5)
+    }
+
+    #[inline(always)]
+    fn index(&self) -> u32 {
+        bytemuck::cast::<f32x4, [u32; 4]>(self.0.hi)[3]
+    }
 }
 
 /// The tree as built, before it is laid out flat.
@@ -175,10 +251,11 @@ fn build_range(
     refs: &mut [PrimRef],
     offset: usize,
     depth: usize,
-    known: Option<(Aabb, Aabb)>,
+    known: Option<(Box4, Box4)>,
     opts: &BuildOptions,
 ) -> BuildNode {
-    let (bounds, centroid_bounds) = known.unwrap_or_else(|| bounds_of(refs));
+    let (bounds4, centroid_bounds) = known.unwrap_or_else(|| bounds_of(refs));
+    let bounds = bounds4.aabb();
     let leaf = || BuildNode::Leaf {
         bounds,
         first: offset,
@@ -202,8 +279,8 @@ fn build_range(
     if split.cost >= leaf_cost && refs.len() <= opts.max_leaf {
         return leaf();
     }
-    let (mid, sides) = partition(refs, |r| {
-        split.binning.bin(r.centroid[split.axis], split.axis) < split.bin
+    let (mid, sides) = partition(refs, |c| {
+        split.binning.bins(c)[split.axis] < split.bin as i32
     });
     if mid == 0 || mid == refs.len() {
         return median_split(refs, offset, depth, bounds, &centroid_bounds, opts);
@@ -222,16 +299,16 @@ fn build_range(
 
 /// The union of the boxes of `refs` and the bounds of their centroids, in
 /// one pass (on several threads for large nodes).
-fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
+fn bounds_of(refs: &[PrimRef]) -> (Box4, Box4) {
     let fold = |c: &[PrimRef]| {
-        c.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, cb), r| {
-            (b.union(r.bounds), cb.grow(r.centroid))
+        c.iter().fold((Box4::EMPTY, Box4::EMPTY), |(b, cb), r| {
+            (b.union(r.bounds()), cb.grow(r.centroid()))
         })
     };
     if refs.len() > PARALLEL_BINNING {
         use rayon::prelude::*;
         refs.par_chunks(PARALLEL_BINNING / 4).map(fold).reduce(
-            || (Aabb::EMPTY, Aabb::EMPTY),
+            || (Box4::EMPTY, Box4::EMPTY),
             |a, b| (a.0.union(b.0), a.1.union(b.1)),
         )
     } else {
@@ -247,7 +324,7 @@ fn split_and_recurse(
     offset: usize,
     depth: usize,
     mid: usize,
-    sides: Option<[(Aabb, Aabb); 2]>,
+    sides: Option<[(Box4, Box4); 2]>,
     bounds: Aabb,
     axis: usize,
     opts: &BuildOptions,
@@ -278,12 +355,13 @@ fn median_split(
     offset: usize,
     depth: usize,
     bounds: Aabb,
-    centroid_bounds: &Aabb,
+    centroid_bounds: &Box4,
     opts: &BuildOptions,
 ) -> BuildNode {
-    let axis = centroid_bounds.extent().max_position();
+    let axis = centroid_bounds.aabb().extent().max_position();
     let mid = refs.len() / 2;
-    refs.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+    let key = |r: &PrimRef| r.centroid().to_array()[axis];
+    refs.select_nth_unstable_by(mid, |a, b| key(a).total_cmp(&key(b)));
     split_and_recurse(refs, offset, depth, mid, None, bounds, axis, opts)
 }
 
@@ -295,13 +373,14 @@ struct Split {
 }
 
 /// Which of `bins` equal slices of the centroid bounds, per axis, a
-/// centroid falls in: one multiply per axis (the binning and the partition
-/// use this same arithmetic, so they agree on every primitive).
+/// centroid falls in: one subtract and one multiply per axis, all three axes
+/// in one register (the binning and the partition use this same function,
+/// so they agree on every primitive).
 #[derive(Clone, Copy)]
 struct Binning {
-    lo: [f32; 3],
-    scale: [f32; 3],
-    bins: usize,
+    lo: f32x4,
+    scale: f32x4,
+    last: i32x4,
 }
 
 impl Binning {
@@ -315,15 +394,22 @@ impl Binning {
             }
         };
         Binning {
-            lo: cb.min.into(),
-            scale: [scale(0), scale(1), scale(2)],
-            bins,
+            lo: f32x4::new([cb.min.x, cb.min.y, cb.min.z, 0.0]),
+            scale: f32x4::new([scale(0), scale(1), scale(2), 0.0]),
+            last: i32x4::splat(bins as i32 - 1),
         }
     }
 
+    /// The bin on each axis (lane 3: 0): `(c - lo) * scale` truncated as
+    /// `as usize` does (NaN and negatives to 0, +inf to the top), then at
+    /// most the last bin.
     #[inline(always)]
-    fn bin(&self, c: f32, axis: usize) -> usize {
-        (((c - self.lo[axis]) * self.scale[axis]) as usize).min(self.bins - 1)
+    fn bins(&self, c: f32x4) -> [i32; 4] {
+        ((c - self.lo) * self.scale)
+            .trunc_int()
+            .max(i32x4::ZERO)
+            .min(self.last)
+            .to_array()
     }
 }
 
@@ -331,13 +417,13 @@ impl Binning {
 /// whose centroids fall there.
 #[derive(Clone, Copy)]
 struct Bins {
-    bounds: [[Aabb; MAX_BINS]; 3],
+    bounds: [[Box4; MAX_BINS]; 3],
     count: [[u32; MAX_BINS]; 3],
 }
 
 impl Bins {
     const EMPTY: Bins = Bins {
-        bounds: [[Aabb::EMPTY; MAX_BINS]; 3],
+        bounds: [[Box4::EMPTY; MAX_BINS]; 3],
         count: [[0; MAX_BINS]; 3],
     };
 
@@ -345,9 +431,10 @@ impl Bins {
     fn of(refs: &[PrimRef], binning: &Binning) -> Bins {
         let mut b = Bins::EMPTY;
         for r in refs {
-            for axis in 0..3 {
-                let i = binning.bin(r.centroid[axis], axis);
-                b.bounds[axis][i] = b.bounds[axis][i].union(r.bounds);
+            let bins = binning.bins(r.centroid());
+            for (axis, &i) in bins[..3].iter().enumerate() {
+                let i = i as usize;
+                b.bounds[axis][i] = b.bounds[axis][i].union(r.bounds());
                 b.count[axis][i] += 1;
             }
         }
@@ -365,8 +452,9 @@ impl Bins {
     }
 }
 
-fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -> Option<Split> {
+fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Box4, opts: &BuildOptions) -> Option<Split> {
     let n = opts.bins.clamp(2, MAX_BINS);
+    let cb = &cb.aabb();
     let binning = Binning::new(cb, n);
     let bins = if refs.len() > PARALLEL_BINNING {
         use rayon::prelude::*;
@@ -386,14 +474,14 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
         // Sweep from the right, then from the left.
         let mut right_area = [0f32; MAX_BINS];
         let mut right_count = [0u32; MAX_BINS];
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        let (mut acc, mut cnt) = (Box4::EMPTY, 0);
         for i in (1..n).rev() {
             acc = acc.union(bin_box[i]);
             cnt += bin_count[i];
             right_area[i] = acc.half_area();
             right_count[i] = cnt;
         }
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        let (mut acc, mut cnt) = (Box4::EMPTY, 0);
         for i in 1..n {
             acc = acc.union(bin_box[i - 1]);
             cnt += bin_count[i - 1];
@@ -417,21 +505,25 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
     best
 }
 
-/// In-place partition; returns the number of elements for which `pred`
-/// holds, and the bounds and centroid bounds of both sides (found on the
-/// way, which saves the children a pass over their primitives).
-fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> (usize, [(Aabb, Aabb); 2]) {
-    let mut sides = [(Aabb::EMPTY, Aabb::EMPTY); 2];
+/// In-place partition; returns the number of elements whose centroids
+/// `left` holds for, and the bounds and centroid bounds of both sides (found
+/// on the way, which saves the children a pass over their primitives).
+/// Lomuto's: element `j` goes to slot `i` when `left`, as a swap that
+/// writes both slots either way (no branch to mispredict).
+fn partition(refs: &mut [PrimRef], left: impl Fn(f32x4) -> bool) -> (usize, [(Box4, Box4); 2]) {
+    let mut sides = [(Box4::EMPTY, Box4::EMPTY); 2];
     let mut i = 0;
     for j in 0..refs.len() {
         let r = refs[j];
-        let left = pred(&r);
+        let c = r.centroid();
+        let left = left(c);
         let side = &mut sides[!left as usize];
-        *side = (side.0.union(r.bounds), side.1.grow(r.centroid));
-        if left {
-            refs.swap(i, j);
-            i += 1;
-        }
+        *side = (side.0.union(r.bounds()), side.1.grow(c));
+        let a = refs[i];
+        let (to_i, to_j) = if left { (r, a) } else { (a, r) };
+        refs[i] = to_i;
+        refs[j] = to_j;
+        i += left as usize;
     }
     (i, sides)
 }
@@ -451,7 +543,7 @@ fn flatten(root: &BuildNode, refs: &[PrimRef], block: usize) -> (Vec<Node>, Vec<
         if let BuildNode::Leaf { first, count, .. } = n {
             order.resize(order.len().next_multiple_of(block), PAD);
             node.first = order.len() as u32;
-            order.extend(refs[*first..first + count].iter().map(|r| r.index));
+            order.extend(refs[*first..first + count].iter().map(PrimRef::index));
         }
         node
     };
