@@ -79,8 +79,9 @@ const PARALLEL_BINNING: usize = 65536;
 /// the bins live on the stack.
 const MAX_BINS: usize = 32;
 
-/// Builds a hierarchy over primitives with the given boxes. Boxes are padded so
-/// that the slab test stays conservative under rounding.
+/// Builds a hierarchy over primitives with the given boxes, and its four-
+/// and eight-wide forms. Boxes are padded so that the slab test stays
+/// conservative under rounding.
 pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     if boxes.is_empty() {
         return Bvh::default();
@@ -94,11 +95,17 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     let mut refs = refs;
     let tree = build_subtree(&mut refs, opts);
     let (nodes, order) = flatten(&tree, &refs, opts.block.max(1));
-    let wide = super::collapse(&nodes);
+    // The four- and the eight-wide collapses (each serial) on two threads,
+    // and the build's own tree freed on a third task, off their path.
+    let ((wide, wide8), ()) = rayon::join(
+        || rayon::join(|| super::collapse(&nodes), || super::collapse8(&nodes)),
+        || drop((tree, refs)),
+    );
     Bvh {
         nodes,
         order,
         wide,
+        wide8,
         ..Bvh::default()
     }
 }
@@ -218,15 +225,27 @@ enum BuildNode {
         bounds: Aabb,
         axis: usize,
         children: Box<[BuildNode; 2]>,
+        /// Nodes in the subtree, and the order slots its leaves take (each
+        /// leaf's count rounded up to a block): where `flatten` puts it.
+        nodes: usize,
+        slots: usize,
     },
 }
 
 impl BuildNode {
     /// Nodes in the subtree.
-    fn count(&self) -> usize {
+    fn nodes(&self) -> usize {
         match self {
             BuildNode::Leaf { .. } => 1,
-            BuildNode::Inner { children, .. } => 1 + children[0].count() + children[1].count(),
+            BuildNode::Inner { nodes, .. } => *nodes,
+        }
+    }
+
+    /// Order slots of the subtree's leaves, each starting a block.
+    fn slots(&self, block: usize) -> usize {
+        match self {
+            BuildNode::Leaf { count, .. } => count.next_multiple_of(block),
+            BuildNode::Inner { slots, .. } => *slots,
         }
     }
 
@@ -342,9 +361,12 @@ fn split_and_recurse(
             build_range(right, offset + mid, depth + 1, kr, opts),
         )
     };
+    let block = opts.block.max(1);
     BuildNode::Inner {
         bounds,
         axis,
+        nodes: 1 + l.nodes() + r.nodes(),
+        slots: l.slots(block) + r.slots(block),
         children: Box::new([l, r]),
     }
 }
@@ -530,47 +552,104 @@ fn partition(refs: &mut [PrimRef], left: impl Fn(f32x4) -> bool) -> (usize, [(Bo
 
 /// Lays the tree out depth-first with siblings adjacent, and the
 /// primitives in leaf order, each leaf starting at a multiple of `block`
-/// (`PAD` in the slots between). Leaves come in slot order, so `refs`'s.
+/// (`PAD` in the slots between).
+///
+/// The layout (the one a depth-first walk that places both children of a
+/// node when it reaches the node makes): a node's two children next to each
+/// other, then the left child's descendants, then the right child's; in the
+/// order, the node's children that are leaves (left, right), then the left
+/// child's subtree, then the right child's. So each subtree fills a range of
+/// the nodes and one of the order that its sizes (`BuildNode::nodes`,
+/// `slots`) give, and the two subtrees of a large node are laid out on two
+/// threads.
 fn flatten(root: &BuildNode, refs: &[PrimRef], block: usize) -> (Vec<Node>, Vec<u32>) {
-    let mut nodes = Vec::with_capacity(root.count());
-    let mut order = Vec::with_capacity(if block > 1 {
-        refs.len() + refs.len() / 2
-    } else {
-        refs.len()
-    });
-    let leaf = |n: &BuildNode, order: &mut Vec<u32>| -> Node {
-        let mut node = to_node(n, 0);
-        if let BuildNode::Leaf { first, count, .. } = n {
-            order.resize(order.len().next_multiple_of(block), PAD);
-            node.first = order.len() as u32;
-            order.extend(refs[*first..first + count].iter().map(PrimRef::index));
-        }
-        node
+    let blank = Node {
+        min: [0.0; 3],
+        first: 0,
+        max: [0.0; 3],
+        meta: 0,
     };
-    nodes.push(leaf(root, &mut order));
-    let mut queue = vec![(root, 0usize)];
-    while let Some((n, index)) = queue.pop() {
-        if let BuildNode::Inner { children, .. } = n {
-            let first = nodes.len();
-            nodes[index].first = first as u32;
-            nodes.push(leaf(&children[0], &mut order));
-            nodes.push(leaf(&children[1], &mut order));
-            queue.push((&children[1], first + 1));
-            queue.push((&children[0], first));
-        }
-    }
-    order.resize(order.len().next_multiple_of(block), PAD);
+    let mut nodes = vec![blank; root.nodes()];
+    let mut order = vec![PAD; root.slots(block)];
+    let (first, rest) = nodes.split_at_mut(1);
+    first[0] = lay_out(root, (rest, 1), (&mut order, 0), refs, block);
     (nodes, order)
 }
 
+/// Writes the descendants of `n` to `desc` (node `at` onwards) and the
+/// primitives of its leaves to `slots` (slot `at` onwards); returns `n`'s
+/// own node.
+fn lay_out(
+    n: &BuildNode,
+    (desc, desc_at): (&mut [Node], usize),
+    (slots, slot_at): (&mut [u32], usize),
+    refs: &[PrimRef],
+    block: usize,
+) -> Node {
+    match n {
+        BuildNode::Leaf { first, count, .. } => {
+            for (s, r) in slots.iter_mut().zip(&refs[*first..first + count]) {
+                *s = r.index();
+            }
+            to_node(n, slot_at as u32)
+        }
+        BuildNode::Inner { children, .. } => {
+            let [l, r] = &**children;
+            let (pair, rest) = desc.split_at_mut(2);
+            let (left_desc, right_desc) = rest.split_at_mut(l.nodes() - 1);
+            // The right child's slots come first if it is a leaf and the
+            // left one is not.
+            let right_first = r.nodes() == 1 && l.nodes() > 1;
+            let (left_slots, right_slots, right_slot_at) = if right_first {
+                let (rs, ls) = slots.split_at_mut(r.slots(block));
+                (ls, rs, slot_at)
+            } else {
+                let (ls, rs) = slots.split_at_mut(l.slots(block));
+                (ls, rs, slot_at + l.slots(block))
+            };
+            let left_slot_at = if right_first {
+                slot_at + r.slots(block)
+            } else {
+                slot_at
+            };
+            let right_at = (desc_at + 1 + l.nodes(), right_slot_at);
+            let mut left = move || {
+                lay_out(
+                    l,
+                    (left_desc, desc_at + 2),
+                    (left_slots, left_slot_at),
+                    refs,
+                    block,
+                )
+            };
+            let mut right = move || {
+                lay_out(
+                    r,
+                    (right_desc, right_at.0),
+                    (right_slots, right_at.1),
+                    refs,
+                    block,
+                )
+            };
+            let (ln, rn) = if n.nodes() > PARALLEL_THRESHOLD / 2 {
+                rayon::join(left, right)
+            } else {
+                (left(), right())
+            };
+            pair[0] = ln;
+            pair[1] = rn;
+            to_node(n, desc_at as u32)
+        }
+    }
+}
+
+/// `n`'s node; `first`: its first slot (a leaf) or its first child.
 fn to_node(n: &BuildNode, first: u32) -> Node {
     let b = n.bounds();
     match n {
-        BuildNode::Leaf {
-            first: f, count, ..
-        } => Node {
+        BuildNode::Leaf { count, .. } => Node {
             min: b.min.into(),
-            first: *f as u32,
+            first,
             max: b.max.into(),
             meta: *count as u32,
         },
