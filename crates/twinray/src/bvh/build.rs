@@ -3,6 +3,7 @@
 use super::{Bvh, Node};
 use crate::math::{Aabb, Vec3};
 use crate::shapes::BLOCK;
+use wide::{bytemuck, f32x4, i32x4};
 
 #[derive(Clone, Copy, Debug)]
 pub struct BuildOptions {
@@ -78,8 +79,9 @@ const PARALLEL_BINNING: usize = 65536;
 /// the bins live on the stack.
 const MAX_BINS: usize = 32;
 
-/// Builds a hierarchy over primitives with the given boxes. Boxes are padded so
-/// that the slab test stays conservative under rounding.
+/// Builds a hierarchy over primitives with the given boxes, and its four-
+/// and eight-wide forms. Boxes are padded so that the slab test stays
+/// conservative under rounding.
 pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     if boxes.is_empty() {
         return Bvh::default();
@@ -88,23 +90,22 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     let refs: Vec<PrimRef> = boxes
         .par_iter()
         .enumerate()
-        .map(|(i, b)| {
-            let b = primitive_box(b);
-            PrimRef {
-                bounds: b,
-                centroid: b.center(),
-                index: i as u32,
-            }
-        })
+        .map(|(i, b)| PrimRef::new(&primitive_box(b), i as u32))
         .collect();
     let mut refs = refs;
     let tree = build_subtree(&mut refs, opts);
     let (nodes, order) = flatten(&tree, &refs, opts.block.max(1));
-    let wide = super::collapse(&nodes);
+    // The four- and the eight-wide collapses (each serial) on two threads,
+    // and the build's own tree freed on a third task, off their path.
+    let ((wide, wide8), ()) = rayon::join(
+        || rayon::join(|| super::collapse(&nodes), || super::collapse8(&nodes)),
+        || drop((tree, refs)),
+    );
     Bvh {
         nodes,
         order,
         wide,
+        wide8,
         ..Bvh::default()
     }
 }
@@ -124,11 +125,93 @@ pub fn primitive_box(b: &Aabb) -> Aabb {
     }
 }
 
+/// A box in two SIMD registers: the minima and the maxima of x, y and z in
+/// lanes 0 to 2. Lane 3 is no part of the box (a `PrimRef` keeps its index
+/// in `hi`'s): unions carry it along and nothing reads it.
+///
+/// Exactness: `union` and `grow` give, lane for lane, `Aabb::union`'s and
+/// `Aabb::grow`'s numbers, NaN and signed zeros included: glam's
+/// `min`/`max` are `if a < b { a } else { b }`, which is what
+/// `minps`/`maxps` compute with the operands in the same order. So the
+/// tree is the one the scalar `Aabb` arithmetic built (`tests/bvh_build.rs`).
 #[derive(Clone, Copy)]
-struct PrimRef {
-    bounds: Aabb,
-    centroid: Vec3,
-    index: u32,
+struct Box4 {
+    lo: f32x4,
+    hi: f32x4,
+}
+
+impl Box4 {
+    const EMPTY: Box4 = Box4 {
+        lo: f32x4::splat(f32::INFINITY),
+        hi: f32x4::splat(f32::NEG_INFINITY),
+    };
+
+    #[inline(always)]
+    fn union(self, o: Box4) -> Box4 {
+        Box4 {
+            lo: self.lo.fast_min(o.lo),
+            hi: self.hi.fast_max(o.hi),
+        }
+    }
+
+    #[inline(always)]
+    fn grow(self, p: f32x4) -> Box4 {
+        Box4 {
+            lo: self.lo.fast_min(p),
+            hi: self.hi.fast_max(p),
+        }
+    }
+
+    fn aabb(self) -> Aabb {
+        let (lo, hi) = (self.lo.to_array(), self.hi.to_array());
+        Aabb {
+            min: Vec3::new(lo[0], lo[1], lo[2]),
+            max: Vec3::new(hi[0], hi[1], hi[2]),
+        }
+    }
+
+    #[inline(always)]
+    fn half_area(self) -> f32 {
+        self.aabb().half_area()
+    }
+}
+
+/// Lanes 0 to 2 of a register, lane 3 cleared.
+const XYZ: f32x4 = f32x4::new([
+    f32::from_bits(u32::MAX),
+    f32::from_bits(u32::MAX),
+    f32::from_bits(u32::MAX),
+    0.0,
+]);
+
+/// A primitive's padded box (32 bytes: half a cache line), its index in the
+/// fourth lane of `hi`.
+#[derive(Clone, Copy)]
+struct PrimRef(Box4);
+
+impl PrimRef {
+    fn new(b: &Aabb, index: u32) -> PrimRef {
+        PrimRef(Box4 {
+            lo: f32x4::new([b.min.x, b.min.y, b.min.z, 0.0]),
+            hi: f32x4::new([b.max.x, b.max.y, b.max.z, f32::from_bits(index)]),
+        })
+    }
+
+    #[inline(always)]
+    fn bounds(&self) -> Box4 {
+        self.0
+    }
+
+    /// `Aabb::center` of the box, lane for lane (lane 3: 0).
+    #[inline(always)]
+    fn centroid(&self) -> f32x4 {
+        (self.0.lo + (self.0.hi & XYZ)) * f32x4::splat(0.5)
+    }
+
+    #[inline(always)]
+    fn index(&self) -> u32 {
+        bytemuck::cast::<f32x4, [u32; 4]>(self.0.hi)[3]
+    }
 }
 
 /// The tree as built, before it is laid out flat.
@@ -142,15 +225,27 @@ enum BuildNode {
         bounds: Aabb,
         axis: usize,
         children: Box<[BuildNode; 2]>,
+        /// Nodes in the subtree, and the order slots its leaves take (each
+        /// leaf's count rounded up to a block): where `flatten` puts it.
+        nodes: usize,
+        slots: usize,
     },
 }
 
 impl BuildNode {
     /// Nodes in the subtree.
-    fn count(&self) -> usize {
+    fn nodes(&self) -> usize {
         match self {
             BuildNode::Leaf { .. } => 1,
-            BuildNode::Inner { children, .. } => 1 + children[0].count() + children[1].count(),
+            BuildNode::Inner { nodes, .. } => *nodes,
+        }
+    }
+
+    /// Order slots of the subtree's leaves, each starting a block.
+    fn slots(&self, block: usize) -> usize {
+        match self {
+            BuildNode::Leaf { count, .. } => count.next_multiple_of(block),
+            BuildNode::Inner { slots, .. } => *slots,
         }
     }
 
@@ -175,10 +270,11 @@ fn build_range(
     refs: &mut [PrimRef],
     offset: usize,
     depth: usize,
-    known: Option<(Aabb, Aabb)>,
+    known: Option<(Box4, Box4)>,
     opts: &BuildOptions,
 ) -> BuildNode {
-    let (bounds, centroid_bounds) = known.unwrap_or_else(|| bounds_of(refs));
+    let (bounds4, centroid_bounds) = known.unwrap_or_else(|| bounds_of(refs));
+    let bounds = bounds4.aabb();
     let leaf = || BuildNode::Leaf {
         bounds,
         first: offset,
@@ -202,8 +298,8 @@ fn build_range(
     if split.cost >= leaf_cost && refs.len() <= opts.max_leaf {
         return leaf();
     }
-    let (mid, sides) = partition(refs, |r| {
-        split.binning.bin(r.centroid[split.axis], split.axis) < split.bin
+    let (mid, sides) = partition(refs, |c| {
+        split.binning.bins(c)[split.axis] < split.bin as i32
     });
     if mid == 0 || mid == refs.len() {
         return median_split(refs, offset, depth, bounds, &centroid_bounds, opts);
@@ -222,16 +318,16 @@ fn build_range(
 
 /// The union of the boxes of `refs` and the bounds of their centroids, in
 /// one pass (on several threads for large nodes).
-fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
+fn bounds_of(refs: &[PrimRef]) -> (Box4, Box4) {
     let fold = |c: &[PrimRef]| {
-        c.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, cb), r| {
-            (b.union(r.bounds), cb.grow(r.centroid))
+        c.iter().fold((Box4::EMPTY, Box4::EMPTY), |(b, cb), r| {
+            (b.union(r.bounds()), cb.grow(r.centroid()))
         })
     };
     if refs.len() > PARALLEL_BINNING {
         use rayon::prelude::*;
         refs.par_chunks(PARALLEL_BINNING / 4).map(fold).reduce(
-            || (Aabb::EMPTY, Aabb::EMPTY),
+            || (Box4::EMPTY, Box4::EMPTY),
             |a, b| (a.0.union(b.0), a.1.union(b.1)),
         )
     } else {
@@ -247,7 +343,7 @@ fn split_and_recurse(
     offset: usize,
     depth: usize,
     mid: usize,
-    sides: Option<[(Aabb, Aabb); 2]>,
+    sides: Option<[(Box4, Box4); 2]>,
     bounds: Aabb,
     axis: usize,
     opts: &BuildOptions,
@@ -265,9 +361,12 @@ fn split_and_recurse(
             build_range(right, offset + mid, depth + 1, kr, opts),
         )
     };
+    let block = opts.block.max(1);
     BuildNode::Inner {
         bounds,
         axis,
+        nodes: 1 + l.nodes() + r.nodes(),
+        slots: l.slots(block) + r.slots(block),
         children: Box::new([l, r]),
     }
 }
@@ -278,12 +377,13 @@ fn median_split(
     offset: usize,
     depth: usize,
     bounds: Aabb,
-    centroid_bounds: &Aabb,
+    centroid_bounds: &Box4,
     opts: &BuildOptions,
 ) -> BuildNode {
-    let axis = centroid_bounds.extent().max_position();
+    let axis = centroid_bounds.aabb().extent().max_position();
     let mid = refs.len() / 2;
-    refs.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+    let key = |r: &PrimRef| r.centroid().to_array()[axis];
+    refs.select_nth_unstable_by(mid, |a, b| key(a).total_cmp(&key(b)));
     split_and_recurse(refs, offset, depth, mid, None, bounds, axis, opts)
 }
 
@@ -295,13 +395,14 @@ struct Split {
 }
 
 /// Which of `bins` equal slices of the centroid bounds, per axis, a
-/// centroid falls in: one multiply per axis (the binning and the partition
-/// use this same arithmetic, so they agree on every primitive).
+/// centroid falls in: one subtract and one multiply per axis, all three axes
+/// in one register (the binning and the partition use this same function,
+/// so they agree on every primitive).
 #[derive(Clone, Copy)]
 struct Binning {
-    lo: [f32; 3],
-    scale: [f32; 3],
-    bins: usize,
+    lo: f32x4,
+    scale: f32x4,
+    last: i32x4,
 }
 
 impl Binning {
@@ -315,15 +416,22 @@ impl Binning {
             }
         };
         Binning {
-            lo: cb.min.into(),
-            scale: [scale(0), scale(1), scale(2)],
-            bins,
+            lo: f32x4::new([cb.min.x, cb.min.y, cb.min.z, 0.0]),
+            scale: f32x4::new([scale(0), scale(1), scale(2), 0.0]),
+            last: i32x4::splat(bins as i32 - 1),
         }
     }
 
+    /// The bin on each axis (lane 3: 0): `(c - lo) * scale` truncated as
+    /// `as usize` does (NaN and negatives to 0, +inf to the top), then at
+    /// most the last bin.
     #[inline(always)]
-    fn bin(&self, c: f32, axis: usize) -> usize {
-        (((c - self.lo[axis]) * self.scale[axis]) as usize).min(self.bins - 1)
+    fn bins(&self, c: f32x4) -> [i32; 4] {
+        ((c - self.lo) * self.scale)
+            .trunc_int()
+            .max(i32x4::ZERO)
+            .min(self.last)
+            .to_array()
     }
 }
 
@@ -331,13 +439,13 @@ impl Binning {
 /// whose centroids fall there.
 #[derive(Clone, Copy)]
 struct Bins {
-    bounds: [[Aabb; MAX_BINS]; 3],
+    bounds: [[Box4; MAX_BINS]; 3],
     count: [[u32; MAX_BINS]; 3],
 }
 
 impl Bins {
     const EMPTY: Bins = Bins {
-        bounds: [[Aabb::EMPTY; MAX_BINS]; 3],
+        bounds: [[Box4::EMPTY; MAX_BINS]; 3],
         count: [[0; MAX_BINS]; 3],
     };
 
@@ -345,9 +453,10 @@ impl Bins {
     fn of(refs: &[PrimRef], binning: &Binning) -> Bins {
         let mut b = Bins::EMPTY;
         for r in refs {
-            for axis in 0..3 {
-                let i = binning.bin(r.centroid[axis], axis);
-                b.bounds[axis][i] = b.bounds[axis][i].union(r.bounds);
+            let bins = binning.bins(r.centroid());
+            for (axis, &i) in bins[..3].iter().enumerate() {
+                let i = i as usize;
+                b.bounds[axis][i] = b.bounds[axis][i].union(r.bounds());
                 b.count[axis][i] += 1;
             }
         }
@@ -365,8 +474,9 @@ impl Bins {
     }
 }
 
-fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -> Option<Split> {
+fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Box4, opts: &BuildOptions) -> Option<Split> {
     let n = opts.bins.clamp(2, MAX_BINS);
+    let cb = &cb.aabb();
     let binning = Binning::new(cb, n);
     let bins = if refs.len() > PARALLEL_BINNING {
         use rayon::prelude::*;
@@ -386,14 +496,14 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
         // Sweep from the right, then from the left.
         let mut right_area = [0f32; MAX_BINS];
         let mut right_count = [0u32; MAX_BINS];
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        let (mut acc, mut cnt) = (Box4::EMPTY, 0);
         for i in (1..n).rev() {
             acc = acc.union(bin_box[i]);
             cnt += bin_count[i];
             right_area[i] = acc.half_area();
             right_count[i] = cnt;
         }
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        let (mut acc, mut cnt) = (Box4::EMPTY, 0);
         for i in 1..n {
             acc = acc.union(bin_box[i - 1]);
             cnt += bin_count[i - 1];
@@ -417,68 +527,129 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Aabb, opts: &BuildOptions) -
     best
 }
 
-/// In-place partition; returns the number of elements for which `pred`
-/// holds, and the bounds and centroid bounds of both sides (found on the
-/// way, which saves the children a pass over their primitives).
-fn partition(refs: &mut [PrimRef], pred: impl Fn(&PrimRef) -> bool) -> (usize, [(Aabb, Aabb); 2]) {
-    let mut sides = [(Aabb::EMPTY, Aabb::EMPTY); 2];
+/// In-place partition; returns the number of elements whose centroids
+/// `left` holds for, and the bounds and centroid bounds of both sides (found
+/// on the way, which saves the children a pass over their primitives).
+/// Lomuto's: element `j` goes to slot `i` when `left`, as a swap that
+/// writes both slots either way (no branch to mispredict).
+fn partition(refs: &mut [PrimRef], left: impl Fn(f32x4) -> bool) -> (usize, [(Box4, Box4); 2]) {
+    let mut sides = [(Box4::EMPTY, Box4::EMPTY); 2];
     let mut i = 0;
     for j in 0..refs.len() {
         let r = refs[j];
-        let left = pred(&r);
+        let c = r.centroid();
+        let left = left(c);
         let side = &mut sides[!left as usize];
-        *side = (side.0.union(r.bounds), side.1.grow(r.centroid));
-        if left {
-            refs.swap(i, j);
-            i += 1;
-        }
+        *side = (side.0.union(r.bounds()), side.1.grow(c));
+        let a = refs[i];
+        let (to_i, to_j) = if left { (r, a) } else { (a, r) };
+        refs[i] = to_i;
+        refs[j] = to_j;
+        i += left as usize;
     }
     (i, sides)
 }
 
 /// Lays the tree out depth-first with siblings adjacent, and the
 /// primitives in leaf order, each leaf starting at a multiple of `block`
-/// (`PAD` in the slots between). Leaves come in slot order, so `refs`'s.
+/// (`PAD` in the slots between).
+///
+/// The layout (the one a depth-first walk that places both children of a
+/// node when it reaches the node makes): a node's two children next to each
+/// other, then the left child's descendants, then the right child's; in the
+/// order, the node's children that are leaves (left, right), then the left
+/// child's subtree, then the right child's. So each subtree fills a range of
+/// the nodes and one of the order that its sizes (`BuildNode::nodes`,
+/// `slots`) give, and the two subtrees of a large node are laid out on two
+/// threads.
 fn flatten(root: &BuildNode, refs: &[PrimRef], block: usize) -> (Vec<Node>, Vec<u32>) {
-    let mut nodes = Vec::with_capacity(root.count());
-    let mut order = Vec::with_capacity(if block > 1 {
-        refs.len() + refs.len() / 2
-    } else {
-        refs.len()
-    });
-    let leaf = |n: &BuildNode, order: &mut Vec<u32>| -> Node {
-        let mut node = to_node(n, 0);
-        if let BuildNode::Leaf { first, count, .. } = n {
-            order.resize(order.len().next_multiple_of(block), PAD);
-            node.first = order.len() as u32;
-            order.extend(refs[*first..first + count].iter().map(|r| r.index));
-        }
-        node
+    let blank = Node {
+        min: [0.0; 3],
+        first: 0,
+        max: [0.0; 3],
+        meta: 0,
     };
-    nodes.push(leaf(root, &mut order));
-    let mut queue = vec![(root, 0usize)];
-    while let Some((n, index)) = queue.pop() {
-        if let BuildNode::Inner { children, .. } = n {
-            let first = nodes.len();
-            nodes[index].first = first as u32;
-            nodes.push(leaf(&children[0], &mut order));
-            nodes.push(leaf(&children[1], &mut order));
-            queue.push((&children[1], first + 1));
-            queue.push((&children[0], first));
-        }
-    }
-    order.resize(order.len().next_multiple_of(block), PAD);
+    let mut nodes = vec![blank; root.nodes()];
+    let mut order = vec![PAD; root.slots(block)];
+    let (first, rest) = nodes.split_at_mut(1);
+    first[0] = lay_out(root, (rest, 1), (&mut order, 0), refs, block);
     (nodes, order)
 }
 
+/// Writes the descendants of `n` to `desc` (node `at` onwards) and the
+/// primitives of its leaves to `slots` (slot `at` onwards); returns `n`'s
+/// own node.
+fn lay_out(
+    n: &BuildNode,
+    (desc, desc_at): (&mut [Node], usize),
+    (slots, slot_at): (&mut [u32], usize),
+    refs: &[PrimRef],
+    block: usize,
+) -> Node {
+    match n {
+        BuildNode::Leaf { first, count, .. } => {
+            for (s, r) in slots.iter_mut().zip(&refs[*first..first + count]) {
+                *s = r.index();
+            }
+            to_node(n, slot_at as u32)
+        }
+        BuildNode::Inner { children, .. } => {
+            let [l, r] = &**children;
+            let (pair, rest) = desc.split_at_mut(2);
+            let (left_desc, right_desc) = rest.split_at_mut(l.nodes() - 1);
+            // The right child's slots come first if it is a leaf and the
+            // left one is not.
+            let right_first = r.nodes() == 1 && l.nodes() > 1;
+            let (left_slots, right_slots, right_slot_at) = if right_first {
+                let (rs, ls) = slots.split_at_mut(r.slots(block));
+                (ls, rs, slot_at)
+            } else {
+                let (ls, rs) = slots.split_at_mut(l.slots(block));
+                (ls, rs, slot_at + l.slots(block))
+            };
+            let left_slot_at = if right_first {
+                slot_at + r.slots(block)
+            } else {
+                slot_at
+            };
+            let right_at = (desc_at + 1 + l.nodes(), right_slot_at);
+            let mut left = move || {
+                lay_out(
+                    l,
+                    (left_desc, desc_at + 2),
+                    (left_slots, left_slot_at),
+                    refs,
+                    block,
+                )
+            };
+            let mut right = move || {
+                lay_out(
+                    r,
+                    (right_desc, right_at.0),
+                    (right_slots, right_at.1),
+                    refs,
+                    block,
+                )
+            };
+            let (ln, rn) = if n.nodes() > PARALLEL_THRESHOLD / 2 {
+                rayon::join(left, right)
+            } else {
+                (left(), right())
+            };
+            pair[0] = ln;
+            pair[1] = rn;
+            to_node(n, desc_at as u32)
+        }
+    }
+}
+
+/// `n`'s node; `first`: its first slot (a leaf) or its first child.
 fn to_node(n: &BuildNode, first: u32) -> Node {
     let b = n.bounds();
     match n {
-        BuildNode::Leaf {
-            first: f, count, ..
-        } => Node {
+        BuildNode::Leaf { count, .. } => Node {
             min: b.min.into(),
-            first: *f as u32,
+            first,
             max: b.max.into(),
             meta: *count as u32,
         },

@@ -95,10 +95,9 @@ pub struct Bvh {
 }
 
 /// Builds a hierarchy over primitives with the given boxes (`build.rs`'s
-/// binned SAH, collapsed four-wide there), and its eight-wide form.
+/// binned SAH), and its four- and eight-wide forms.
 pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     let mut bvh = build::build(boxes, opts);
-    bvh.wide8 = collapse8(&bvh.nodes);
     bvh.drop_trees_beyond_stack();
     bvh
 }
