@@ -91,6 +91,9 @@ pub struct TraceCounts {
     /// `--shadow-fans`: eye hits' shadow rays not traced, their run's fan
     /// toward the light proved free (`rays.shadow` counts the rays traced).
     pub shadow_rays_proved: u64,
+    /// `--interpolate-views`: spans, samples shaded and interpolated, and
+    /// refusals by rule (`render::InterpStats`).
+    pub interp: crate::render::InterpStats,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -149,6 +152,7 @@ impl TraceCounts {
         self.fan_free += o.fan_free;
         self.runs.add(&o.runs);
         self.shadow_rays_proved += o.shadow_rays_proved;
+        self.interp.add(&o.interp);
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -274,6 +278,8 @@ pub struct Report {
     pub strip: StripStats,
     /// `--eye-runs`: see `TraceCounts::runs`.
     pub eye_runs: RunStats,
+    /// `--interpolate-views`: see `TraceCounts::interp`.
+    pub interpolated_views: crate::render::InterpStats,
 }
 
 impl Report {
@@ -314,6 +320,7 @@ impl Report {
         self.fan_queries = c.fan_queries;
         self.fan_free = c.fan_free;
         self.eye_runs = c.runs;
+        self.interpolated_views = c.interp;
         self.shadow_rays_proved = c.shadow_rays_proved;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
