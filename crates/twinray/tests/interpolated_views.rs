@@ -161,6 +161,37 @@ fn a_thin_shadow_between_two_views_hits_is_kept() {
     }
 }
 
+/// A small ball between the light and the floor: its round shadow falls
+/// between the hits of a span's end views, whose own shadow rays pass
+/// beside it. Kept: a span's fan stands for the segments of every hit
+/// between its ends (`ShadowFan::spanning`), not only theirs.
+#[test]
+fn a_small_balls_shadow_between_two_views_hits_is_kept() {
+    // A far light: the floor's light varies by less than E across a span,
+    // so only the shadow can refuse it.
+    // A narrow view: the shadow, 0.2 wide, spans several rows and lies
+    // within 48 views' spans (0.47 wide).
+    let far = FLOOR
+        .replace("l 3 2 10", "l 30 20 100")
+        .replace("angle 45", "angle 8");
+    let ball = "f 0.5 0.5 0.5 0.9 0 0 0 1\ns 1.5 1 5 0.1\n";
+    let world = parse(&format!("{far}{ball}"));
+    let camera = floor_camera(&world);
+    for views in [8, 48] {
+        let (worst, _, out) = against_exact(&world, &camera, views, E, 1);
+        let i = out.counts.interp;
+        assert!(worst <= E, "{views} views: {worst}, {i:?}");
+        assert!(i.interpolated > 0, "{views} views: {i:?}");
+    }
+    // 48 views' spans are wider than the shadow: it falls between two ends.
+    let (_, _, out) = against_exact(&world, &camera, 48, E, 1);
+    assert!(
+        out.counts.interp.refused_light > 0,
+        "{:?}",
+        out.counts.interp
+    );
+}
+
 /// A mirror floor (unlit: the light is below it) reflecting a thin dark pole
 /// against a bright sky: the span's end views see the sky in it, views
 /// between see the pole. Their colours and chains agree; only rule 1 (a

@@ -66,6 +66,13 @@ pub struct InterpStats {
     pub refused_tree: u64,
     pub refused_colour: u64,
     pub refused_light: u64,
+    /// Of rule 4's refusals, those decided by the ends' own shadow rays (a
+    /// light one end sees and the other not, or neither sees though it
+    /// faces them): no shadow fan asked.
+    pub refused_shadow: u64,
+    /// Spans whose views between were too few to be worth judging (a shadow
+    /// fan costs more than their shading): shaded.
+    pub short_spans: u64,
     /// Samples this pass shaded exactly (ends and middles), and samples that
     /// took an interpolated colour.
     pub shaded: u64,
@@ -81,10 +88,16 @@ impl InterpStats {
         self.refused_tree += o.refused_tree;
         self.refused_colour += o.refused_colour;
         self.refused_light += o.refused_light;
+        self.refused_shadow += o.refused_shadow;
+        self.short_spans += o.short_spans;
         self.shaded += o.shaded;
         self.interpolated += o.interpolated;
     }
 }
+
+/// The fewest views between two shaded ones that are judged: fewer are
+/// shaded (see docs/benchmarks.md, "Issue 16, fifth pass").
+const MIN_BETWEEN: usize = 1;
 
 /// What every row of a render's interpolation shares.
 pub(super) struct ViewInterpolation<'a> {
@@ -95,6 +108,9 @@ pub(super) struct ViewInterpolation<'a> {
     offsets: Vec<f32>,
     shifts: Vec<i32>,
     tolerance: f32,
+    /// The fewest views between two shaded ones that are judged (fewer are
+    /// shaded).
+    min_between: usize,
 }
 
 /// A sample the pass owns: its view and sample, its eye hit, and once
@@ -122,6 +138,9 @@ pub(super) struct InterpScratch {
     span_entries: Vec<u32>,
     chains: Vec<Chain>,
     chains_used: usize,
+    /// Per shaded sample (by its chain's index), its transmittance toward
+    /// each light.
+    through: Vec<f32>,
     pairs: Vec<(usize, usize)>,
     donor: Donor,
 }
@@ -140,6 +159,7 @@ impl<'a> ViewInterpolation<'a> {
             offsets: rig.views.iter().map(|v| v.offset).collect(),
             shifts: rig.views.iter().map(|v| v.shift).collect(),
             tolerance: settings.tolerance,
+            min_between: MIN_BETWEEN,
         }
     }
 
@@ -245,6 +265,13 @@ impl<'a> ViewInterpolation<'a> {
                 if b - a < 2 {
                     continue;
                 }
+                if b - a - 1 < self.min_between {
+                    tracer.counts.interp.short_spans += 1;
+                    for k in a + 1..b {
+                        self.shade(tracer, row, s, s.span_entries[start + k]);
+                    }
+                    continue;
+                }
                 let between = &s.span_entries[start + a + 1..start + b];
                 if self.close(tracer, row, s, ea, eb, between) {
                     let (oa, ob) = (&s.owned[ea as usize], &s.owned[eb as usize]);
@@ -318,6 +345,9 @@ impl<'a> ViewInterpolation<'a> {
                 t,
             },
         );
+        let lights = self.world.scene.lights.len();
+        s.through.resize((c + 1) * lights, 0.0);
+        s.through[c * lights..].copy_from_slice(&s.donor.through[..lights]);
         let o = &mut s.owned[e as usize];
         o.color = Some(s.donor.color);
         o.coefficient = s.donor.tree_coefficient;
@@ -349,6 +379,10 @@ impl<'a> ViewInterpolation<'a> {
             tracer.counts.interp.refused_colour += 1;
             return false;
         }
+        if self.shadowed(s, oa, ob) {
+            tracer.counts.interp.refused_shadow += 1;
+            return false;
+        }
         // The views between hit the segment between the ends' hits but for
         // rounding: the fans are widened by how far they stray from it.
         let point = |o: &Owned| {
@@ -366,5 +400,34 @@ impl<'a> ViewInterpolation<'a> {
             tracer.counts.interp.refused_light += 1;
         }
         agree
+    }
+
+    /// Whether the ends' own shadow rays refuse the pair before any fan is
+    /// asked: toward some light, one end is lit and the other not, a shadow
+    /// dims either, or neither is lit though one faces it (`chains_agree`
+    /// would refuse all of these, the last two after a fan's descent).
+    fn shadowed(&self, s: &InterpScratch, a: &Owned, b: &Owned) -> bool {
+        let scene = &self.world.scene;
+        let lights = scene.lights.len();
+        let through = |o: &Owned| &s.through[o.chain * lights..][..lights];
+        let shape = &scene.shapes[a.hit.0 as usize];
+        // Whether the eye hit of `o` (its chain's first link) faces `light`.
+        let faces = |o: &Owned, light: Vec3| {
+            s.chains[o.chain].first().is_some_and(|link| {
+                let n = shape.geometric_normal(link.point);
+                let facing = if n.dot(link.dir) < 0.0 { n } else { -n };
+                facing.dot(light - link.point) > 0.0
+            })
+        };
+        let (ta, tb) = (through(a), through(b));
+        ta.iter().zip(tb).enumerate().any(|(l, (&x, &y))| {
+            if x != y || (x > 0.0 && x < 1.0) {
+                return true;
+            }
+            x <= 0.0
+                && scene.lights[l]
+                    .position()
+                    .is_some_and(|p| faces(a, p) || faces(b, p))
+        })
     }
 }
