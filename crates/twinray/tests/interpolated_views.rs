@@ -15,7 +15,7 @@ use twinray::loaders::nff::parse_nff;
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::math::{Color, Vec3};
 use twinray::render::{
-    Approximations, InterpolateViews, Method, RenderOptions, RenderOutput, Sampling,
+    Approximations, InterpStats, InterpolateViews, Method, RenderOptions, RenderOutput, Sampling,
 };
 use twinray::rig::{Camera, Rig};
 use twinray::scene::{AngleSpan, Light, Viewpoint};
@@ -150,15 +150,22 @@ fn a_pole_seen_by_one_view_only_is_kept() {
 fn a_thin_shadow_between_two_views_hits_is_kept() {
     let bar = "f 0.5 0.5 0.5 0.9 0 0 0 1\nc\n2 -20 6 0.01\n2 20 6 0.01\n";
     let world = parse(&format!("{FLOOR}{bar}"));
-    let camera = floor_camera(&world);
     for views in [8, 48] {
-        let (worst, _, out) = against_exact(&world, &camera, views, E, 1);
-        let i = out.counts.interp;
-        assert!(worst <= E, "{views} views: {worst}, {i:?}");
-        assert!(i.interpolated > 0, "{views} views: {i:?}");
+        let i = kept_within_e(&world, views);
         assert!(i.refused_colour > 0, "{views} views: {i:?}");
         assert!(i.refused_light > 0, "{views} views: {i:?}");
     }
+}
+
+/// `world`'s `views` views interpolated: within E of the independent
+/// renders, some samples interpolated; what the pass did.
+fn kept_within_e(world: &World, views: usize) -> InterpStats {
+    let camera = floor_camera(world);
+    let (worst, _, out) = against_exact(world, &camera, views, E, 1);
+    let i = out.counts.interp;
+    assert!(worst <= E, "{views} views: {worst}, {i:?}");
+    assert!(i.interpolated > 0, "{views} views: {i:?}");
+    i
 }
 
 /// A small ball between the light and the floor: its round shadow falls
@@ -176,20 +183,10 @@ fn a_small_balls_shadow_between_two_views_hits_is_kept() {
         .replace("angle 45", "angle 8");
     let ball = "f 0.5 0.5 0.5 0.9 0 0 0 1\ns 1.5 1 5 0.1\n";
     let world = parse(&format!("{far}{ball}"));
-    let camera = floor_camera(&world);
-    for views in [8, 48] {
-        let (worst, _, out) = against_exact(&world, &camera, views, E, 1);
-        let i = out.counts.interp;
-        assert!(worst <= E, "{views} views: {worst}, {i:?}");
-        assert!(i.interpolated > 0, "{views} views: {i:?}");
-    }
+    kept_within_e(&world, 8);
     // 48 views' spans are wider than the shadow: it falls between two ends.
-    let (_, _, out) = against_exact(&world, &camera, 48, E, 1);
-    assert!(
-        out.counts.interp.refused_light > 0,
-        "{:?}",
-        out.counts.interp
-    );
+    let i = kept_within_e(&world, 48);
+    assert!(i.refused_light > 0, "{i:?}");
 }
 
 /// A mirror floor (unlit: the light is below it) reflecting a thin dark pole
