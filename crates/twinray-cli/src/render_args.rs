@@ -326,6 +326,14 @@ pub struct ApproxArgs {
     /// view traces its own (key views measured slower on SPD gears and mount).
     #[arg(long, value_name = "K", default_value_t = 1)]
     pub key_spacing: usize,
+    /// Views between two views of a camera column that are proved to see one
+    /// flat, plain, diffuse surface take their colour interpolated between
+    /// those two (no shading, no shadow rays) where the two agree within
+    /// --share-tolerance and the light's curvature and shadows between their
+    /// hits allow; elsewhere the middle view is shaded and the halves judged
+    /// again (implies --eye-runs; also under --fast with 3 views or more).
+    #[arg(long)]
+    pub interpolate_views: bool,
 }
 
 /// Depth budget, floating window, depth outputs and quilts.
@@ -423,6 +431,7 @@ impl RenderArgs {
                 share_shading: approx.share_shading,
                 share_tolerance: approx.share_tolerance,
                 key_spacing: approx.key_spacing,
+                interpolate_views: approx.interpolate_views,
             },
             trace: TraceSpec {
                 max_depth: self.max_depth,

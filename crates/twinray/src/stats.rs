@@ -95,6 +95,9 @@ pub struct TraceCounts {
     /// the ones it blocked (no traversal).
     pub shadow_cache_tests: u64,
     pub shadow_cache_hits: u64,
+    /// `--interpolate-views`: spans, samples shaded and interpolated, and
+    /// refusals by rule (`render::InterpStats`).
+    pub interp: crate::render::InterpStats,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -155,6 +158,7 @@ impl TraceCounts {
         self.shadow_rays_proved += o.shadow_rays_proved;
         self.shadow_cache_tests += o.shadow_cache_tests;
         self.shadow_cache_hits += o.shadow_cache_hits;
+        self.interp.add(&o.interp);
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -283,6 +287,8 @@ pub struct Report {
     /// See `TraceCounts::shadow_cache_tests`.
     pub shadow_cache_tests: u64,
     pub shadow_cache_hits: u64,
+    /// `--interpolate-views`: see `TraceCounts::interp`.
+    pub interpolated_views: crate::render::InterpStats,
 }
 
 impl Report {
@@ -323,6 +329,7 @@ impl Report {
         self.fan_queries = c.fan_queries;
         self.fan_free = c.fan_free;
         self.eye_runs = c.runs;
+        self.interpolated_views = c.interp;
         self.shadow_rays_proved = c.shadow_rays_proved;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;

@@ -70,7 +70,7 @@ fn approx(reproject: Option<ReprojectMode>, merge_secondary: bool) -> RenderOpti
                 threshold: Reprojection::DEFAULT_THRESHOLD,
             }),
             shared_shading: None,
-            key_spacing: 1,
+            ..Approximations::default()
         },
         ..options(Method::Twin, Sampling::Centers)
     }

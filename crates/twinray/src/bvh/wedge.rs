@@ -36,11 +36,55 @@ pub struct ShadowFan<'a> {
     margin: f32,
     /// Rounding scale of the fan's coordinates.
     eps: f32,
+    /// The fan stands for every segment from a point within the margin of
+    /// the origins' line too (`spanning`), not only the origins' own.
+    spanning: bool,
 }
 
 /// Distance from `p` to the segment `a`–`b`.
 pub fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
     distance_squared_to_segment(p, a, b).sqrt()
+}
+
+/// Distance from `p` to the triangle `a`, `b`, `c` (its closest point by
+/// the triangle's regions, Ericson's *Real-Time Collision Detection* 5.1.5).
+fn distance_to_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return ap.length();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return bp.length();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return distance_to_segment(p, a, b);
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return cp.length();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return distance_to_segment(p, a, c);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return distance_to_segment(p, b, c);
+    }
+    let denom = va + vb + vc;
+    if denom.abs() <= 0.0 || denom.is_nan() {
+        // Degenerate: the nearest of its sides.
+        return distance_to_segment(p, a, b)
+            .min(distance_to_segment(p, a, c))
+            .min(distance_to_segment(p, b, c));
+    }
+    let (v, w) = (vb / denom, vc / denom);
+    (p - (a + ab * v + ac * w)).length()
 }
 
 /// The square of `distance_to_segment`.
@@ -92,6 +136,23 @@ impl<'a> ShadowFan<'a> {
             tri: [first, far, light],
             margin: off_line + end_error + eps,
             eps,
+            spanning: false,
+        })
+    }
+
+    /// The fan of two ends that stands for the segments of every point
+    /// between them too (key views, interpolated views: the hits of the
+    /// views between lie on the line of the ends' hits, within `end_error`).
+    /// A triangle's plane that has both ends and the light strictly on one
+    /// side has every point between there too; a sphere is met wherever it
+    /// comes within its radius of the covering triangle (no segment that
+    /// leaves it is excused: a sphere between the two ends' segments meets
+    /// a segment between them).
+    pub fn spanning(ends: &'a [Vec3], light: Vec3, end_error: f32) -> Option<ShadowFan<'a>> {
+        let fan = ShadowFan::new(ends, light, end_error)?;
+        Some(ShadowFan {
+            spanning: true,
+            ..fan
         })
     }
 
@@ -140,6 +201,10 @@ impl<'a> ShadowFan<'a> {
             return false;
         }
         match shape {
+            Shape::Sphere(s) if self.spanning => {
+                let [a, b, c] = self.tri;
+                distance_to_triangle(s.center, a, b, c) <= s.radius.abs() + self.margin + self.eps
+            }
             Shape::Sphere(s) => {
                 let r = s.radius.abs();
                 let reach = r + self.eps;
@@ -389,6 +454,28 @@ mod tests {
                 "occluder {kind} aside"
             );
         }
+    }
+
+    /// A small sphere between the segments of a fan's two ends, touching
+    /// neither: the ends' own fan is free, their spanning fan (which stands
+    /// for the points between) is met; moved above the light, both free.
+    #[test]
+    fn a_sphere_between_two_ends_meets_their_spanning_fan() {
+        let ends = [Vec3::ZERO, Vec3::new(1.4, 0.0, 0.0)];
+        let light = Vec3::new(0.7, 0.0, 10.0);
+        let free = |fan: &ShadowFan, at: Vec3| {
+            let shapes = vec![sphere(at, 0.01)];
+            tree(&shapes).fan_is_free(fan, &shapes, &mut FanWork::default())
+        };
+        let own = ShadowFan::new(&ends, light, 0.0).expect("finite");
+        let spanning = ShadowFan::spanning(&ends, light, 0.0).expect("finite");
+        let between = Vec3::new(0.3, 0.0, 2.0);
+        assert!(free(&own, between), "the ends' own segments miss it");
+        assert!(!free(&spanning, between));
+        let above = between + Vec3::new(0.0, 0.0, 20.0);
+        assert!(free(&own, above) && free(&spanning, above));
+        // Beside the covering triangle by more than its radius: free.
+        assert!(free(&spanning, between + Vec3::new(0.0, 0.05, 0.0)));
     }
 
     /// A floor triangle a hundred units wide, the origins on it moved off by

@@ -53,6 +53,7 @@ impl JobSpec {
         a.maybe("--cut-distance", x.cut_distance);
         a.maybe("--cut-parallax", x.cut_parallax);
         a.flag("--share-shading", x.share_shading);
+        a.flag("--interpolate-views", x.interpolate_views);
         if x.share_tolerance != ApproximationSpec::default().share_tolerance {
             a.value("--share-tolerance", x.share_tolerance);
         }

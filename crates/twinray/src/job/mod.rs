@@ -741,6 +741,13 @@ impl Job {
                     c.key_view_samples, c.interpolated_samples, c.key_view_fallbacks, c.key_view_probes, c.key_view_skipped_groups, c.fan_queries, c.fan_free
                 )));
             }
+            if o.approx.interpolate_views.is_some() {
+                let i = &c.interp;
+                m.push(Message::info(format!(
+                    "interpolated views: proved spans {} (refused for the material {}, the surface {}), samples interpolated {}, shaded {}; pairs judged {}, refused: shading tree {}, colours apart {}, light or shadow {}",
+                    i.spans, i.spans_refused_material, i.spans_refused_surface, i.interpolated, i.shaded, i.pairs, i.refused_tree, i.refused_colour, i.refused_light
+                )));
+            }
         }
         m
     }
@@ -1032,7 +1039,11 @@ impl Checked {
             };
             rig_choice::rig_request(&flags, quilt_layout, views, 1.0)?;
         }
-        let approx = approximations(&spec.approximations)?;
+        let mut approx = approximations(&spec.approximations)?;
+        if views < 3 && !spec.approximations.interpolate_views {
+            // `--fast` interpolates views only where there are views between.
+            approx.interpolate_views = None;
+        }
         check_cut(&spec.approximations)?;
         let method = match rig.method {
             MethodSpec::Independent => Method::Independent,
@@ -1302,6 +1313,8 @@ fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
         reproject,
         shared_shading,
         key_spacing: a.key_spacing,
+        interpolate_views: (a.interpolate_views || a.fast)
+            .then_some(crate::render::InterpolateViews { tolerance }),
     })
 }
 

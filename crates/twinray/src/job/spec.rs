@@ -221,6 +221,10 @@ pub struct ApproximationSpec {
     /// view of a group traced in full, 0 = adaptive, 1 (default) = none (see
     /// `render::Approximations`).
     pub key_spacing: usize,
+    /// Issue 16: the views between proved key views of a camera column
+    /// interpolated (`--interpolate-views`; also under `fast` with 3 views
+    /// or more), within `share_tolerance`.
+    pub interpolate_views: bool,
 }
 
 impl Default for ApproximationSpec {
@@ -236,6 +240,7 @@ impl Default for ApproximationSpec {
             share_shading: false,
             share_tolerance: crate::render::SharedShading::DEFAULT_TOLERANCE,
             key_spacing: 1,
+            interpolate_views: false,
         }
     }
 }

@@ -27,6 +27,7 @@ mod adaptive;
 mod film;
 mod grouping;
 mod independent;
+mod interpolated_views;
 mod row_shadows;
 pub mod sampler;
 mod shading_cache;
@@ -34,6 +35,7 @@ mod strip;
 mod tracer;
 mod twin;
 
+pub use interpolated_views::{InterpStats, InterpolateViews};
 pub use sampler::{Filter, SampleRow, Sampling};
 pub(crate) use tracer::MAX_CUTOUT_LAYERS;
 pub use tracer::{Donor, SecondaryRays, TraceSettings, Tracer};
@@ -149,6 +151,10 @@ pub struct Approximations {
     /// its own, since key views measured slower on SPD gears and mount); the views between take their secondary
     /// colour interpolated where it is close (`twin::key_views`).
     pub key_spacing: usize,
+    /// Issue 16 (`--interpolate-views`): on the eye runs' proved spans, the
+    /// views between two shaded ones take their colour interpolated where
+    /// it is provably close (`interpolated_views`; twin method, no cut).
+    pub interpolate_views: Option<InterpolateViews>,
 }
 
 /// The multi-view shading cache (`--share-shading`, see `shading_cache`).
@@ -173,6 +179,7 @@ impl Default for Approximations {
             reproject: None,
             shared_shading: None,
             key_spacing: 1,
+            interpolate_views: None,
         }
     }
 }
@@ -387,10 +394,18 @@ pub fn render_rows(
         Method::Twin => twin_batches(&job, views_per_batch(views, opts.views_per_batch))?,
     };
     let paper = matches!(opts.approx.reproject, Some(r) if r.mode == ReprojectMode::Paper);
-    let strip = ((opts.strip || opts.eye_runs) && opts.method == Method::Twin && !paper)
+    let interpolate = opts
+        .approx
+        .interpolate_views
+        .filter(|_| opts.method == Method::Twin && !paper);
+    let runs = opts.eye_runs || interpolate.is_some();
+    let strip = ((opts.strip || runs) && opts.method == Method::Twin && !paper)
         .then(|| strip::StripEyePass::new(world, camera, rig))
         .flatten()
-        .map(|p| if opts.eye_runs { p.with_runs() } else { p });
+        .map(|p| if runs { p.with_runs() } else { p });
+    let interpolation = interpolate
+        .filter(|_| strip.is_some())
+        .map(|s| interpolated_views::ViewInterpolation::new(world, camera, rig, s));
     let fans = (opts.shadow_fans && opts.method == Method::Twin && !paper)
         .then(|| row_shadows::RowShadowPass::new(world, camera, rig, opts.shadow_fan_min_run))
         .flatten();
@@ -399,6 +414,7 @@ pub fn render_rows(
         batches: &batches,
         strip: strip.as_ref(),
         fans: fans.as_ref(),
+        interpolation: interpolation.as_ref(),
         views,
         width: camera.width as usize,
         height: camera.height as usize,
@@ -523,6 +539,11 @@ struct RowContext<'b> {
     fans: Option<(&'b row_shadows::RowShadowPass<'b>, strip::StripRow)>,
     /// A row's colours per view, reused from row to row (`Run::lattice`).
     colors: Vec<RowColors>,
+    /// `--interpolate-views`: the interpolation of the strip's proved spans.
+    interpolation: Option<(
+        &'b interpolated_views::ViewInterpolation<'b>,
+        interpolated_views::InterpScratch,
+    )>,
 }
 
 impl RowContext<'_> {
@@ -538,6 +559,9 @@ impl RowContext<'_> {
             let start = Instant::now();
             pass.trace_row(tracer, row, hits);
             tracer.counts.eye_pass_ns += start.elapsed().as_nanos() as u64;
+            if let Some((interpolation, scratch)) = &mut self.interpolation {
+                interpolation.claim(tracer, hits, scratch);
+            }
         }
         let eye = self.shared_shadows(tracer, row, views);
         let mut first = 0;
@@ -557,6 +581,11 @@ impl RowContext<'_> {
                 None => worker.trace(tracer, row, out),
             }
             first += *n;
+        }
+        if let Some((interpolation, scratch)) = &mut self.interpolation {
+            let start = Instant::now();
+            interpolation.finish_row(tracer, row, scratch, out);
+            tracer.counts.shading_pass_ns += start.elapsed().as_nanos() as u64;
         }
         tracer.row_shadows.clear();
     }
@@ -626,6 +655,8 @@ struct Run<'j, 'a> {
     strip: Option<&'j strip::StripEyePass<'a>>,
     /// `--shadow-fans`: the shared shadows of the eye hits.
     fans: Option<&'j row_shadows::RowShadowPass<'a>>,
+    /// `--interpolate-views`: the views between proved ones interpolated.
+    interpolation: Option<&'j interpolated_views::ViewInterpolation<'a>>,
     views: usize,
     width: usize,
     height: usize,
@@ -667,6 +698,7 @@ impl Run<'_, '_> {
             strip: self.strip.map(|p| (p, strip::StripRow::default())),
             fans: self.fans.map(|p| (p, strip::StripRow::default())),
             colors: Vec::new(),
+            interpolation: self.interpolation.map(|p| (p, Default::default())),
         };
         let cancel = self.job.cancel;
         let total = std::sync::Mutex::new(TraceCounts::default());

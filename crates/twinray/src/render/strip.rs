@@ -75,6 +75,20 @@ pub(super) struct StripRow {
     spans: Vec<(usize, usize)>,
     next_spans: Vec<(usize, usize)>,
     pending: Vec<usize>,
+    /// Eye runs: every span of the row proved free (`interpolated_views`
+    /// shades the views between its ends): its primitive (`u32::MAX`: a
+    /// miss) and its members, ends included, in offset order, as
+    /// `proved_members[start..start + len]` (view, sample).
+    pub proved: Vec<ProvedSpan>,
+    pub proved_members: Vec<(usize, usize)>,
+}
+
+/// A span of a family proved free by an eye run (see `StripRow::proved`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct ProvedSpan {
+    pub prim: u32,
+    pub start: usize,
+    pub len: usize,
 }
 
 impl<'a> StripEyePass<'a> {
@@ -119,6 +133,8 @@ impl<'a> StripEyePass<'a> {
     /// (`out.traced` false when the row's samples give no family).
     pub(super) fn trace_row(&self, tracer: &mut Tracer, row: &SampleRow, out: &mut StripRow) {
         out.traced = false;
+        out.proved.clear();
+        out.proved_members.clear();
         let (Some(&first), Some(&last), Some(&offset)) =
             (row.pixels.first(), row.pixels.last(), row.offsets.first())
         else {
@@ -372,6 +388,13 @@ impl StripEyePass<'_> {
                 }
             }
         }
+        out.proved.push(ProvedSpan {
+            prim: pa,
+            start: out.proved_members.len(),
+            len: b - a + 1,
+        });
+        let members = &out.members[a..=b];
+        out.proved_members.extend_from_slice(members);
         true
     }
 }

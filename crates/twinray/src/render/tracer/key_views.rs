@@ -171,7 +171,7 @@ impl Tracer<'_> {
                             return false;
                         }
                         let end_error = position.abs().max_element() * 4.0 * f32::EPSILON;
-                        if !self.fan_is_free(&[oa, ob], position, end_error + slack) {
+                        if !self.span_is_free(&[oa, ob], position, end_error + slack) {
                             return false;
                         }
                     }

@@ -11,7 +11,17 @@ impl Tracer<'_> {
     /// scene (conservative: `true` is proved; see `bvh::wedge`). `end_error`
     /// bounds how far a shadow ray's computed end lies from `light`.
     pub fn fan_is_free(&mut self, origins: &[Vec3], light: Vec3, end_error: f32) -> bool {
-        let Some(fan) = ShadowFan::new(origins, light, end_error) else {
+        self.is_free(ShadowFan::new(origins, light, end_error))
+    }
+
+    /// [`Tracer::fan_is_free`] for the segments of two ends and of every
+    /// point between them (`ShadowFan::spanning`).
+    pub fn span_is_free(&mut self, ends: &[Vec3; 2], light: Vec3, end_error: f32) -> bool {
+        self.is_free(ShadowFan::spanning(ends, light, end_error))
+    }
+
+    fn is_free(&mut self, fan: Option<ShadowFan>) -> bool {
+        let Some(fan) = fan else {
             return false;
         };
         let world = self.world;
