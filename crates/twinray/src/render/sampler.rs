@@ -179,6 +179,7 @@ pub(super) enum Pattern {
 
 impl Pattern {
     /// The offset along the row and the image row of the sample of pixel `x`.
+    #[inline]
     pub(super) fn at(&self, x: i32) -> (f32, f32) {
         match *self {
             Pattern::Fixed { dx, y } => (dx, y),

@@ -100,6 +100,9 @@ pub(super) struct RowScratch<const K: usize> {
     received: Vec<Vec<Option<Received>>>,
     /// Key views' chains and secondary colours (`key_views`).
     keys: key_views::KeyScratch,
+    /// A batch of one view traced without grouping (`trace_mono_row`): per
+    /// sample, its eye ray's direction and nearest hit.
+    mono: Vec<(Vec3, u32, SurfaceHit)>,
 }
 
 /// Sizes `v` to `views` rows of `len` copies of `fill`.
@@ -609,6 +612,46 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         scratch.donor = donor;
     }
 
+    /// A batch of one view with nothing to share (no strip pass, cut,
+    /// reprojection or shared shading): the eye pass and the shading of
+    /// `trace_row` without the grouping. Each sample is the group of one that
+    /// `group_row` would make, shaded by the same calls in the same order
+    /// (same packet, same hit), so the colours and counts are the same; what
+    /// goes is the per-view buffers, the points and claims of the grouping,
+    /// and the group packets' copies (docs/benchmarks.md, "Issue 17, sixth pass").
+    fn trace_mono_row(
+        &self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        scratch: &mut RowScratch<K>,
+        out: &mut [RowColors],
+    ) {
+        let start = Instant::now();
+        let (origin, shift, view) = (self.origins[0], self.shifts[0], [self.first_view]);
+        let mono = &mut scratch.mono;
+        mono.clear();
+        for i in 0..row.len() {
+            let (column, y) = row.camera_point(i, shift);
+            let dir = self.camera.direction(column, y);
+            let h = tracer.eye_hits(&self.eye_ray(origin, dir), &view);
+            mono.push((dir, h.prim[0], h.hit[0]));
+        }
+        let eye_pass = start.elapsed();
+        for (&(dir, prim, hit), color) in mono.iter().zip(out[0].iter_mut()) {
+            *color = if prim == PacketHits::<1>::NO_HIT {
+                self.world.scene.background_toward(dir)
+            } else {
+                let hits = PacketHits {
+                    prim: [prim],
+                    hit: [hit],
+                };
+                tracer.shade_eye(&self.eye_ray(origin, dir), &hits, self.secondary)[0]
+            };
+        }
+        tracer.counts.eye_pass_ns += eye_pass.as_nanos() as u64;
+        tracer.counts.shading_pass_ns += (start.elapsed() - eye_pass).as_nanos() as u64;
+    }
+
     /// Every stage for one row of samples: `out[v][i]` is view `v`'s colour
     /// of sample `i`.
     fn trace_row(
@@ -619,6 +662,14 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         strip: Option<&StripRow>,
         out: &mut [RowColors],
     ) {
+        if self.views == 1
+            && strip.is_none()
+            && self.world.far.is_none()
+            && self.reproject.is_none()
+            && self.shared_shading.is_none()
+        {
+            return self.trace_mono_row(tracer, row, scratch, out);
+        }
         let start = Instant::now();
         let paper = matches!(self.reproject, Some(r) if r.mode == ReprojectMode::Paper);
         if !paper {
