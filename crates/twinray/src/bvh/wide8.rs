@@ -21,6 +21,7 @@ use super::traverse::{LaneHit, SingleRay, CULL_SLACK, NO_SURFACE, ROBUST, STACK}
 use super::wide::{collapse_sah, take_nearest, wide_ray, Entry, WideNode};
 use super::TraversalStats;
 use super::{AnyHitTest, Bvh, NearestTest, Node, Packet, PacketHits, SegmentPacket};
+use crate::shapes::SurfaceHit;
 use arrayvec::ArrayVec;
 use wide::f32x8;
 
@@ -68,6 +69,33 @@ impl Bvh {
             out.hit[l] = state.hit;
         }
         out
+    }
+
+    /// `closest_each_wide8` for a packet of one lane, for callers that trace
+    /// rays one at a time (the mono eye pass): lane 0's nearest hit, or
+    /// `None` when there is no eight-wide tree. Inlined, so the answer stays
+    /// in registers: returned through memory, its reload stalled on the
+    /// stores that wrote it (docs/benchmarks.md, "Issue 17, sixth pass").
+    #[inline(always)]
+    pub fn closest_one_wide8(
+        &self,
+        packet: &Packet<1>,
+        stats: &mut TraversalStats,
+        mut test: impl NearestTest,
+    ) -> Option<(u32, SurfaceHit)> {
+        if self.wide8.is_empty() {
+            return None;
+        }
+        let mut state = LaneHit {
+            best: packet.t_max[0],
+            prim: PacketHits::<1>::NO_HIT,
+            hit: NO_SURFACE,
+        };
+        if packet.mask & 1 != 0 {
+            let ray = SingleRay::new(packet.origins[0], packet.dirs[0], packet.t_min);
+            self.wide8_single(&ray, &mut state, stats, &mut test, 0);
+        }
+        Some((state.prim, state.hit))
     }
 
     /// One ray's nearest-hit descent of the eight-wide tree, improving

@@ -215,6 +215,35 @@ impl<'a> Tracer<'a> {
         hits
     }
 
+    /// `eye_hits` for one ray (lane 0 of `packet`, of view `view`). Where
+    /// `closest` would take the eight-wide descent for it (no cut-outs, no
+    /// cut, both wide trees built), that descent is inlined here: the same
+    /// hit, counted the same, without the calls between.
+    #[inline(always)]
+    pub fn eye_hit(&mut self, packet: &Packet<1>, view: usize) -> PacketHits<1> {
+        let world = self.world;
+        if world.has_alpha || world.far.is_some() || world.bvh.wide.is_empty() {
+            return self.eye_hits(packet, &[view]);
+        }
+        let test = NearestShape {
+            shapes: &world.scene.shapes,
+            packet,
+        };
+        let Some((prim, hit)) = world
+            .bvh
+            .closest_one_wide8(packet, &mut self.traversal, test)
+        else {
+            return self.eye_hits(packet, &[view]);
+        };
+        self.counts.closest_traversals += 1;
+        let hits = PacketHits {
+            prim: [prim],
+            hit: [hit],
+        };
+        self.count_eye_hits(packet, &hits, &[view]);
+        hits
+    }
+
     /// Eye rays and their hits, per view.
     pub fn count_eye_hits<const K: usize>(
         &mut self,

@@ -627,14 +627,23 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         out: &mut [RowColors],
     ) {
         let start = Instant::now();
-        let (origin, shift, view) = (self.origins[0], self.shifts[0], [self.first_view]);
+        let (origin, shift) = (self.origins[0], self.shifts[0]);
         let mono = &mut scratch.mono;
         mono.clear();
-        for i in 0..row.len() {
+        // The directions first, in a loop of their own: each one's square
+        // root and division then overlap the next ones' instead of waiting
+        // in front of a descent.
+        mono.extend((0..row.len()).map(|i| {
             let (column, y) = row.camera_point(i, shift);
-            let dir = self.camera.direction(column, y);
-            let h = tracer.eye_hits(&self.eye_ray(origin, dir), &view);
-            mono.push((dir, h.prim[0], h.hit[0]));
+            (
+                self.camera.direction(column, y),
+                PacketHits::<1>::NO_HIT,
+                NONE,
+            )
+        }));
+        for (dir, prim, hit) in mono.iter_mut() {
+            let h = tracer.eye_hit(&self.eye_ray(origin, *dir), self.first_view);
+            (*prim, *hit) = (h.prim[0], h.hit[0]);
         }
         let eye_pass = start.elapsed();
         for (&(dir, prim, hit), color) in mono.iter().zip(out[0].iter_mut()) {
