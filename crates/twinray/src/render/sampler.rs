@@ -226,7 +226,11 @@ pub struct SampleRow {
 impl SampleRow {
     /// Samples of `pattern` in the pixels of `pixels` (ascending).
     pub(super) fn new(pixels: Vec<i32>, pattern: Pattern) -> SampleRow {
-        let offsets = pixels.iter().map(|&x| pattern.at(x)).collect();
+        let offsets = match pattern {
+            // Every sample of a fixed pattern has the same offset.
+            Pattern::Fixed { dx, y } => vec![(dx, y); pixels.len()],
+            Pattern::Sobol { .. } => pixels.iter().map(|&x| pattern.at(x)).collect(),
+        };
         let contiguous = match (pixels.first(), pixels.last()) {
             (Some(&a), Some(&b)) => (b - a) as usize + 1 == pixels.len(),
             _ => true,

@@ -215,33 +215,45 @@ impl<'a> Tracer<'a> {
         hits
     }
 
-    /// `eye_hits` for one ray (lane 0 of `packet`, of view `view`). Where
-    /// `closest` would take the eight-wide descent for it (no cut-outs, no
-    /// cut, both wide trees built), that descent is inlined here: the same
-    /// hit, counted the same, without the calls between.
-    #[inline(always)]
-    pub fn eye_hit(&mut self, packet: &Packet<1>, view: usize) -> PacketHits<1> {
+    /// Whether `eye_hit` may trace this world's eye rays: where `closest`
+    /// would take the eight-wide descent for a ray alone (no cut-outs, no
+    /// cut, both wide trees built).
+    pub fn eye_hit_applies(&self) -> bool {
         let world = self.world;
-        if world.has_alpha || world.far.is_some() || world.bvh.wide.is_empty() {
-            return self.eye_hits(packet, &[view]);
-        }
+        !(world.has_alpha
+            || world.far.is_some()
+            || world.bvh.wide.is_empty()
+            || world.bvh.wide8.is_empty())
+    }
+
+    /// `eye_hits` for one ray (lane 0 of `packet`, of view `view`) where
+    /// `eye_hit_applies`: `closest`'s eight-wide descent inlined, the same
+    /// hit, counted the same, without the calls between. Its caller keeps
+    /// the other path in a loop of its own, so that the answer is never
+    /// merged into a value returned through memory (whose reload stalls).
+    #[inline(always)]
+    pub fn eye_hit(&mut self, packet: &Packet<1>, view: usize) -> (u32, SurfaceHit) {
+        let world = self.world;
         let test = NearestShape {
             shapes: &world.scene.shapes,
             packet,
         };
-        let Some((prim, hit)) = world
+        let (prim, hit) = world
             .bvh
             .closest_one_wide8(packet, &mut self.traversal, test)
-        else {
-            return self.eye_hits(packet, &[view]);
-        };
+            .unwrap_or((PacketHits::<1>::NO_HIT, PacketHits::<1>::none().hit[0]));
         self.counts.closest_traversals += 1;
-        let hits = PacketHits {
-            prim: [prim],
-            hit: [hit],
-        };
-        self.count_eye_hits(packet, &hits, &[view]);
-        hits
+        self.counts.eye_traversals += 1;
+        if packet.mask & 1 != 0 {
+            self.counts.rays.eye += 1;
+            if prim != PacketHits::<1>::NO_HIT {
+                self.counts.rays.eye_hit += 1;
+                if let Some(h) = self.counts.per_view_hits.0.get_mut(view) {
+                    *h += 1;
+                }
+            }
+        }
+        (prim, hit)
     }
 
     /// Eye rays and their hits, per view.

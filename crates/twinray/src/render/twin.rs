@@ -641,9 +641,15 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
                 NONE,
             )
         }));
-        for (dir, prim, hit) in mono.iter_mut() {
-            let h = tracer.eye_hit(&self.eye_ray(origin, *dir), self.first_view);
-            (*prim, *hit) = (h.prim[0], h.hit[0]);
+        if tracer.eye_hit_applies() {
+            for (dir, prim, hit) in mono.iter_mut() {
+                (*prim, *hit) = tracer.eye_hit(&self.eye_ray(origin, *dir), self.first_view);
+            }
+        } else {
+            for (dir, prim, hit) in mono.iter_mut() {
+                let h = tracer.eye_hits(&self.eye_ray(origin, *dir), &[self.first_view]);
+                (*prim, *hit) = (h.prim[0], h.hit[0]);
+            }
         }
         let eye_pass = start.elapsed();
         for (&(dir, prim, hit), color) in mono.iter().zip(out[0].iter_mut()) {
