@@ -1071,6 +1071,33 @@ mod tests {
             .collect()
     }
 
+    /// `eye_hit` (the inlined one-ray descent) gives what `eye_hits` gives,
+    /// bit for bit, and counts the same work (traversal counters included),
+    /// on rays through and around the scene of spheres, polygons and a cone.
+    #[test]
+    fn one_eye_ray_alone_is_what_a_packet_of_one_gives() {
+        let world = world(SCENE);
+        let camera = Camera::new(&world.scene.viewpoint, 64, 48);
+        let mut rng = fastrand::Rng::with_seed(17);
+        let mut alone = Tracer::new(&world, TraceSettings::default());
+        let mut packed = Tracer::new(&world, TraceSettings::default());
+        assert!(alone.eye_hit_applies());
+        let mut hit = 0;
+        for (n, packet) in eye_packets::<1>(&camera, &mut rng, 3000).iter().enumerate() {
+            let view = n % 3;
+            let (prim, h) = alone.eye_hit(packet, view);
+            let p = packed.eye_hits(packet, &[view]);
+            assert_eq!(prim, p.prim[0], "ray {n}");
+            let bits = |h: SurfaceHit| [h.t, h.u, h.v].map(f32::to_bits);
+            assert_eq!(bits(h), bits(p.hit[0]), "ray {n}");
+            hit += usize::from(p.has_hit(0));
+        }
+        assert!((500..2900).contains(&hit), "{hit} of 3000 rays hit");
+        let (a, b) = (alone.finish(), packed.finish());
+        assert_eq!(a.per_view_hits, b.per_view_hits);
+        assert_eq!(a, b);
+    }
+
     /// A packet of `K` lanes through one tracer (its shadow cache filled by
     /// the packets before) gives each lane, bit for bit, what the lane alone
     /// gives through another tracer, and traces the same rays.

@@ -828,6 +828,79 @@ mod tests {
     use crate::render::sampler::Pattern;
     use crate::render::RenderOptions;
 
+    /// A batch of one view takes `trace_mono_row` (no grouping: the groups
+    /// stay empty), and its colours and counts are, bit for bit, those of
+    /// the staged path it replaces (eye pass, grouping, shading of groups of
+    /// one), on rows of pixel centres, of corners and of Sobol samples.
+    #[test]
+    fn a_mono_row_is_the_staged_row_bit_for_bit() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
+        let scene = load_scene(&path, &LoadOptions::default()).expect("shipped scene");
+        let world = World::new(scene);
+        let camera = Camera::new(&world.scene.viewpoint, 64, 48);
+        let rig = Rig::mono();
+        let opts = RenderOptions::default();
+        let job = RenderInputs {
+            world: &world,
+            camera: &camera,
+            rig: &rig,
+            opts: &opts,
+            progress: &|_, _| {},
+            cancel: &super::super::CancelToken::new(),
+        };
+        let batch = TwinBatch::<1>::new(&job, rig.clone(), 0);
+        let width = camera.width as usize;
+        let (mut fast, mut staged) = (RowScratch::<1>::default(), RowScratch::<1>::default());
+        let mut fast_tracer = Tracer::new(&world, opts.trace);
+        let mut staged_tracer = Tracer::new(&world, opts.trace);
+        assert!(fast_tracer.eye_hit_applies());
+        let mut hits = 0;
+        for y in 0..camera.height {
+            for pattern in [
+                Pattern::Fixed {
+                    dx: 0.0,
+                    y: y as f32,
+                },
+                Pattern::Fixed {
+                    dx: -0.5,
+                    y: y as f32 - 0.5,
+                },
+                Pattern::Sobol {
+                    row: y,
+                    index: 3,
+                    seed: 1,
+                },
+            ] {
+                let row = SampleRow::full(width, pattern);
+                let mut a = vec![vec![Color::ZERO; width]];
+                let mut b = vec![vec![Color::ZERO; width]];
+                batch.trace_row(&mut fast_tracer, &row, &mut fast, None, &mut a);
+                assert!(fast.groups.is_empty(), "the mono row grouped its samples");
+                batch.eye_pass(&mut staged_tracer, &row, &mut staged, None);
+                batch.group(&row, &mut staged);
+                batch.shade_groups(&mut staged_tracer, &staged, &mut b);
+                for (i, (ca, cb)) in a[0].iter().zip(&b[0]).enumerate() {
+                    let bits = |c: &Color| c.to_array().map(f32::to_bits);
+                    assert_eq!(bits(ca), bits(cb), "row {y}, sample {i}, {pattern:?}");
+                }
+                hits += staged.hits[0]
+                    .iter()
+                    .filter(|h| h.0 != PacketHits::<1>::NO_HIT)
+                    .count();
+            }
+        }
+        assert!(hits > width * camera.height as usize, "{hits} hits");
+        let (mut a, mut b) = (fast_tracer.finish(), staged_tracer.finish());
+        (
+            a.eye_pass_ns,
+            a.shading_pass_ns,
+            b.eye_pass_ns,
+            b.shading_pass_ns,
+        ) = (0, 0, 0, 0);
+        assert_eq!(a, b);
+    }
+
     /// Under a strongly converged rig (image shifts of many pixels), the
     /// samples the grouping puts together see the same surface point: the
     /// projection into the other view, shift included, is right. A wrong sign
