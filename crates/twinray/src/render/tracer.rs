@@ -723,8 +723,10 @@ impl<'a> Tracer<'a> {
                 // answer must not depend on what the cache holds.
                 let (o, d, t) = (seg.origins[l], seg.dirs[l], seg.t_max[l]);
                 let shape = &world.scene.shapes[prim as usize];
-                if blocks(world, prim, o, d, t)
-                    && segment_enters(&primitive_box(&shape.bounds()), o, d, t)
+                // The box first: cheaper than a sphere's or a cone's test, and
+                // most stale blockers' boxes are missed (both must hold).
+                if segment_enters(&primitive_box(&shape.bounds()), o, d, t)
+                    && blocks(world, prim, o, d, t)
                 {
                     through[l] = 0.0;
                     self.counts.shadow_cache_hits += 1;
