@@ -11,8 +11,6 @@
 mod common;
 
 use common::*;
-use twinray::loaders::nff::parse_nff;
-use twinray::loaders::LoadOptions;
 use twinray::render::{
     Approximations, Method, RenderOptions, RenderOutput, Sampling, SynthesisStats, ViewSynthesis,
 };
@@ -24,19 +22,10 @@ const HEIGHT: u32 = 30;
 const INTERAXIAL: f32 = 0.01;
 const E: f32 = 0.01;
 
-/// Looking down on a diffuse floor (one triangle, no highlight or mirror).
-const FLOOR: &str = "b 0.1 0.1 0.2\nv\nfrom 0 -6 5\nat 0 0 0\nup 0 0 1\nangle 45\nhither 0.01\n\
-    resolution 40 30\nl 3 2 10\n\
-    f 0.8 0.8 0.7 0.9 0 0 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\n";
+const FLOOR: &str = OPEN_FLOOR;
 
 fn parse(text: &str) -> World {
-    let scene = parse_nff(
-        text,
-        std::path::Path::new("synth.nff"),
-        &LoadOptions::default(),
-    )
-    .expect("generated scene");
-    World::new(scene)
+    nff_world(text)
 }
 
 fn synthesizing(spacing: usize, tolerance: f32, sampling: Sampling) -> RenderOptions {
@@ -90,6 +79,15 @@ fn against_exact(
     (worst, differ, out)
 }
 
+fn independent(world: &World, camera: &Camera, rig: &Rig) -> RenderOutput {
+    run(
+        world,
+        camera,
+        rig,
+        &options(Method::Independent, Sampling::Centers),
+    )
+}
+
 fn camera(world: &World) -> Camera {
     Camera::new(&world.scene.viewpoint, WIDTH, HEIGHT)
 }
@@ -128,12 +126,7 @@ fn key_views_are_the_independent_renders() {
     let world = parse(&format!("{FLOOR}{ball}"));
     let camera = camera(&world);
     let rig = Rig::multi_view(&camera, 17, INTERAXIAL, None).expect("rig");
-    let exact = run(
-        &world,
-        &camera,
-        &rig,
-        &options(Method::Independent, Sampling::Centers),
-    );
+    let exact = independent(&world, &camera, &rig);
     let out = run(
         &world,
         &camera,
@@ -162,18 +155,8 @@ fn a_pole_seen_by_one_view_only_is_kept() {
     let bare = parse(&above);
     let camera = camera(&world);
     let rig = Rig::multi_view(&camera, 48, INTERAXIAL, None).expect("rig");
-    let exact = run(
-        &world,
-        &camera,
-        &rig,
-        &options(Method::Independent, Sampling::Centers),
-    );
-    let without = run(
-        &bare,
-        &camera,
-        &rig,
-        &options(Method::Independent, Sampling::Centers),
-    );
+    let exact = independent(&world, &camera, &rig);
+    let without = independent(&bare, &camera, &rig);
     let sees = |v: usize| exact.images[v].pixels != without.images[v].pixels;
     let seeing: Vec<usize> = (0..48).filter(|&v| sees(v)).collect();
     assert!(!seeing.is_empty(), "the pole is in some view");
@@ -231,12 +214,7 @@ fn a_mirror_whose_reflection_changes_between_views_is_traced() {
     // The floor fills the lower rows: their samples are all traced, so the
     // only synthesized ones are the sky's.
     let rig = Rig::multi_view(&camera, 48, INTERAXIAL, None).expect("rig");
-    let exact = run(
-        &world,
-        &camera,
-        &rig,
-        &options(Method::Independent, Sampling::Centers),
-    );
+    let exact = independent(&world, &camera, &rig);
     let bottom = ((HEIGHT - 1) * WIDTH) as usize..(HEIGHT * WIDTH) as usize;
     for v in 0..48 {
         assert!(
