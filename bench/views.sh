@@ -17,8 +17,11 @@
 # Mode interp: the interpolated views (--interpolate-views, which
 # implies the eye runs; its tolerance is --share-tolerance, default 0.01; a
 # mode interp-E sets it to E, e.g. interp-0.02); its samples interpolated and
-# shaded are the CSV's last two columns. The CSV's eye_pass_s is --stats eye_pass_cpu_s (thread time
-# of the eye pass, twin method only).
+# shaded are the CSV's interp_ columns. Mode synth: key-view synthesis
+# (--synthesize-views, key views every 8); synth-K: every K (--synthesis-spacing
+# K); its samples synthesized and traced are the CSV's synth_ columns. The
+# CSV's eye_pass_s is --stats eye_pass_cpu_s (thread time of the eye pass, twin
+# method only).
 # ROUNDS (default 1) repeats each scene's measurements, interleaved (mono,
 # then every N and mode, then again), one CSV line per round (column round).
 # PLOT (default docs/images/views-cost.png; empty: none) is the plot written.
@@ -63,9 +66,10 @@ counter() { python3 -c "import json,sys; print(json.load(open(sys.argv[1])).get(
 shadow_rays() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['rays']['shadow'])" "$1"; }
 secondary_rays() { python3 -c "import json,sys; r=json.load(open(sys.argv[1]))['rays']; print(r['reflected'] + r['refracted'])" "$1"; }
 
+synth_count() { python3 -c "import json,sys; print(json.load(open(sys.argv[1])).get('view_synthesis', {}).get(sys.argv[2], 0))" "$1" "$2"; }
 interp_count() { python3 -c "import json,sys; print(json.load(open(sys.argv[1])).get('interpolated_views', {}).get(sys.argv[2], 0))" "$1" "$2"; }
 eye_pass() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time'].get('eye_pass_cpu_s') or '')" "$1"; }
-echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals,cache_colour_hits,secondary_rays,key_view_samples,interpolated_samples,key_view_fallbacks,fan_queries,fan_free,shadow_rays_proved,round,eye_pass_s,interp_interpolated,interp_shaded" > "$csv"
+echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals,cache_colour_hits,secondary_rays,key_view_samples,interpolated_samples,key_view_fallbacks,fan_queries,fan_free,shadow_rays_proved,round,eye_pass_s,interp_interpolated,interp_shaded,synth_synthesized,synth_traced" > "$csv"
 for scene in "${scenes[@]}"; do
  name=$(basename "$scene" .nff)
  for round in $(seq "$rounds"); do
@@ -87,6 +91,8 @@ for scene in "${scenes[@]}"; do
       [[ $mode == exact-b* ]] && extra=(--views-per-batch "${mode#exact-b}")
       [[ $mode == interp* ]] && extra=(--interpolate-views)
       [[ $mode == interp-* ]] && extra+=(--share-tolerance "${mode#interp-}")
+      [[ $mode == synth* ]] && extra=(--synthesize-views)
+      [[ $mode == synth-* ]] && extra+=(--synthesis-spacing "${mode#synth-}")
       s=$(cpu "$bin" render "$scene" -o "$tmp/$mode.pfm" "${common[@]}" "${rig[@]}" "${extra[@]}" \
         --stats "$tmp/$mode.json" 2>/dev/null)
       wall=$(cat "$tmp/wall")
@@ -112,7 +118,7 @@ for scene in "${scenes[@]}"; do
       keys+=("$(counter "$tmp/$mode.json" shadow_rays_proved)" "$round")
       keys_csv=$(IFS=,; echo "${keys[*]}")
       ratio=$(python3 -c "print(f'{$s / $mono:.3f}')")
-      echo "$name,$size,$threads,$n,$mode,$s,$ratio,$wall,$(render_s "$tmp/$mode.json"),$worst,$maxabs,$shadow,$hits,$entries,$fb,$edge,$whole,$(secondary_rays "$tmp/$mode.json"),$keys_csv,$(eye_pass "$tmp/$mode.json"),$(interp_count "$tmp/$mode.json" interpolated),$(interp_count "$tmp/$mode.json" shaded)" >> "$csv"
+      echo "$name,$size,$threads,$n,$mode,$s,$ratio,$wall,$(render_s "$tmp/$mode.json"),$worst,$maxabs,$shadow,$hits,$entries,$fb,$edge,$whole,$(secondary_rays "$tmp/$mode.json"),$keys_csv,$(eye_pass "$tmp/$mode.json"),$(interp_count "$tmp/$mode.json" interpolated),$(interp_count "$tmp/$mode.json" shaded),$(synth_count "$tmp/$mode.json" synthesized),$(synth_count "$tmp/$mode.json" traced)" >> "$csv"
       printf '%-8s %4s views %-10s %7.3f CPU s %8s x mono  worst %s dB  max %s\n' "$name" "$n" "$mode" "$s" "$ratio" "$worst" "$maxabs"
     done
   done

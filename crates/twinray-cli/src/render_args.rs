@@ -334,6 +334,19 @@ pub struct ApproxArgs {
     /// again (implies --eye-runs; also under --fast with 3 views or more).
     #[arg(long)]
     pub interpolate_views: bool,
+    /// Trace only every K-th view (--synthesis-spacing K) and the last; each
+    /// view between takes, row by row, the colours its nearest key view saw,
+    /// moved by their disparity, where the surface is diffuse (mirror,
+    /// highlight and glass weights at most --share-tolerance), the colours
+    /// between two key samples are linear within --share-tolerance, and
+    /// nothing the key view missed lies between its rays and the view's;
+    /// every other sample is traced. Needs --samples 1 or --spd (other
+    /// samplings are traced exactly).
+    #[arg(long)]
+    pub synthesize_views: bool,
+    /// Views from one key view to the next under --synthesize-views.
+    #[arg(long, value_name = "K", default_value_t = twinray::render::ViewSynthesis::DEFAULT_SPACING)]
+    pub synthesis_spacing: usize,
 }
 
 /// Depth budget, floating window, depth outputs and quilts.
@@ -432,6 +445,8 @@ impl RenderArgs {
                 share_tolerance: approx.share_tolerance,
                 key_spacing: approx.key_spacing,
                 interpolate_views: approx.interpolate_views,
+                synthesize_views: approx.synthesize_views,
+                synthesis_spacing: approx.synthesis_spacing,
             },
             trace: TraceSpec {
                 max_depth: self.max_depth,

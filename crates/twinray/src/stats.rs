@@ -98,6 +98,9 @@ pub struct TraceCounts {
     /// `--interpolate-views`: spans, samples shaded and interpolated, and
     /// refusals by rule (`render::InterpStats`).
     pub interp: crate::render::InterpStats,
+    /// `--synthesize-views`: key samples, synthesized and traced samples,
+    /// and the region proofs (`render::SynthesisStats`).
+    pub synthesis: crate::render::SynthesisStats,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -159,6 +162,7 @@ impl TraceCounts {
         self.shadow_cache_tests += o.shadow_cache_tests;
         self.shadow_cache_hits += o.shadow_cache_hits;
         self.interp.add(&o.interp);
+        self.synthesis.add(&o.synthesis);
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -289,6 +293,8 @@ pub struct Report {
     pub shadow_cache_hits: u64,
     /// `--interpolate-views`: see `TraceCounts::interp`.
     pub interpolated_views: crate::render::InterpStats,
+    /// `--synthesize-views`: see `TraceCounts::synthesis`.
+    pub view_synthesis: crate::render::SynthesisStats,
 }
 
 impl Report {
@@ -330,6 +336,7 @@ impl Report {
         self.fan_free = c.fan_free;
         self.eye_runs = c.runs;
         self.interpolated_views = c.interp;
+        self.view_synthesis = c.synthesis;
         self.shadow_rays_proved = c.shadow_rays_proved;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;

@@ -24,6 +24,21 @@ pub fn world(name: &str) -> World {
     World::new(scene)
 }
 
+/// Looking down on a diffuse floor (one triangle, no highlight or mirror),
+/// 40 x 30 pixels: the scene of the multi-view approximations' tests.
+pub const OPEN_FLOOR: &str =
+    "b 0.1 0.1 0.2\nv\nfrom 0 -6 5\nat 0 0 0\nup 0 0 1\nangle 45\nhither 0.01\n\
+    resolution 40 30\nl 3 2 10\n\
+    f 0.8 0.8 0.7 0.9 0 0 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\n";
+
+/// The world of an NFF scene given as text.
+pub fn nff_world(text: &str) -> World {
+    let scene =
+        twinray::loaders::nff::parse_nff(text, Path::new("test.nff"), &LoadOptions::default())
+            .expect("generated scene");
+    World::new(scene)
+}
+
 pub fn camera(world: &World, width: u32, height: u32) -> Camera {
     Camera::new(&world.scene.viewpoint, width, height)
 }

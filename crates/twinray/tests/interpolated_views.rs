@@ -11,7 +11,6 @@ mod common;
 
 use common::*;
 use serde_json::json;
-use twinray::loaders::nff::parse_nff;
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::math::{Color, Vec3};
 use twinray::render::{
@@ -26,19 +25,10 @@ const HEIGHT: u32 = 30;
 const INTERAXIAL: f32 = 0.01;
 const E: f32 = 0.01;
 
-/// Looking down on a diffuse floor (one triangle, no highlight or mirror).
-const FLOOR: &str = "b 0.1 0.1 0.2\nv\nfrom 0 -6 5\nat 0 0 0\nup 0 0 1\nangle 45\nhither 0.01\n\
-    resolution 40 30\nl 3 2 10\n\
-    f 0.8 0.8 0.7 0.9 0 0 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\n";
+const FLOOR: &str = OPEN_FLOOR;
 
 fn parse(text: &str) -> World {
-    let scene = parse_nff(
-        text,
-        std::path::Path::new("interp.nff"),
-        &LoadOptions::default(),
-    )
-    .expect("generated scene");
-    World::new(scene)
+    nff_world(text)
 }
 
 fn interpolating(tolerance: f32) -> RenderOptions {

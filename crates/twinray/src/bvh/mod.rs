@@ -31,7 +31,7 @@ pub use traverse::{
     segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
     TraversalStats,
 };
-pub use wedge::{distance_to_segment, FanWork, ShadowFan};
+pub use wedge::{distance_to_segment, distance_to_triangle, FanWork, ShadowFan};
 pub use wide::{collapse, collapse_sah, collapse_to, Node4, WideNode, WIDTH};
 pub use wide8::{collapse8, Node8, WIDTH8};
 

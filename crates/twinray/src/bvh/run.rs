@@ -65,6 +65,10 @@ pub const RUN_REACH: f64 = 1.0 / 1024.0;
 /// half the margin): the rounding of the hit's distance, far below it.
 pub const FILL_REACH: f64 = 1.0 / 4096.0;
 
+/// Separating axes a region may have: its normal and four edges times the
+/// three box axes.
+const AXES: usize = 13;
+
 /// The region that holds the segments of the rays between two rays of a
 /// family, grown by `margin` (see the module's notes).
 #[derive(Clone, Debug)]
@@ -75,8 +79,8 @@ pub struct RunRegion {
     hi: DVec3,
     /// The quadrilateral's normal and its edges crossed with the box's axes
     /// (unit vectors), and its extent along each.
-    axes: [DVec3; 10],
-    spans: [(f64, f64); 10],
+    axes: [DVec3; AXES],
+    spans: [(f64, f64); AXES],
     count: usize,
     /// The margin plus the slack of the f64 arithmetic here.
     grow: f64,
@@ -91,6 +95,39 @@ impl RunRegion {
         let (a, b, d) = (o_a.as_dvec3(), o_b.as_dvec3(), dir.as_dvec3());
         let reach = |t: f64| t * (1.0 + RUN_REACH) + margin;
         let corners = [a, b, b + d * reach(t_b), a + d * reach(t_a)];
+        // Two sides are parallel (`d`): three edge directions.
+        let far_side = corners[3] - corners[2];
+        RunRegion::from_corners(corners, &[b - a, d, far_side], (b - a).cross(d), margin)
+    }
+
+    /// The planar quadrilateral `corners` (in order round it), grown by
+    /// `margin`: any four points, for regions whose rays are not parallel
+    /// (the key views of `render/view_synthesis.rs`); `None` for non-finite
+    /// input.
+    pub fn quad(corners: [Vec3; 4], margin: f64) -> Option<Self> {
+        let c = corners.map(|p| p.as_dvec3());
+        let edges = [c[1] - c[0], c[2] - c[1], c[3] - c[2], c[0] - c[3]];
+        // The larger of the two triangles' normals: the other may be degenerate.
+        let n1 = (c[1] - c[0]).cross(c[3] - c[0]);
+        let n2 = (c[2] - c[1]).cross(c[3] - c[1]);
+        let normal = if n1.length_squared() >= n2.length_squared() {
+            n1
+        } else {
+            n2
+        };
+        RunRegion::from_corners(c, &edges, normal, margin)
+    }
+
+    /// The region with these corners, tested on the axes of the boxes, the
+    /// normal, and each edge direction crossed with the boxes' axes. Any
+    /// axis is a valid separating test (the spans are the corners' own), so
+    /// the region is the corners' convex hull whatever their order.
+    fn from_corners(
+        corners: [DVec3; 4],
+        edges: &[DVec3],
+        normal: DVec3,
+        margin: f64,
+    ) -> Option<Self> {
         if !corners.iter().all(|c| c.is_finite()) || margin.is_nan() || margin < 0.0 {
             return None;
         }
@@ -101,16 +138,14 @@ impl RunRegion {
             corners,
             lo,
             hi,
-            axes: [DVec3::ZERO; 10],
-            spans: [(0.0, 0.0); 10],
+            axes: [DVec3::ZERO; AXES],
+            spans: [(0.0, 0.0); AXES],
             count: 0,
             grow: margin + scale * 1e-9,
             margin,
         };
-        let edges = [b - a, d, corners[3] - corners[2]];
-        let normal = edges[0].cross(d);
         region.add_axis(normal);
-        for e in edges {
+        for &e in edges {
             for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
                 region.add_axis(e.cross(axis));
             }
@@ -118,7 +153,15 @@ impl RunRegion {
         Some(region)
     }
 
+    /// The corners, in the order given.
+    pub fn corners(&self) -> [DVec3; 4] {
+        self.corners
+    }
+
     fn add_axis(&mut self, axis: DVec3) {
+        if self.count == AXES {
+            return;
+        }
         let len = axis.length();
         if len.is_nan() || len <= 1e-12 * (1.0 + axis.abs().max_element()) {
             return;

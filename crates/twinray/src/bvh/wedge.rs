@@ -48,7 +48,7 @@ pub fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
 
 /// Distance from `p` to the triangle `a`, `b`, `c` (its closest point by
 /// the triangle's regions, Ericson's *Real-Time Collision Detection* 5.1.5).
-fn distance_to_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
+pub fn distance_to_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(ap), ac.dot(ap));
     if d1 <= 0.0 && d2 <= 0.0 {

@@ -54,6 +54,10 @@ impl JobSpec {
         a.maybe("--cut-parallax", x.cut_parallax);
         a.flag("--share-shading", x.share_shading);
         a.flag("--interpolate-views", x.interpolate_views);
+        a.flag("--synthesize-views", x.synthesize_views);
+        if x.synthesis_spacing != crate::render::ViewSynthesis::DEFAULT_SPACING {
+            a.value("--synthesis-spacing", x.synthesis_spacing);
+        }
         if x.share_tolerance != ApproximationSpec::default().share_tolerance {
             a.value("--share-tolerance", x.share_tolerance);
         }

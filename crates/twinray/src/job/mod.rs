@@ -741,6 +741,13 @@ impl Job {
                     c.key_view_samples, c.interpolated_samples, c.key_view_fallbacks, c.key_view_probes, c.key_view_skipped_groups, c.fan_queries, c.fan_free
                 )));
             }
+            if o.approx.synthesize_views.is_some() {
+                let y = &c.synthesis;
+                m.push(Message::info(format!(
+                    "view synthesis: key-view samples {}, synthesized {}, traced {} (no key surface {}, mirror, glass or highlight {}, two surfaces {}, colour edge {}, region not free {}); region proofs {} ({} found something, {} nodes)",
+                    y.key_samples, y.synthesized, y.traced, y.holes, y.refused_material, y.refused_edge, y.refused_surface, y.refused_region, y.proofs, y.proofs_failed, y.proof_nodes
+                )));
+            }
             if o.approx.interpolate_views.is_some() {
                 let i = &c.interp;
                 m.push(Message::info(format!(
@@ -1300,6 +1307,12 @@ fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
         threshold,
     });
     let tolerance = a.share_tolerance;
+    if a.synthesize_views && a.synthesis_spacing < 2 {
+        return Err(invalid(format!(
+            "--synthesis-spacing must be at least 2 (a key view every K views), got {}",
+            a.synthesis_spacing
+        )));
+    }
     if !(tolerance.is_finite() && tolerance >= 0.0) {
         return Err(invalid(format!(
             "--share-tolerance must be an image value >= 0, got {tolerance}"
@@ -1315,6 +1328,10 @@ fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
         key_spacing: a.key_spacing,
         interpolate_views: (a.interpolate_views || a.fast)
             .then_some(crate::render::InterpolateViews { tolerance }),
+        synthesize_views: a.synthesize_views.then_some(crate::render::ViewSynthesis {
+            spacing: a.synthesis_spacing,
+            tolerance,
+        }),
     })
 }
 

@@ -225,6 +225,11 @@ pub struct ApproximationSpec {
     /// interpolated (`--interpolate-views`; also under `fast` with 3 views
     /// or more), within `share_tolerance`.
     pub interpolate_views: bool,
+    /// Issue 16: only every `synthesis_spacing`-th view traced, the views
+    /// between synthesized from them where that is plain and proved free
+    /// (`--synthesize-views`), within `share_tolerance`.
+    pub synthesize_views: bool,
+    pub synthesis_spacing: usize,
 }
 
 impl Default for ApproximationSpec {
@@ -241,6 +246,8 @@ impl Default for ApproximationSpec {
             share_tolerance: crate::render::SharedShading::DEFAULT_TOLERANCE,
             key_spacing: 1,
             interpolate_views: false,
+            synthesize_views: false,
+            synthesis_spacing: crate::render::ViewSynthesis::DEFAULT_SPACING,
         }
     }
 }

@@ -34,11 +34,13 @@ mod shading_cache;
 mod strip;
 mod tracer;
 mod twin;
+mod view_synthesis;
 
 pub use interpolated_views::{InterpStats, InterpolateViews};
 pub use sampler::{Filter, SampleRow, Sampling};
 pub(crate) use tracer::MAX_CUTOUT_LAYERS;
 pub use tracer::{Donor, SecondaryRays, TraceSettings, Tracer};
+pub use view_synthesis::{SynthesisStats, ViewSynthesis};
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -155,6 +157,11 @@ pub struct Approximations {
     /// views between two shaded ones take their colour interpolated where
     /// it is provably close (`interpolated_views`; twin method, no cut).
     pub interpolate_views: Option<InterpolateViews>,
+    /// Issue 16 (`--synthesize-views`): only every `spacing`-th view traced;
+    /// the views between take the colours their nearest key view saw, warped
+    /// along the row, where that is plain and proved free, and trace the rest
+    /// (`view_synthesis`; twin method, three views or more).
+    pub synthesize_views: Option<ViewSynthesis>,
 }
 
 /// The multi-view shading cache (`--share-shading`, see `shading_cache`).
@@ -180,6 +187,7 @@ impl Default for Approximations {
             shared_shading: None,
             key_spacing: 1,
             interpolate_views: None,
+            synthesize_views: None,
         }
     }
 }
@@ -377,6 +385,14 @@ pub fn render_rows(
             "the paper's reprojection mode does not combine with a cut of the object tree".into(),
         ));
     }
+    if let Some(sy) = opts.approx.synthesize_views {
+        if sy.spacing < 2 || !(sy.tolerance >= 0.0 && sy.tolerance.is_finite()) {
+            return Err(crate::Error::Invalid(format!(
+                "view synthesis: a key view every {} views with tolerance {}: a spacing of at least 2 and a tolerance >= 0 are needed",
+                sy.spacing, sy.tolerance
+            )));
+        }
+    }
     opts.sampling.validate()?;
     let start = Instant::now();
     let job = RenderInputs {
@@ -387,26 +403,35 @@ pub fn render_rows(
         progress,
         cancel,
     };
+    let paper = matches!(opts.approx.reproject, Some(r) if r.mode == ReprojectMode::Paper);
+    // Key-view synthesis traces each view alone (a key view, or a view's
+    // samples that cannot be synthesized): batches of one view.
+    let synthesis = opts
+        .approx
+        .synthesize_views
+        .filter(|_| opts.method == Method::Twin && !paper)
+        .and_then(|sy| view_synthesis::SynthesisPass::new(world, camera, rig, sy));
     let batches = match opts.method {
         Method::Independent => {
             vec![Box::new(independent::Independent::new(&job)) as Box<dyn ViewBatch>]
         }
+        Method::Twin if synthesis.is_some() => twin_batches(&job, 1)?,
         Method::Twin => twin_batches(&job, views_per_batch(views, opts.views_per_batch))?,
     };
-    let paper = matches!(opts.approx.reproject, Some(r) if r.mode == ReprojectMode::Paper);
     let interpolate = opts
         .approx
         .interpolate_views
         .filter(|_| opts.method == Method::Twin && !paper);
     let runs = opts.eye_runs || interpolate.is_some();
-    let strip = ((opts.strip || runs) && opts.method == Method::Twin && !paper)
+    let single = synthesis.is_some();
+    let strip = ((opts.strip || runs) && opts.method == Method::Twin && !paper && !single)
         .then(|| strip::StripEyePass::new(world, camera, rig))
         .flatten()
         .map(|p| if runs { p.with_runs() } else { p });
     let interpolation = interpolate
         .filter(|_| strip.is_some())
         .map(|s| interpolated_views::ViewInterpolation::new(world, camera, rig, s));
-    let fans = (opts.shadow_fans && opts.method == Method::Twin && !paper)
+    let fans = (opts.shadow_fans && opts.method == Method::Twin && !paper && !single)
         .then(|| row_shadows::RowShadowPass::new(world, camera, rig, opts.shadow_fan_min_run))
         .flatten();
     let run = Run {
@@ -415,6 +440,7 @@ pub fn render_rows(
         strip: strip.as_ref(),
         fans: fans.as_ref(),
         interpolation: interpolation.as_ref(),
+        synthesis: synthesis.as_ref(),
         views,
         width: camera.width as usize,
         height: camera.height as usize,
@@ -544,6 +570,12 @@ struct RowContext<'b> {
         &'b interpolated_views::ViewInterpolation<'b>,
         interpolated_views::InterpScratch,
     )>,
+    /// `--synthesize-views`: the key views' pass (the workers are then one
+    /// per view, in rig order).
+    synthesis: Option<(
+        &'b view_synthesis::SynthesisPass<'b>,
+        view_synthesis::SynthScratch,
+    )>,
 }
 
 impl RowContext<'_> {
@@ -554,6 +586,12 @@ impl RowContext<'_> {
         for o in out.iter_mut() {
             o.clear();
             o.resize(row.len(), Color::ZERO);
+        }
+        if let Some((pass, scratch)) = &mut self.synthesis {
+            let start = Instant::now();
+            pass.trace_row(&mut self.workers, tracer, row, scratch, out);
+            tracer.counts.shading_pass_ns += start.elapsed().as_nanos() as u64;
+            return;
         }
         if let Some((pass, hits)) = &mut self.strip {
             let start = Instant::now();
@@ -657,6 +695,8 @@ struct Run<'j, 'a> {
     fans: Option<&'j row_shadows::RowShadowPass<'a>>,
     /// `--interpolate-views`: the views between proved ones interpolated.
     interpolation: Option<&'j interpolated_views::ViewInterpolation<'a>>,
+    /// `--synthesize-views`: the views between key views synthesized.
+    synthesis: Option<&'j view_synthesis::SynthesisPass<'a>>,
     views: usize,
     width: usize,
     height: usize,
@@ -699,6 +739,7 @@ impl Run<'_, '_> {
             fans: self.fans.map(|p| (p, strip::StripRow::default())),
             colors: Vec::new(),
             interpolation: self.interpolation.map(|p| (p, Default::default())),
+            synthesis: self.synthesis.map(|p| (p, Default::default())),
         };
         let cancel = self.job.cancel;
         let total = std::sync::Mutex::new(TraceCounts::default());
