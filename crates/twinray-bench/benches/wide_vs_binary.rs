@@ -12,7 +12,7 @@
 //! against the eight-wide tree (every ray and segment alone). With
 //! `--packets8`: packets (pairs, four and eight views' eye rays, pairs and
 //! fours of shadow segments) on the eight-wide tree, each lane alone (first)
-//! against the lanes in one descent (second); then the binary tree's packet
+//! against a pair's lanes in one descent (second; pairs only); then the binary tree's packet
 //! descent (first) against each lane alone on the eight-wide tree, and the
 //! four-wide tree's (first; shadow pairs take it today) against the same.
 
@@ -103,7 +103,7 @@ fn main() {
     };
     let compared: &[(Tree, Tree)] = if packets8 {
         &[
-            (Tree::Wide8, Tree::Wide8Packet),
+            (Tree::Wide8, Tree::Wide8Pair),
             (Tree::Binary, Tree::Wide8),
             (Tree::Wide, Tree::Wide8),
         ]
@@ -153,7 +153,7 @@ fn main() {
         }
         let pair_trees = match (pairs, packets8) {
             (true, _) => vec![Tree::WideEach, Tree::Wide],
-            (_, true) => vec![Tree::Wide8, Tree::Wide8Packet],
+            (_, true) => vec![Tree::Wide8, Tree::Wide8Pair],
             _ => vec![],
         };
         for tree in pair_trees {
@@ -230,6 +230,10 @@ fn main() {
                     // leave out the kinds it adds.
                     let added = *kind == "eye oct" || *kind == "shad. quad";
                     if (packets8 && !kind.contains(' ')) || (!packets8 && added) {
+                        continue;
+                    }
+                    if second == Tree::Wide8Pair && !kind.ends_with("pair") {
+                        // Only pairs take the pair descent.
                         continue;
                     }
                     if leaves && kind.starts_with("sha") {

@@ -34,10 +34,10 @@ pub enum Tree {
     /// descending it alone (`Bvh::closest_each_wide8`,
     /// `Bvh::occlusion_wide8`), leaves as blocks.
     Wide8,
-    /// The eight-wide tree, a packet's lanes in one descent
-    /// (`Bvh::closest_packet_wide8`, `Bvh::occlusion_packet_wide8`), leaves
-    /// as blocks.
-    Wide8Packet,
+    /// The eight-wide tree, a stereo pair's two lanes in one descent
+    /// (`Bvh::closest_pair_wide8`, `Bvh::occlusion_pair_wide8`; wider
+    /// packets each lane alone), leaves as blocks.
+    Wide8Pair,
 }
 
 impl Tree {
@@ -48,7 +48,7 @@ impl Tree {
     fn blocks(self) -> bool {
         matches!(
             self,
-            Tree::Binary | Tree::Wide | Tree::WideEach | Tree::Wide8 | Tree::Wide8Packet
+            Tree::Binary | Tree::Wide | Tree::WideEach | Tree::Wide8 | Tree::Wide8Pair
         )
     }
 }
@@ -122,8 +122,12 @@ fn nearest<const K: usize>(
         bvh.closest_each_wide(&p, st, test)
     } else if tree == Tree::Wide8 {
         bvh.closest_each_wide8(&p, st, test)
-    } else if tree == Tree::Wide8Packet {
-        bvh.closest_packet_wide8(&p, st, test)
+    } else if tree == Tree::Wide8Pair {
+        if K == 2 {
+            bvh.closest_pair_wide8(&p, st, test)
+        } else {
+            bvh.closest_each_wide8(&p, st, test)
+        }
     } else if tree.wide() {
         bvh.closest_wide(&p, st, test)
     } else {
@@ -378,8 +382,12 @@ fn any_hits<const K: usize>(w: &World, segs: [(Vec3, Vec3, f32); K], tree: Tree)
     let mut st = TraversalStats::default();
     if tree == Tree::Wide8 {
         w.bvh.occlusion_wide8(&p, &mut st, &mut test)
-    } else if tree == Tree::Wide8Packet {
-        w.bvh.occlusion_packet_wide8(&p, &mut st, &mut test)
+    } else if tree == Tree::Wide8Pair {
+        if K == 2 {
+            w.bvh.occlusion_pair_wide8(&p, &mut st, &mut test)
+        } else {
+            w.bvh.occlusion_wide8(&p, &mut st, &mut test)
+        }
     } else if tree.wide() {
         w.bvh.occlusion_wide(&p, &mut st, &mut test)
     } else {

@@ -147,14 +147,19 @@ fn check_closest<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) -> 
     let wide = bvh.closest_wide(p, &mut st, test);
     let binary = bvh.closest_binary(p, &mut TraversalStats::default(), test);
     let eight = bvh.closest_each_wide8(p, &mut TraversalStats::default(), test);
-    let packet8 = bvh.closest_packet_wide8(p, &mut TraversalStats::default(), test);
+    // A pair (both lanes) also in one descent of the eight-wide tree.
+    let packet8 = if K == 2 && p.mask == 0b11 {
+        bvh.closest_pair_wide8(p, &mut TraversalStats::default(), test)
+    } else {
+        eight
+    };
     let mut hits = 0;
     for l in 0..K {
         let got = wide.has_hit(l).then(|| (wide.prim[l], wide.hit[l]));
         let expect = brute_lane(shapes, p, l);
         assert_eq!(got, expect, "lane {l} of {K}, mask {:b}", p.mask);
         // Bit for bit the binary tree's answer (f32 compared as bits), and
-        // the eight-wide tree's (each lane alone, and the lanes in one descent).
+        // the eight-wide tree's (each lane alone, and a pair in one descent).
         for other in [&binary, &eight, &packet8] {
             assert_eq!(wide.prim[l], other.prim[l], "lane {l} of {K}");
             assert_eq!(wide.hit[l].t.to_bits(), other.hit[l].t.to_bits());
@@ -193,14 +198,16 @@ fn check_occlusion<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) {
             .intersect(&Ray::new(segs.origins[l], segs.dirs[l]), 0.0, segs.t_max[l])
             .is_some()
     };
-    for tree in ["four-wide", "eight-wide", "eight-wide packet"] {
+    for tree in ["four-wide", "eight-wide", "eight-wide pair"] {
         let any_hit = |test: &mut dyn FnMut(u32, usize) -> AnyHit| {
             let st = &mut TraversalStats::default();
             let mut test = |prim: u32, l: usize| test(prim, l);
             match tree {
                 "four-wide" => bvh.occlusion_wide(&segs, st, &mut test),
                 "eight-wide" => bvh.occlusion_wide8(&segs, st, &mut test),
-                _ => bvh.occlusion_packet_wide8(&segs, st, &mut test),
+                // A pair (both lanes) in one descent; other packets lane by lane.
+                _ if K == 2 && segs.mask == 0b11 => bvh.occlusion_pair_wide8(&segs, st, &mut test),
+                _ => bvh.occlusion_wide8(&segs, st, &mut test),
             }
         };
         // Without early exit: every primitive the segment meets is tested.
@@ -516,13 +523,13 @@ impl<const K: usize> NearestTest for BlockTest<'_, K> {
 }
 
 /// Every lane's nearest hit with block leaves, on the four-wide, the binary
-/// and (each lane alone, and the lanes in one descent) the eight-wide tree:
+/// and (each lane alone, and a pair in one descent) the eight-wide tree:
 /// brute force's, bit for bit. Returns (lanes hit, summed over the four
 /// descents; blocks tested).
 fn check_blocks<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) -> (u64, u64) {
     let tested = std::cell::Cell::new(0);
     let mut hits = 0;
-    for tree in ["wide", "binary", "eight-wide", "eight-wide packet"] {
+    for tree in ["wide", "binary", "eight-wide", "eight-wide pair"] {
         let test = BlockTest {
             shapes,
             packet: p,
@@ -533,7 +540,8 @@ fn check_blocks<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) -> (
             "wide" => bvh.closest_wide(p, &mut st, test),
             "binary" => bvh.closest_binary(p, &mut st, test),
             "eight-wide" => bvh.closest_each_wide8(p, &mut st, test),
-            _ => bvh.closest_packet_wide8(p, &mut st, test),
+            _ if K == 2 && p.mask == 0b11 => bvh.closest_pair_wide8(p, &mut st, test),
+            _ => bvh.closest_each_wide8(p, &mut st, test),
         };
         for l in 0..K {
             let expect = brute_lane(shapes, p, l);

@@ -20,7 +20,7 @@ mod traverse;
 mod wedge;
 mod wide;
 mod wide8;
-mod wide8_packet;
+mod wide8_pair;
 
 pub use build::{primitive_box, BuildOptions, PAD};
 pub use run::{ray_reaches, RunRegion, RunStats, FILL_REACH, RUN_REACH};
@@ -89,8 +89,9 @@ pub struct Bvh {
     /// (`Bvh::attach_blocks`); empty: every leaf is tested one by one.
     pub blocks: LeafBlocks,
     /// The same tree collapsed eight-wide (`wide8.rs`), which every lane
-    /// of a nearest-hit packet and every shadow segment but a pair's
-    /// descends alone when it is there (shadow pairs use `wide`).
+    /// of a nearest-hit packet and every shadow segment descends alone when
+    /// it is there, but a stereo pair's two shadow segments, which descend it
+    /// in one descent (`wide8_pair.rs`).
     pub wide8: Vec<Node8>,
 }
 

@@ -1,6 +1,6 @@
-//! The four-wide hierarchy (a stereo pair's shadow segments traverse it,
-//! and nearest-hit pairs in one descent where there is no eight-wide tree;
-//! every other ray takes the eight-wide tree alone, `wide8.rs`): the binary SAH tree
+//! The four-wide hierarchy (traversed where there is no eight-wide tree:
+//! every ray takes the eight-wide tree, `wide8.rs`, alone or, a stereo
+//! pair's shadow segments, in one descent, `wide8_pair.rs`): the binary SAH tree
 //! collapsed so that each node holds up to four children, their boxes in
 //! structure-of-arrays layout, so that one ray meets all four in one SIMD
 //! stream (`wide::f32x4`, SSE on x86-64). Children are visited nearest first.
@@ -408,8 +408,9 @@ impl Bvh {
     /// same hits. Measured in docs/benchmarks.md ("Issue 17, fourth pass:
     /// eight-wide nodes": two eight-wide descents beat the four-wide pair
     /// descent; "Issues 16 and 17, fifth pass": lanes alone beat both the
-    /// binary packets and one eight-wide descent for the packet,
-    /// `closest_packet_wide8`, at K = 2, 4 and 8).
+    /// binary packets and one eight-wide descent for the packet at K = 2,
+    /// 4 and 8; "Issue 17, sixth pass": the pair in one eight-wide descent,
+    /// `closest_pair_wide8`, was not faster than its rays alone).
     #[inline]
     pub fn closest<const K: usize>(
         &self,
@@ -466,9 +467,10 @@ impl Bvh {
 
     /// Any-hit per lane (see `occlusion_binary` for the contract): a
     /// segment alone, and each segment of a packet of three or more, alone
-    /// on the eight-wide tree; a stereo pair's two segments in one `f32x8`
-    /// on the four-wide tree (it measured faster for shadow pairs,
-    /// docs/benchmarks.md "Issue 17, fourth pass").
+    /// on the eight-wide tree; a stereo pair's two segments in one descent
+    /// of the eight-wide tree (`occlusion_pair_wide8`: it measured faster
+    /// than both in one `f32x8` on the four-wide tree, docs/benchmarks.md
+    /// "Issue 17, sixth pass"). Without an eight-wide tree, the four-wide.
     pub fn occlusion<const K: usize>(
         &self,
         packet: &SegmentPacket<K>,
@@ -477,10 +479,12 @@ impl Bvh {
     ) {
         if self.wide.is_empty() {
             self.occlusion_binary(packet, stats, test)
-        } else if !self.wide8.is_empty() && (K != 2 || packet.mask.count_ones() == 1) {
-            self.occlusion_wide8(packet, stats, test)
-        } else {
+        } else if self.wide8.is_empty() {
             self.occlusion_wide(packet, stats, test)
+        } else if K == 2 && packet.mask == 0b11 {
+            self.occlusion_pair_wide8(packet, stats, test)
+        } else {
+            self.occlusion_wide8(packet, stats, test)
         }
     }
 

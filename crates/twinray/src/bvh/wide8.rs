@@ -3,9 +3,10 @@
 //! that one ray meets all eight children in one `f32x8` (one AVX register, one
 //! load per plane). Rays traced alone take it: eye rays, secondary rays and
 //! shadow segments of one lane, and each ray of a stereo pair's nearest-hit
-//! packet, and each lane of wider packets (`Bvh::closest`). Shadow pairs keep
-//! the four-wide tree (`wide.rs`); docs/benchmarks.md ("Issue 17, fourth
-//! pass", "Issues 16 and 17, fifth pass") has the measurements.
+//! packet, and each lane of wider packets (`Bvh::closest`). Shadow pairs go
+//! down it in one descent (`wide8_pair.rs`); docs/benchmarks.md ("Issue 17,
+//! fourth pass", "Issues 16 and 17, fifth pass", "Issue 17, sixth pass") has
+//! the measurements.
 //!
 //! Exactness: as in `wide.rs`, a child's slab test is per register lane the
 //! binary descent's, with its arithmetic (the planes picked by the ray's signs,
@@ -64,7 +65,12 @@ impl Bvh {
                 prim: PacketHits::<K>::NO_HIT,
                 hit: NO_SURFACE,
             };
-            self.wide8_single(&ray, &mut state, stats, &mut test, l);
+            let root = Entry {
+                child: 0,
+                count: 0,
+                tn: ray.t_min,
+            };
+            self.wide8_single(root, &ray, &mut state, stats, &mut test, l);
             out.prim[l] = state.prim;
             out.hit[l] = state.hit;
         }
@@ -93,17 +99,24 @@ impl Bvh {
         };
         if packet.mask & 1 != 0 {
             let ray = SingleRay::new(packet.origins[0], packet.dirs[0], packet.t_min);
-            self.wide8_single(&ray, &mut state, stats, &mut test, 0);
+            let root = Entry {
+                child: 0,
+                count: 0,
+                tn: ray.t_min,
+            };
+            self.wide8_single(root, &ray, &mut state, stats, &mut test, 0);
         }
         Some((state.prim, state.hit))
     }
 
-    /// One ray's nearest-hit descent of the eight-wide tree, improving
+    /// One ray's nearest-hit descent of the eight-wide subtree at `start`
+    /// (the root, or where a pair's descent hands over a lane), improving
     /// `state`: the nearest entered child next, the others stacked farthest
     /// first, each popped only if it is entered before the nearest hit so far.
     #[inline(always)]
-    fn wide8_single<T: NearestTest>(
+    pub(super) fn wide8_single<T: NearestTest>(
         &self,
+        start: Entry,
         ray: &SingleRay,
         state: &mut LaneHit,
         stats: &mut TraversalStats,
@@ -115,12 +128,7 @@ impl Bvh {
         let (mut nodes, mut prims) = (0u64, 0u64);
         let mut inner = 0u64;
         let mut stack = ArrayVec::<Entry, STACK>::new();
-        let root = Entry {
-            child: 0,
-            count: 0,
-            tn: ray.t_min,
-        };
-        let mut current = (ray.t_min <= lh.best * CULL_SLACK).then_some(root);
+        let mut current = (start.tn <= lh.best * CULL_SLACK).then_some(start);
         while let Some(Entry { child, count, .. }) = current {
             nodes += 1;
             if count > 0 {
@@ -169,15 +177,18 @@ impl Bvh {
             let l = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;
             let ray = SingleRay::new(packet.origins[l], packet.dirs[l], 0.0);
-            self.wide8_occlusion_single(&ray, packet.t_max[l], stats, test, l);
+            self.wide8_occlusion_single((0, 0), &ray, packet.t_max[l], stats, test, l);
         }
     }
 
-    /// One segment's any-hit descent of the eight-wide tree; returns whether
-    /// `test` said stop. Children are visited in slot order.
+    /// One segment's any-hit descent of the eight-wide subtree at `start`
+    /// (`(child, count)`: the root `(0, 0)`, or where a pair's descent hands
+    /// over a lane); returns whether `test` said stop. Children are visited
+    /// in slot order.
     #[inline(always)]
-    fn wide8_occlusion_single<T: AnyHitTest>(
+    pub(super) fn wide8_occlusion_single<T: AnyHitTest>(
         &self,
+        start: (u32, u32),
         ray: &SingleRay,
         t_max: f32,
         stats: &mut TraversalStats,
@@ -188,7 +199,7 @@ impl Bvh {
         let (mut nodes, mut inner, mut prims) = (0u64, 0u64, 0u64);
         let mut stopped = false;
         let mut stack = ArrayVec::<(u32, u32), STACK>::new();
-        stack.push((0, 0));
+        stack.push(start);
         while let Some((child, count)) = stack.pop() {
             nodes += 1;
             if count > 0 {

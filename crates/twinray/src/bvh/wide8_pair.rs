@@ -1,145 +1,144 @@
-//! Packets of K rays (the N views' batches, a stereo pair) in one descent of
-//! the eight-wide tree (`wide8.rs`). Not the renderer's path: each lane
-//! alone on the eight-wide tree (`closest_each_wide8`, `occlusion_wide8`)
-//! measured faster at K = 2, 4 and 8, for eye rays and shadow segments,
-//! though this descent visits a third fewer nodes (docs/benchmarks.md,
-//! "Issues 16 and 17, fifth pass"); kept, tested, for that comparison
-//! (`wide_vs_binary --packets8`). Per node, one `f32x8` slab test per
-//! active lane (each lane against the node's eight children), the children
-//! any lane enters taken in the union of the lanes' child masks, and visited
-//! nearest first by the smallest entry distance over the lanes that enter
-//! them. A lane is carried into a child only by its own box test against its
-//! own nearest hit so far, and dropped at a pop when its own nearest hit is
-//! nearer than its own entry (`CULL_SLACK`). Shadow packets (any hit) the
-//! same way, without the order.
+//! A stereo pair's two rays in one descent of the eight-wide tree
+//! (`wide8.rs`): both eyes' rays through one sample, or the two lanes of a
+//! twin group's shadow segments toward one light, are nearly coherent, so a
+//! node both enter is fetched once. Per node, one `f32x8` slab test per lane
+//! (the single ray's, `Pair8`), a child stacked with the lanes whose own
+//! test entered it and their entry distances, the children visited nearest
+//! first by the nearer of the two entries. A lane is dropped at a pop when
+//! its own nearest hit is nearer than its own entry (`CULL_SLACK`); a
+//! subtree only one lane entered is finished by that lane's single descent
+//! (`wide8_single`), so a pair pays lane bookkeeping only where it shares a
+//! node. Leaves both lanes reach are tested for both in one register
+//! (`test_leaf`, `occlusion_leaf`). Shadow pairs (any hit) the same way,
+//! without the order, a lane leaving the descent at its first stop.
 //!
-//! Exactness: per lane, the slab test is `Ray8`'s (the single ray's), leaves
-//! are tested by `leaf.rs`, and culling is as conservative as a lane alone:
-//! so each lane's nearest hit (ties to the lower index) is the one it gets
-//! alone, whatever the order the packet visits nodes in; and a segment that
+//! The renderer takes the any-hit descent for a pair's shadow segments
+//! (`Bvh::occlusion`). The nearest-hit descent is not its path: a pair's eye
+//! and secondary rays measured no faster in it than alone
+//! (docs/benchmarks.md, "Issue 17, sixth pass"); it is kept, tested, for
+//! `wide_vs_binary --packets8`. It replaced a K-lane descent of this tree,
+//! slower than lanes alone at every K (docs/decisions.md).
+//!
+//! Exactness: per lane, the slab test is the single ray's, leaves are tested
+//! by `leaf.rs`, and culling is as conservative as a lane alone: so each
+//! lane's nearest hit (ties to the lower index) is the one it gets alone,
+//! whatever the order the pair visits nodes in; and a segment that
 //! `segment_enters` a primitive's box reaches the primitive's leaf.
 
 use super::leaf::{occlusion_leaf, test_leaf};
-use super::traverse::{fmin, SingleRay, CULL_SLACK, ROBUST, STACK};
-use super::wide::{take_nearest, wide_ray, WideNode};
+use super::traverse::{fmin, LaneHit, SingleRay, CULL_SLACK, ROBUST, STACK};
+use super::wide::{take_nearest, wide_ray, Entry, WideNode};
 use super::wide8::WIDTH8;
 use super::{AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats};
 use arrayvec::ArrayVec;
 use wide::f32x8;
 
-// One lane prepared for the eight-wide slab test.
-wide_ray!(Lane8, f32x8, WIDTH8);
+// One lane of a pair prepared for the eight-wide slab test.
+wide_ray!(Pair8, f32x8, WIDTH8);
 
-/// A packet's stack entry: a child (`count` > 0: a leaf), the lanes that
-/// entered it, and their entry distances.
+/// A pair's stack entry: a child (`count` > 0: a leaf), the lanes that
+/// entered it (bit 0: lane 0, bit 1: lane 1) and their entry distances.
 #[derive(Clone, Copy)]
-struct Entry8<const K: usize> {
+struct PairEntry {
     child: u32,
     count: u32,
-    mask: u32,
-    tn: [f32; K],
-}
-
-/// The active lanes of a packet of `K` (bits above `K` cleared).
-#[inline(always)]
-fn lanes_of<const K: usize>(mask: u32) -> u32 {
-    if K >= 32 {
-        mask
-    } else {
-        mask & ((1u32 << K) - 1)
-    }
+    lanes: u32,
+    tn: [f32; 2],
 }
 
 impl Bvh {
-    /// Nearest hit per lane (see `closest_binary` for the contract) on the
-    /// eight-wide tree (which must exist), the active lanes in one descent.
+    /// Nearest hit per lane (see `closest_binary` for the contract) of a
+    /// stereo pair (`K == 2`, both lanes active) on the eight-wide tree
+    /// (which must exist), in one descent.
     #[inline]
-    pub fn closest_packet_wide8<const K: usize>(
+    pub fn closest_pair_wide8<const K: usize>(
         &self,
         packet: &Packet<K>,
         stats: &mut TraversalStats,
         mut test: impl NearestTest,
     ) -> PacketHits<K> {
+        debug_assert!(K == 2 && packet.mask == 0b11);
         let mut out = PacketHits::<K>::none();
         if self.wide8.is_empty() {
             return out;
         }
-        let rays: [Lane8; K] = std::array::from_fn(|l| {
-            Lane8::new(&SingleRay::new(
-                packet.origins[l],
-                packet.dirs[l],
-                packet.t_min,
-            ))
-        });
+        let (a, b) = (0, 1 % K);
+        let singles =
+            [a, b].map(|l| SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min));
+        let rays = [Pair8::new(&singles[0]), Pair8::new(&singles[1])];
         let mut best = packet.t_max;
         let (mut nodes, mut boxes) = (0u64, 0u64);
-        let mut stack = ArrayVec::<Entry8<K>, STACK>::new();
-        let mut current = Some(Entry8 {
+        let mut stack = ArrayVec::<PairEntry, STACK>::new();
+        let mut current = Some(PairEntry {
             child: 0,
             count: 0,
-            mask: lanes_of::<K>(packet.mask),
-            tn: [packet.t_min; K],
+            lanes: 0b11,
+            tn: [packet.t_min; 2],
         });
-        while let Some(Entry8 {
-            child,
-            count,
-            mut mask,
-            tn,
-        }) = current.take()
-        {
+        while let Some(mut e) = current.take() {
             // A lane whose nearest hit is now nearer than its entry skips it.
-            let mut lanes = mask;
-            while lanes != 0 {
-                let l = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                if tn[l] > best[l] * CULL_SLACK {
-                    mask &= !(1 << l);
-                }
+            if e.lanes & 1 != 0 && e.tn[0] > best[a] * CULL_SLACK {
+                e.lanes &= !1;
             }
-            if mask != 0 {
+            if e.lanes & 2 != 0 && e.tn[1] > best[b] * CULL_SLACK {
+                e.lanes &= !2;
+            }
+            if e.lanes == 0b11 {
                 nodes += 1;
-                if count > 0 {
+                if e.count > 0 {
+                    // Lane bits are packet lanes 0 and 1 for K == 2.
                     test_leaf(
-                        self.leaf(child, count),
-                        mask,
+                        self.leaf(e.child, e.count),
+                        0b11,
                         &mut best,
                         &mut out,
                         stats,
                         &mut test,
                     );
                 } else {
-                    let node = &self.wide8[child as usize];
-                    let mut lanes_in = [0u32; WIDTH8];
-                    let mut tn_in = [[0.0f32; K]; WIDTH8];
-                    let mut key = [f32::INFINITY; WIDTH8];
-                    let mut union = 0u32;
-                    let mut lanes = mask;
-                    while lanes != 0 {
-                        let l = lanes.trailing_zeros() as usize;
-                        lanes &= lanes - 1;
-                        boxes += WIDTH8 as u64;
-                        let (m, t) = rays[l].enter(node, best[l]);
-                        union |= m;
-                        let mut kids = m;
-                        while kids != 0 {
-                            let c = kids.trailing_zeros() as usize;
-                            kids &= kids - 1;
-                            lanes_in[c] |= 1 << l;
-                            tn_in[c][l] = t[c];
-                            key[c] = fmin(key[c], t[c]);
+                    let node = &self.wide8[e.child as usize];
+                    boxes += 2 * WIDTH8 as u64;
+                    let (m0, t0) = rays[0].enter(node, best[a]);
+                    let (m1, t1) = rays[1].enter(node, best[b]);
+                    let any = m0 | m1;
+                    if any != 0 {
+                        // Nearest first, by the nearer entry of the lanes that enter.
+                        let mut key = t0;
+                        let mut bits = m1;
+                        while bits != 0 {
+                            let c = bits.trailing_zeros() as usize;
+                            bits &= bits - 1;
+                            key[c] = if m0 & (1 << c) != 0 {
+                                fmin(t0[c], t1[c])
+                            } else {
+                                t1[c]
+                            };
                         }
-                    }
-                    if union != 0 {
-                        // Nearest first, by the nearest entry among a child's lanes.
-                        current = Some(take_nearest(&mut stack, union, &key, |c| Entry8 {
+                        current = Some(take_nearest(&mut stack, any, &key, |c| PairEntry {
                             child: node.child[c],
                             count: node.count[c],
-                            mask: lanes_in[c],
-                            tn: tn_in[c],
+                            lanes: (m0 >> c) & 1 | ((m1 >> c) & 1) << 1,
+                            tn: [t0[c], t1[c]],
                         }));
                         continue;
                     }
                 }
+            } else if e.lanes != 0 {
+                // One lane left in this subtree: finish it as a plain ray.
+                let i = e.lanes.trailing_zeros() as usize;
+                let l = [a, b][i];
+                let start = Entry {
+                    child: e.child,
+                    count: e.count,
+                    tn: e.tn[i],
+                };
+                let mut state = LaneHit {
+                    best: best[l],
+                    prim: out.prim[l],
+                    hit: out.hit[l],
+                };
+                self.wide8_single(start, &singles[i], &mut state, stats, &mut test, l);
+                (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
             }
             current = stack.pop();
         }
@@ -148,64 +147,71 @@ impl Bvh {
         out
     }
 
-    /// Any-hit per lane (see `occlusion_binary` for the contract) on the
-    /// eight-wide tree (which must exist), the live lanes in one descent:
-    /// a child is stacked with the live lanes whose segments enter it.
-    pub fn occlusion_packet_wide8<const K: usize>(
+    /// Any-hit per lane (see `occlusion_binary` for the contract) of a
+    /// stereo pair's two segments (`K == 2`, both lanes active) on the
+    /// eight-wide tree (which must exist), in one descent: a child is
+    /// stacked with the live lanes whose segments enter it.
+    pub fn occlusion_pair_wide8<const K: usize>(
         &self,
         packet: &SegmentPacket<K>,
         stats: &mut TraversalStats,
         test: &mut impl AnyHitTest,
     ) {
+        debug_assert!(K == 2 && packet.mask == 0b11);
         if self.wide8.is_empty() {
             return;
         }
-        let rays: [Lane8; K] = std::array::from_fn(|l| {
-            Lane8::new(&SingleRay::new(packet.origins[l], packet.dirs[l], 0.0))
-        });
-        let t_max = &packet.t_max;
-        let mut live = lanes_of::<K>(packet.mask);
+        let (a, b) = (0, 1 % K);
+        let singles = [a, b].map(|l| SingleRay::new(packet.origins[l], packet.dirs[l], 0.0));
+        let rays = [Pair8::new(&singles[0]), Pair8::new(&singles[1])];
+        let t_max = [packet.t_max[a], packet.t_max[b]];
+        let mut live = 0b11u32;
         let (mut nodes, mut boxes) = (0u64, 0u64);
         let mut stack = ArrayVec::<(u32, u32, u32), STACK>::new();
         stack.push((0, 0, live));
         while let Some((child, count, m)) = stack.pop() {
-            let mask = m & live;
-            if mask == 0 {
+            let lanes = m & live;
+            if lanes == 0 {
+                continue;
+            }
+            if lanes != 0b11 {
+                // One live lane in this subtree: finish it as a plain segment.
+                let i = lanes.trailing_zeros() as usize;
+                let l = [a, b][i];
+                if self.wide8_occlusion_single(
+                    (child, count),
+                    &singles[i],
+                    t_max[i],
+                    stats,
+                    test,
+                    l,
+                ) {
+                    live &= !lanes;
+                    if live == 0 {
+                        break;
+                    }
+                }
                 continue;
             }
             nodes += 1;
             if count > 0 {
-                occlusion_leaf(
-                    self.leaf(child, count),
-                    K == 2,
-                    mask,
-                    &mut live,
-                    stats,
-                    test,
-                );
+                occlusion_leaf(self.leaf(child, count), true, 0b11, &mut live, stats, test);
                 if live == 0 {
                     break;
                 }
                 continue;
             }
             let node = &self.wide8[child as usize];
-            let mut lanes_in = [0u32; WIDTH8];
-            let mut lanes = mask;
-            while lanes != 0 {
-                let l = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                boxes += WIDTH8 as u64;
-                let mut kids = rays[l].enters(node, t_max[l]);
-                while kids != 0 {
-                    let c = kids.trailing_zeros() as usize;
-                    kids &= kids - 1;
-                    lanes_in[c] |= 1 << l;
-                }
-            }
-            for c in (0..WIDTH8).rev() {
-                if lanes_in[c] != 0 {
-                    let _ = stack.try_push((node.child[c], node.count[c], lanes_in[c]));
-                }
+            boxes += 2 * WIDTH8 as u64;
+            let m0 = rays[0].enters(node, t_max[0]);
+            let m1 = rays[1].enters(node, t_max[1]);
+            let mut any = m0 | m1;
+            // Pushed last slot first, so that they pop in slot order.
+            while any != 0 {
+                let c = 31 - any.leading_zeros() as usize;
+                any &= !(1 << c);
+                let lanes = (m0 >> c) & 1 | ((m1 >> c) & 1) << 1;
+                let _ = stack.try_push((node.child[c], node.count[c], lanes));
             }
         }
         stats.nodes += nodes;
@@ -322,27 +328,29 @@ mod tests {
         }
     }
 
-    /// Each lane of `packet` in one eight-wide descent equals, bit for bit,
-    /// the lane alone on the eight-wide tree (nearest hit), and its segment
-    /// meets the same primitives (any hit, with and without a stop).
-    fn check<const K: usize>(shapes: &[Shape], bvh: &Bvh, packet: &Packet<K>) -> usize {
+    /// Each lane of `packet` (both lanes active) in the pair's descent
+    /// equals, bit for bit, the lane alone on the eight-wide tree (nearest
+    /// hit), and its segment meets the same primitives (any hit, with and
+    /// without a stop).
+    fn check(shapes: &[Shape], bvh: &Bvh, packet: &Packet<2>) -> usize {
+        let packet = &Packet {
+            mask: 0b11,
+            ..*packet
+        };
         let mut stats = TraversalStats::default();
         let test = || Shapes { shapes, packet };
-        let got = bvh.closest_packet_wide8(packet, &mut stats, test());
+        let got = bvh.closest_pair_wide8(packet, &mut stats, test());
         let alone = bvh.closest_each_wide8(packet, &mut stats, test());
         let mut hits = 0;
-        for l in 0..K {
-            let what = format!("K={K}, lane {l}: {packet:?}");
+        for l in 0..2 {
+            let what = format!("lane {l}: {packet:?}");
             assert_eq!(got.prim[l], alone.prim[l], "{what}");
             assert_eq!(hit_bits(&got.hit[l]), hit_bits(&alone.hit[l]), "{what}");
-            if packet.mask & (1 << l) == 0 {
-                assert!(!got.has_hit(l), "{what}: masked lane");
-            }
             hits += got.has_hit(l) as usize;
         }
         let segments = segments_of(packet);
         let occluders = |one_descent: bool, stop: bool| {
-            let mut met: [Vec<u32>; K] = std::array::from_fn(|_| Vec::new());
+            let mut met: [Vec<u32>; 2] = std::array::from_fn(|_| Vec::new());
             let mut test = |p: u32, l: usize| {
                 let ray = Ray::new(segments.origins[l], segments.dirs[l]);
                 let hit = shapes[p as usize].intersect(&ray, 0.0, segments.t_max[l]);
@@ -356,7 +364,7 @@ mod tests {
             };
             let mut stats = TraversalStats::default();
             if one_descent {
-                bvh.occlusion_packet_wide8(&segments, &mut stats, &mut test);
+                bvh.occlusion_pair_wide8(&segments, &mut stats, &mut test);
             } else {
                 bvh.occlusion_wide8(&segments, &mut stats, &mut test);
             }
@@ -367,84 +375,69 @@ mod tests {
         };
         for stop in [false, true] {
             let (got, alone) = (occluders(true, stop), occluders(false, stop));
-            for l in 0..K {
+            for l in 0..2 {
                 if stop {
                     // Which occluder stops a lane may depend on the order;
                     // whether one does may not.
-                    assert_eq!(got[l].len(), alone[l].len(), "K={K}, lane {l}: blocked");
+                    assert_eq!(got[l].len(), alone[l].len(), "lane {l}: blocked");
                 } else {
-                    assert_eq!(got[l], alone[l], "K={K}, lane {l}: occluders");
+                    assert_eq!(got[l], alone[l], "lane {l}: occluders");
                 }
             }
         }
         hits
     }
 
-    fn check_many<const K: usize>(
-        shapes: &[Shape],
-        bvh: &Bvh,
-        rng: &mut fastrand::Rng,
-        count: usize,
-    ) -> usize {
+    fn check_many(shapes: &[Shape], bvh: &Bvh, seed: u64, count: usize) -> usize {
+        let mut rng = fastrand::Rng::with_seed(seed);
         let boxes: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
         (0..count)
             .map(|_| {
-                check::<K>(shapes, bvh, &random_packet::<K>(rng))
-                    + check::<K>(shapes, bvh, &grazing_packet::<K>(rng, &boxes))
+                check(shapes, bvh, &random_packet::<2>(&mut rng))
+                    + check(shapes, bvh, &grazing_packet::<2>(&mut rng, &boxes))
             })
             .sum()
     }
 
-    fn check_widths(shapes: &[Shape], bvh: &Bvh, seed: u64) -> usize {
-        let mut rng = fastrand::Rng::with_seed(seed);
-        check_many::<2>(shapes, bvh, &mut rng, 150)
-            + check_many::<3>(shapes, bvh, &mut rng, 120)
-            + check_many::<4>(shapes, bvh, &mut rng, 120)
-            + check_many::<5>(shapes, bvh, &mut rng, 80)
-            + check_many::<6>(shapes, bvh, &mut rng, 80)
-            + check_many::<7>(shapes, bvh, &mut rng, 60)
-            + check_many::<8>(shapes, bvh, &mut rng, 60)
-            + check_many::<32>(shapes, bvh, &mut rng, 10)
-    }
-
-    /// K = 2..8 (and 32) lanes in one descent give each lane what it gets
-    /// alone, on random shapes of every kind (scalar leaves) and on a mesh
-    /// with poles (leaves as triangle blocks), for random and grazing rays.
+    /// A pair in one descent gives each lane what it gets alone, on random
+    /// shapes of every kind (scalar leaves) and on a mesh with poles (leaves
+    /// as triangle blocks), for random and grazing rays, each lane with its
+    /// own `t_max`.
     #[test]
-    fn a_packet_descent_equals_its_lanes_alone_bit_for_bit() {
+    fn a_pair_descent_equals_its_lanes_alone_bit_for_bit() {
         let mut rng = fastrand::Rng::with_seed(41);
         let shapes = random_shapes(&mut rng, 400);
         let bvh = tree(&shapes, &BuildOptions::default());
-        let hits = check_widths(&shapes, &bvh, 5);
+        let hits = check_many(&shapes, &bvh, 5, 1500);
         assert!(hits > 2000, "{hits} lanes hit");
         let mesh = terrain(24);
         let bvh = tree(&mesh, &BuildOptions::triangle_blocks());
         assert!(!bvh.blocks.is_empty());
-        let hits = check_widths(&mesh, &bvh, 6);
+        let hits = check_many(&mesh, &bvh, 6, 1500);
         assert!(hits > 2000, "{hits} lanes hit");
     }
 
-    /// The work of `K` views' eye rays through one pixel of a camera over
+    /// The work of a pair of eye rays through each pixel of a camera over
     /// the mesh, eyes `b` apart: in one descent, and each lane alone.
-    fn views_work<const K: usize>(bvh: &Bvh, shapes: &[Shape], b: f32) -> [TraversalStats; 2] {
+    fn pair_work(bvh: &Bvh, shapes: &[Shape], b: f32) -> [TraversalStats; 2] {
         let mut work = [TraversalStats::default(); 2];
         for j in 0..24 {
             for i in 0..24 {
                 let target = Vec3::new(i as f32 + 0.3, j as f32 + 0.6, 0.0);
-                let origins: [Vec3; K] =
+                let origins: [Vec3; 2] =
                     std::array::from_fn(|l| Vec3::new(12.0 + b * l as f32, -10.0, 9.0));
                 let packet = Packet {
                     origins,
                     dirs: origins.map(|o| (target - o).normalize()),
                     t_min: 0.0,
-                    t_max: [f32::INFINITY; K],
-                    mask: ((1u64 << K) - 1) as u32,
+                    t_max: [f32::INFINITY; 2],
+                    mask: 0b11,
                 };
                 let test = || Shapes {
                     shapes,
                     packet: &packet,
                 };
-                let one = bvh.closest_packet_wide8(&packet, &mut work[0], test());
+                let one = bvh.closest_pair_wide8(&packet, &mut work[0], test());
                 let each = bvh.closest_each_wide8(&packet, &mut work[1], test());
                 assert_eq!(one, each);
             }
@@ -452,30 +445,25 @@ mod tests {
         work
     }
 
-    /// On coherent rays (neighbouring views through one pixel) one descent
-    /// visits fewer nodes than its lanes alone; K copies of one ray visit
+    /// On coherent rays (two eyes through one pixel) the pair's descent
+    /// visits fewer nodes than its lanes alone; two copies of one ray visit
     /// exactly the nodes the ray alone visits (the order is the single
-    /// ray's: nearest first), with K box tests for each of its.
+    /// ray's: nearest first), with two box and primitive tests for each of
+    /// its. A descent that visits children in another order than nearest
+    /// first fails here, though its hits are right.
     #[test]
-    fn a_shared_descent_visits_fewer_nodes_than_its_lanes_alone() {
+    fn a_pair_descent_visits_fewer_nodes_than_its_lanes_alone() {
         let shapes = terrain(24);
         let bvh = tree(&shapes, &BuildOptions::triangle_blocks());
-        let [one, each] = views_work::<4>(&bvh, &shapes, 0.02);
+        let [one, each] = pair_work(&bvh, &shapes, 0.02);
         assert!(
-            (one.nodes as f64) < 0.5 * each.nodes as f64,
-            "4 views: {} nodes in one descent, {} alone",
+            (one.nodes as f64) < 0.7 * each.nodes as f64,
+            "{} nodes in one descent, {} alone",
             one.nodes,
             each.nodes
         );
-        let [one, each] = views_work::<8>(&bvh, &shapes, 0.02);
-        assert!(
-            (one.nodes as f64) < 0.3 * each.nodes as f64,
-            "8 views: {} nodes in one descent, {} alone",
-            one.nodes,
-            each.nodes
-        );
-        let [same, each] = views_work::<4>(&bvh, &shapes, 0.0);
-        assert_eq!(same.nodes * 4, each.nodes, "copies of one ray");
+        let [same, each] = pair_work(&bvh, &shapes, 0.0);
+        assert_eq!(same.nodes * 2, each.nodes, "copies of one ray");
         assert_eq!(same.box_tests, each.box_tests, "copies of one ray");
         assert_eq!(same.prim_tests, each.prim_tests, "copies of one ray");
     }
