@@ -292,14 +292,15 @@ fn occlusion_prims<T: AnyHitTest>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::{build, BuildOptions, PAD};
     use super::*;
     use crate::math::{Aabb, Vec3};
     use crate::shapes::{Triangle, TriangleNormals};
 
-    /// A wavy height field of `n` x `n` quads, two triangles each.
-    fn terrain(n: usize) -> Vec<Shape> {
+    /// A wavy height field of `n` x `n` quads, two triangles each (also the
+    /// eight-wide pair descent's test scene).
+    pub(in crate::bvh) fn terrain(n: usize) -> Vec<Shape> {
         let v = |i: usize, j: usize| {
             let (x, y) = (i as f32, j as f32);
             Vec3::new(x, y, (x * 0.37).sin() * (y * 0.23).cos())

@@ -249,31 +249,26 @@ mod tests {
         }
     }
 
-    /// A wavy height field of `n` x `n` quads, two triangles each, with
-    /// poles (thin upright triangles) standing on it.
+    /// The leaf tests' wavy height field of `n` x `n` quads, with poles
+    /// (thin upright triangles) standing on it.
     fn terrain(n: usize) -> Vec<Shape> {
-        let v = |i: usize, j: usize| {
-            let (x, y) = (i as f32, j as f32);
-            Vec3::new(x, y, (x * 0.37).sin() * (y * 0.23).cos())
-        };
-        let tri = |a: Vec3, b: Vec3, c: Vec3| {
-            let nrm = (b - a).cross(c - a).normalize_or_zero();
-            Shape::Triangle(Triangle::new(a, b, c, nrm, TriangleNormals::Flat))
-        };
-        let mut shapes: Vec<Shape> = (0..n * n)
-            .flat_map(|k| {
-                let (i, j) = (k % n, k / n);
-                let (a, b, c, d) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
-                [tri(a, b, c), tri(a, c, d)]
-            })
-            .collect();
+        let height = |x: f32, y: f32| (x * 0.37).sin() * (y * 0.23).cos();
+        let mut shapes = super::super::leaf::tests::terrain(n);
         for k in 0..n {
-            let foot = v(k, (k * 7) % n) + Vec3::new(0.5, 0.5, -0.5);
-            shapes.push(tri(
-                foot,
+            let (x, y) = (k as f32, ((k * 7) % n) as f32);
+            let foot = Vec3::new(x + 0.5, y + 0.5, height(x, y) - 0.5);
+            let (b, c) = (
                 foot + Vec3::new(0.01, 0.0, 0.0),
                 foot + Vec3::new(0.0, 0.0, 4.0),
-            ));
+            );
+            let nrm = (b - foot).cross(c - foot).normalize_or_zero();
+            shapes.push(Shape::Triangle(Triangle::new(
+                foot,
+                b,
+                c,
+                nrm,
+                TriangleNormals::Flat,
+            )));
         }
         shapes
     }
