@@ -542,6 +542,20 @@ trait RowWorker {
         self.trace(tracer, row, out);
     }
 
+    /// `trace` for a batch of one view, its eye hits kept in `hits` (the key
+    /// views of `view_synthesis`); `false`, with nothing traced, for a worker
+    /// that cannot.
+    fn trace_keeping_hits(
+        &mut self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        out: &mut [RowColors],
+        hits: &mut Vec<(u32, crate::shapes::SurfaceHit)>,
+    ) -> bool {
+        let _ = (tracer, row, out, hits);
+        false
+    }
+
     /// The eye pass alone: the nearest hit of each of the batch's views
     /// through every sample of `row`, into `hits[v]`, for `trace_with_hits`
     /// to shade; `false` for a worker that has no separate eye pass.

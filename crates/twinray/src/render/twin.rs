@@ -667,6 +667,15 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         tracer.counts.shading_pass_ns += (start.elapsed() - eye_pass).as_nanos() as u64;
     }
 
+    /// Whether the batch is one view with nothing to share, traced by
+    /// `trace_mono_row`.
+    fn is_mono(&self) -> bool {
+        self.views == 1
+            && self.world.far.is_none()
+            && self.reproject.is_none()
+            && self.shared_shading.is_none()
+    }
+
     /// Every stage for one row of samples: `out[v][i]` is view `v`'s colour
     /// of sample `i`.
     fn trace_row(
@@ -677,12 +686,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         strip: Option<&StripRow>,
         out: &mut [RowColors],
     ) {
-        if self.views == 1
-            && strip.is_none()
-            && self.world.far.is_none()
-            && self.reproject.is_none()
-            && self.shared_shading.is_none()
-        {
+        if strip.is_none() && self.is_mono() {
             return self.trace_mono_row(tracer, row, scratch, out);
         }
         let start = Instant::now();
@@ -740,6 +744,23 @@ impl<const K: usize> RowWorker for TwinWorker<'_, '_, K> {
     ) {
         self.batch
             .trace_row(tracer, row, &mut self.scratch, Some(eye), out);
+    }
+
+    fn trace_keeping_hits(
+        &mut self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        out: &mut [RowColors],
+        hits: &mut Vec<(u32, SurfaceHit)>,
+    ) -> bool {
+        if !self.batch.is_mono() {
+            return false;
+        }
+        self.batch
+            .trace_mono_row(tracer, row, &mut self.scratch, out);
+        hits.clear();
+        hits.extend(self.scratch.mono.iter().map(|&(_, prim, hit)| (prim, hit)));
+        true
     }
 
     fn eye_hits(

@@ -226,12 +226,12 @@ impl<'a> SynthesisPass<'a> {
     ) -> Option<SynthesisPass<'a>> {
         let n = rig.views.len();
         let spacing = synthesis.spacing;
-        if n < 3 || spacing < 2 || world.far.is_some() || world.has_alpha {
+        if n < 2 || spacing < 2 || world.far.is_some() || world.has_alpha {
             return None;
         }
         let order = rig.views_by_offset();
         let mut keys: Vec<usize> = (0..n).step_by(spacing).collect();
-        if keys.last() != Some(&(n - 1)) {
+        if n > 2 && keys.last() != Some(&(n - 1)) {
             keys.push(n - 1);
         }
         // Position p is served by its nearest key view (ties to the left).
@@ -302,10 +302,14 @@ impl<'a> SynthesisPass<'a> {
         for (k, &p) in self.keys.iter().enumerate() {
             let (v, _, shift) = self.order[p];
             let worker = &mut workers[v].1;
-            if !worker.eye_hits(tracer, row, &mut s.strip.hits[v..v + 1]) {
-                return trace_all(workers, tracer, row, out);
+            // One pass where the worker keeps its hits (the mono row), else
+            // the eye pass and then the shading given its hits.
+            if !worker.trace_keeping_hits(tracer, row, &mut out[v..v + 1], &mut s.strip.hits[v]) {
+                if !worker.eye_hits(tracer, row, &mut s.strip.hits[v..v + 1]) {
+                    return trace_all(workers, tracer, row, out);
+                }
+                worker.trace_with_hits(tracer, row, &s.strip, &mut out[v..v + 1]);
             }
-            worker.trace_with_hits(tracer, row, &s.strip, &mut out[v..v + 1]);
             let samples = &mut s.samples[k];
             samples.clear();
             for (i, (&(prim, hit), &color)) in s.strip.hits[v].iter().zip(&out[v]).enumerate() {
