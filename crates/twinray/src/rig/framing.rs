@@ -8,6 +8,8 @@
 //! 7–23 % of the frame); the job fits the distance here once the size is
 //! known.
 
+use rayon::prelude::*;
+
 use crate::math::{Aabb, Vec3};
 use crate::scene::{AngleSpan, Viewpoint};
 
@@ -22,11 +24,15 @@ pub const FILL: f32 = 0.8;
 /// `vp` unchanged for no finite box.
 pub fn fit_bounds(
     vp: &Viewpoint,
-    boxes: impl IntoIterator<Item = Aabb> + Clone,
+    boxes: impl IntoIterator<Item = Aabb>,
     width: u32,
     height: u32,
     fill: f32,
 ) -> Viewpoint {
+    // The finite boxes once (a model's shapes compute theirs on each call);
+    // each fit below reads them twice.
+    let finite = |b: &Aabb| b.min.is_finite() && b.max.is_finite() && b.min.x <= b.max.x;
+    let boxes: Vec<Aabb> = boxes.into_iter().filter(finite).collect();
     let back = (vp.from - vp.at).normalize_or_zero();
     if width == 0 || height == 0 || back == Vec3::ZERO {
         return vp.clone();
@@ -58,11 +64,11 @@ pub fn fit_bounds(
     let mut fitted = None;
     // Fit, centre, fit again: each pass halves what is left off centre.
     for _ in 0..4 {
-        let Some(fit) = frame.fit(at, boxes.clone()) else {
+        let Some(fit) = frame.fit(at, &boxes) else {
             break;
         };
         at += (right * fit.centre_h + up * fit.centre_v) * fit.distance;
-        fitted = frame.fit(at, boxes.clone());
+        fitted = frame.fit(at, &boxes);
     }
     let Some(fit) = fitted else {
         return vp.clone();
@@ -92,6 +98,13 @@ struct Fit {
     centre_v: f32,
 }
 
+/// The corners of `boxes` relative to `at`.
+fn corners_from(boxes: &[Aabb], at: Vec3) -> impl Iterator<Item = Vec3> + '_ {
+    boxes
+        .iter()
+        .flat_map(move |&b| box_corners(b).map(move |p| p - at))
+}
+
 /// The eight corners of `b`.
 pub(crate) fn box_corners(b: Aabb) -> impl Iterator<Item = Vec3> {
     (0..8).map(move |i| {
@@ -104,37 +117,58 @@ pub(crate) fn box_corners(b: Aabb) -> impl Iterator<Item = Vec3> {
 }
 
 impl Frame {
-    fn fit(&self, at: Vec3, boxes: impl IntoIterator<Item = Aabb> + Clone) -> Option<Fit> {
-        let finite = |b: &Aabb| b.min.is_finite() && b.max.is_finite() && b.min.x <= b.max.x;
-        let points = || {
-            boxes
-                .clone()
-                .into_iter()
-                .filter(finite)
-                .flat_map(box_corners)
-                .map(move |p| p - at)
-        };
+    /// The distance that fits every corner of `boxes` (finite) around `at`,
+    /// and the centre of their projection from there. Each pass is a maximum
+    /// or minimum over the corners, reduced on the thread pool: the same
+    /// floats in any order (a million-triangle model has eight million).
+    fn fit(&self, at: Vec3, boxes: &[Aabb]) -> Option<Fit> {
+        const CHUNK: usize = 4096;
+        let corners = |chunk| corners_from(chunk, at);
         // A corner's depth is distance − corner·back; it must be at least
         // its offset across the view over the allowed slope.
-        let mut distance: f32 = 0.0;
-        let mut toward_max = f32::NEG_INFINITY;
-        for c in points() {
-            let toward = c.dot(self.back);
-            toward_max = toward_max.max(toward);
-            distance = distance
-                .max(toward + c.dot(self.right).abs() / self.kh)
-                .max(toward + c.dot(self.up).abs() / self.kv);
-        }
+        let (distance, toward_max) = boxes
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let mut distance: f32 = 0.0;
+                let mut toward_max = f32::NEG_INFINITY;
+                for c in corners(chunk) {
+                    let toward = c.dot(self.back);
+                    toward_max = toward_max.max(toward);
+                    distance = distance
+                        .max(toward + c.dot(self.right).abs() / self.kh)
+                        .max(toward + c.dot(self.up).abs() / self.kv);
+                }
+                (distance, toward_max)
+            })
+            .reduce(
+                || (0.0, f32::NEG_INFINITY),
+                |a, b| (a.0.max(b.0), a.1.max(b.1)),
+            );
         if !(distance.is_finite() && distance > 0.0) {
             return None;
         }
-        let (mut h, mut v) = ((f32::MAX, f32::MIN), (f32::MAX, f32::MIN));
-        for c in points() {
-            let depth = distance - c.dot(self.back);
-            let (sh, sv) = (c.dot(self.right) / depth, c.dot(self.up) / depth);
-            h = (h.0.min(sh), h.1.max(sh));
-            v = (v.0.min(sv), v.1.max(sv));
-        }
+        let none = ((f32::MAX, f32::MIN), (f32::MAX, f32::MIN));
+        let (h, v) = boxes
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let (mut h, mut v) = none;
+                for c in corners(chunk) {
+                    let depth = distance - c.dot(self.back);
+                    let (sh, sv) = (c.dot(self.right) / depth, c.dot(self.up) / depth);
+                    h = (h.0.min(sh), h.1.max(sh));
+                    v = (v.0.min(sv), v.1.max(sv));
+                }
+                (h, v)
+            })
+            .reduce(
+                || none,
+                |a, b| {
+                    (
+                        (a.0 .0.min(b.0 .0), a.0 .1.max(b.0 .1)),
+                        (a.1 .0.min(b.1 .0), a.1 .1.max(b.1 .1)),
+                    )
+                },
+            );
         Some(Fit {
             distance,
             nearest: distance - toward_max,
@@ -201,5 +235,66 @@ mod tests {
         // (the box is symmetric about the line of sight).
         assert!((sx - 2.0 * half_v * FILL).abs() < 1e-4, "{sx}");
         assert!(sy < half_v * FILL);
+    }
+
+    /// Many boxes (more than one chunk of the parallel reduction), the one
+    /// that decides the frame last: it is seen, the frame is the same on one
+    /// thread and on three, and a box that is not finite is left out.
+    #[test]
+    fn many_boxes_frame_alike_on_any_number_of_threads() {
+        let mut rng = fastrand::Rng::with_seed(7);
+        let mut boxes: Vec<Aabb> = (0..20_000)
+            .map(|_| {
+                let c = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
+                Aabb {
+                    min: c - 0.01,
+                    max: c + 0.01,
+                }
+            })
+            .collect();
+        boxes.push(Aabb {
+            min: Vec3::new(f32::NEG_INFINITY, 0.0, 0.0),
+            max: Vec3::ZERO,
+        });
+        let far = Aabb {
+            min: Vec3::new(5.0, -0.5, -0.5),
+            max: Vec3::new(6.0, 0.5, 0.5),
+        };
+        boxes.push(far);
+        let frame = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a thread pool");
+            pool.install(|| fit_bounds(&front(60.0), boxes.clone(), 100, 100, FILL))
+        };
+        let (one, three) = (frame(1), frame(3));
+        assert_eq!(
+            (one.from.to_array(), one.at.to_array(), one.hither.to_bits()),
+            (
+                three.from.to_array(),
+                three.at.to_array(),
+                three.hither.to_bits()
+            )
+        );
+        // Every corner within the frame, and the far box at its edge: the
+        // largest slope across is 80 % of the half field of view.
+        let half = (30.0f32).to_radians().tan();
+        let across = |vp: &Viewpoint, b: Aabb| {
+            box_corners(b)
+                .map(|p| {
+                    let c = p - vp.from;
+                    let back = (vp.from - vp.at).normalize();
+                    let right = vp.up.cross(back).normalize();
+                    (c.dot(right) / -c.dot(back)).abs()
+                })
+                .fold(0.0f32, f32::max)
+        };
+        let widest = boxes[..20_000]
+            .iter()
+            .map(|&b| across(&one, b))
+            .fold(across(&one, far), f32::max);
+        assert!((widest - half * FILL).abs() < 1e-3, "{widest}");
+        assert!(across(&one, far) >= widest - 1e-6, "the far box decides");
     }
 }
