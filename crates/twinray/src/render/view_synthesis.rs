@@ -226,12 +226,12 @@ impl<'a> SynthesisPass<'a> {
     ) -> Option<SynthesisPass<'a>> {
         let n = rig.views.len();
         let spacing = synthesis.spacing;
-        if n < 2 || spacing < 2 || world.far.is_some() || world.has_alpha {
+        if n < 3 || spacing < 2 || world.far.is_some() || world.has_alpha {
             return None;
         }
         let order = rig.views_by_offset();
         let mut keys: Vec<usize> = (0..n).step_by(spacing).collect();
-        if n > 2 && keys.last() != Some(&(n - 1)) {
+        if keys.last() != Some(&(n - 1)) {
             keys.push(n - 1);
         }
         // Position p is served by its nearest key view (ties to the left).
