@@ -637,17 +637,22 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         let (origin, shift) = (self.origins[0], self.shifts[0]);
         let mono = &mut scratch.mono;
         mono.clear();
-        // The directions first, in a loop of their own: each one's square
-        // root and division then overlap the next ones' instead of waiting
-        // in front of a descent.
-        mono.extend((0..row.len()).map(|i| {
-            let (column, y) = row.camera_point(i, shift);
-            (
-                self.camera.direction(column, y),
-                PacketHits::<1>::NO_HIT,
-                NONE,
-            )
-        }));
+        // The directions first, in a loop of their own, eight at a time
+        // (`Camera::directions8`: one vector square root and division for
+        // eight, each direction `Camera::direction`'s bit for bit).
+        for first in (0..row.len()).step_by(8) {
+            let n = (row.len() - first).min(8);
+            let (mut columns, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
+            for k in 0..n {
+                (columns[k], ys[k]) = row.camera_point(first + k, shift);
+            }
+            let dirs = self.camera.directions8(columns, ys);
+            mono.extend(
+                dirs[..n]
+                    .iter()
+                    .map(|&dir| (dir, PacketHits::<1>::NO_HIT, NONE)),
+            );
+        }
         if tracer.eye_hit_applies() {
             for (dir, prim, hit) in mono.iter_mut() {
                 (*prim, *hit) = tracer.eye_hit(&self.eye_ray(origin, *dir), self.first_view);
