@@ -13,6 +13,9 @@ mod lean_surfaces;
 mod shadow_fans;
 
 pub use key_views::{Chain, Link};
+pub(super) use lean_surfaces::flat_materials;
+#[cfg(test)]
+pub(super) use lean_surfaces::tests::{scene as test_scene, unlit as unlit_test_scene};
 
 use crate::bvh::{
     primitive_box, segment_enters, Bvh, NearestTest, Packet, PacketHits, SegmentPacket,

@@ -32,7 +32,7 @@ use std::time::Instant;
 use super::grouping::{group_row, nearest_sample, Group};
 use super::sampler::{RowColors, SampleRow};
 use super::strip::StripRow;
-use super::tracer::{Donor, SecondaryRays};
+use super::tracer::{flat_materials, Donor, SecondaryRays};
 use super::{
     RenderInputs, ReprojectMode, Reprojection, RowWorker, SharedShading, Tracer, ViewBatch,
 };
@@ -69,6 +69,9 @@ pub(super) struct TwinBatch<'a, const K: usize> {
     shared_shading: Option<SharedShading>,
     /// Key views' spacing under the shared shading (0: adaptive).
     key_spacing: usize,
+    /// Per material, whether every eye hit on it shades to one colour
+    /// (`tracer::flat_materials`): the mono row shades one and copies it.
+    flat: Vec<bool>,
 }
 
 /// Paper-mode reprojection: the depth of the nearest point of view 0 that
@@ -103,6 +106,9 @@ pub(super) struct RowScratch<const K: usize> {
     /// A batch of one view traced without grouping (`trace_mono_row`): per
     /// sample, its eye ray's direction and nearest hit.
     mono: Vec<(Vec3, u32, SurfaceHit)>,
+    /// Per material whose eye hits shade to one colour (`TwinBatch::flat`),
+    /// that colour once a hit on it was shaded.
+    flat: Vec<Option<Color>>,
 }
 
 /// Sizes `v` to `views` rows of `len` copies of `fill`.
@@ -155,6 +161,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             },
             shared_shading: job.opts.approx.shared_shading,
             key_spacing: job.opts.approx.key_spacing,
+            flat: flat_materials(&job.world.scene, &job.opts.trace),
         }
     }
 
@@ -630,17 +637,22 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         let (origin, shift) = (self.origins[0], self.shifts[0]);
         let mono = &mut scratch.mono;
         mono.clear();
-        // The directions first, in a loop of their own: each one's square
-        // root and division then overlap the next ones' instead of waiting
-        // in front of a descent.
-        mono.extend((0..row.len()).map(|i| {
-            let (column, y) = row.camera_point(i, shift);
-            (
-                self.camera.direction(column, y),
-                PacketHits::<1>::NO_HIT,
-                NONE,
-            )
-        }));
+        // The directions first, in a loop of their own, eight at a time
+        // (`Camera::directions8`: one vector square root and division for
+        // eight, each direction `Camera::direction`'s bit for bit).
+        for first in (0..row.len()).step_by(8) {
+            let n = (row.len() - first).min(8);
+            let (mut columns, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
+            for k in 0..n {
+                (columns[k], ys[k]) = row.camera_point(first + k, shift);
+            }
+            let dirs = self.camera.directions8(columns, ys);
+            mono.extend(
+                dirs[..n]
+                    .iter()
+                    .map(|&dir| (dir, PacketHits::<1>::NO_HIT, NONE)),
+            );
+        }
         if tracer.eye_hit_applies() {
             for (dir, prim, hit) in mono.iter_mut() {
                 (*prim, *hit) = tracer.eye_hit(&self.eye_ray(origin, *dir), self.first_view);
@@ -652,16 +664,29 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             }
         }
         let eye_pass = start.elapsed();
+        let scene = &self.world.scene;
+        let flat = &mut scratch.flat;
+        flat.resize(scene.materials.len(), None);
         for (&(dir, prim, hit), color) in mono.iter().zip(out[0].iter_mut()) {
-            *color = if prim == PacketHits::<1>::NO_HIT {
-                self.world.scene.background_toward(dir)
-            } else {
-                let hits = PacketHits {
-                    prim: [prim],
-                    hit: [hit],
-                };
-                tracer.shade_eye(&self.eye_ray(origin, dir), &hits, self.secondary)[0]
+            if prim == PacketHits::<1>::NO_HIT {
+                *color = scene.background_toward(dir);
+                continue;
+            }
+            // A material whose hits all shade to one colour: the colour of
+            // its first hit (shading it counts nothing, caches nothing).
+            let material = scene.shape_material[prim as usize] as usize;
+            if let Some(Some(c)) = flat.get(material) {
+                *color = *c;
+                continue;
+            }
+            let hits = PacketHits {
+                prim: [prim],
+                hit: [hit],
             };
+            *color = tracer.shade_eye(&self.eye_ray(origin, dir), &hits, self.secondary)[0];
+            if self.flat.get(material) == Some(&true) {
+                flat[material] = Some(*color);
+            }
         }
         tracer.counts.eye_pass_ns += eye_pass.as_nanos() as u64;
         tracer.counts.shading_pass_ns += (start.elapsed() - eye_pass).as_nanos() as u64;
@@ -920,6 +945,130 @@ mod tests {
             b.shading_pass_ns,
         ) = (0, 0, 0, 0);
         assert_eq!(a, b);
+    }
+
+    /// Materials whose eye hits all shade to one colour are shaded once per
+    /// row worker and copied (`TwinBatch::flat`): the mono rows' colours and
+    /// counts are, bit for bit, those of shading every hit, on a scene
+    /// without lights (matte floor, sphere and cone: flat; a textured quad:
+    /// not), the same with an emissive and a pure-ambient material, and with
+    /// lights (only the pure-ambient material is flat). Each condition of
+    /// `shades_flat` left out fails here: a texture, a light, a mirror's ray,
+    /// BLEND coverage, corner colours.
+    #[test]
+    fn flat_materials_shade_as_every_hit_does() {
+        use crate::render::tracer::{test_scene, unlit_test_scene};
+        use crate::scene::{AlphaMode, MeshPolygon};
+        let lit = test_scene();
+        let unlit = unlit_test_scene(test_scene());
+        let mut glowing = unlit.clone();
+        glowing.materials[1].emission = Color::new(0.3, 0.1, 0.0);
+        glowing.materials[0].kd = 0.0;
+        let mut ambient_lit = lit.clone();
+        let cone = &mut ambient_lit.materials[2];
+        (cone.kd, cone.ks, cone.mirror) = (0.0, 0.0, 0.0);
+        let mut mirror = unlit.clone();
+        mirror.materials[1].mirror = 0.5;
+        let mut blend = unlit.clone();
+        (blend.materials[2].alpha_mode, blend.materials[2].alpha) = (AlphaMode::Blend, 0.5);
+        let mut coloured = unlit.clone();
+        let group = coloured.new_group();
+        let quad = [
+            Vec3::new(-2.2, -2.0, 0.2),
+            Vec3::new(-0.2, -2.0, 0.2),
+            Vec3::new(-0.2, -2.0, 2.2),
+            Vec3::new(-2.2, -2.0, 2.2),
+        ];
+        let corners = [
+            Color::new(1.0, 0.0, 0.0),
+            Color::ONE,
+            Color::new(0.0, 0.0, 1.0),
+            Color::ONE,
+        ];
+        coloured.add_colored_mesh_polygon(
+            &MeshPolygon {
+                vertices: &quad,
+                normals: None,
+                uv: None,
+                material: 0,
+                group,
+            },
+            Some(&corners),
+            &|| "quad".into(),
+        );
+        let mut flat_in = Vec::new();
+        for (what, scene) in [
+            ("no light", unlit),
+            ("emission", glowing),
+            ("lights, one pure ambient material", ambient_lit),
+            ("lights", lit),
+            ("a mirror", mirror),
+            ("BLEND", blend),
+            ("corner colours", coloured),
+        ] {
+            let world = World::new(scene);
+            let camera = Camera::new(&world.scene.viewpoint, 48, 36);
+            let rig = Rig::mono();
+            let opts = RenderOptions::default();
+            let job = RenderInputs {
+                world: &world,
+                camera: &camera,
+                rig: &rig,
+                opts: &opts,
+                progress: &|_, _| {},
+                cancel: &super::super::CancelToken::new(),
+            };
+            let fast = TwinBatch::<1>::new(&job, rig.clone(), 0);
+            let mut every = TwinBatch::<1>::new(&job, rig.clone(), 0);
+            every.flat.iter_mut().for_each(|f| *f = false);
+            flat_in.push((what, fast.flat.iter().filter(|&&f| f).count()));
+            let width = camera.width as usize;
+            let (mut a_scratch, mut b_scratch) = (RowScratch::default(), RowScratch::default());
+            let mut a_tracer = Tracer::new(&world, opts.trace);
+            let mut b_tracer = Tracer::new(&world, opts.trace);
+            let mut colours = std::collections::HashSet::new();
+            for y in 0..camera.height {
+                let row = SampleRow::full(
+                    width,
+                    Pattern::Fixed {
+                        dx: 0.0,
+                        y: y as f32,
+                    },
+                );
+                let mut a = vec![vec![Color::ZERO; width]];
+                let mut b = vec![vec![Color::ZERO; width]];
+                fast.trace_row(&mut a_tracer, &row, &mut a_scratch, None, &mut a);
+                every.trace_row(&mut b_tracer, &row, &mut b_scratch, None, &mut b);
+                for (i, (ca, cb)) in a[0].iter().zip(&b[0]).enumerate() {
+                    let bits = |c: &Color| c.to_array().map(f32::to_bits);
+                    assert_eq!(bits(ca), bits(cb), "{what}: row {y}, sample {i}");
+                    colours.insert(bits(cb));
+                }
+            }
+            assert!(colours.len() > 20, "{what}: {} colours", colours.len());
+            let (mut a, mut b) = (a_tracer.finish(), b_tracer.finish());
+            (
+                a.eye_pass_ns,
+                a.shading_pass_ns,
+                b.eye_pass_ns,
+                b.shading_pass_ns,
+            ) = (0, 0, 0, 0);
+            assert_eq!(a, b, "{what}");
+        }
+        // Floor, sphere and cone; with an emissive sphere and a floor of no
+        // diffuse term too; under lights the pure-ambient cone alone; then
+        // the mirror sphere, the BLEND cone and the corner colours' scene
+        // lose theirs.
+        let expected = [
+            ("no light", 3),
+            ("emission", 3),
+            ("lights, one pure ambient material", 1),
+            ("lights", 0),
+            ("a mirror", 2),
+            ("BLEND", 2),
+            ("corner colours", 0),
+        ];
+        assert_eq!(flat_in, expected);
     }
 
     /// Under a strongly converged rig (image shifts of many pixels), the

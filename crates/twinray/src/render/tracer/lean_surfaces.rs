@@ -5,6 +5,7 @@
 //! environment are such hits (the eye-ray benchmark against Embree renders
 //! them); in a lit scene every hit that takes light needs its normal.
 
+use crate::render::TraceSettings;
 use crate::scene::{AlphaMode, Material, Scene};
 
 /// Whether shading a hit on `material` reads the surface's normal: an
@@ -23,8 +24,36 @@ pub(super) fn needs_normal(scene: &Scene, material: &Material, spawn: bool) -> b
                 || material.alpha_mode == AlphaMode::Blend))
 }
 
+/// Whether every eye hit on `material` shades to one colour, wherever it
+/// lies: its shading reads no normal (`needs_normal`), and its colour takes
+/// nothing from the hit (no texture, emission or occlusion texture, corner
+/// colour or BLEND coverage). Then `surfaces` gives the material's ambient
+/// term, direct light adds nothing (no light, or none taken) and no ray is
+/// spawned: the mono row shades one such hit per material and gives the
+/// others its colour (`TwinBatch::trace_mono_row`). `spawn`: whether the
+/// eye hit's level may still spawn rays.
+#[inline]
+pub(super) fn shades_flat(scene: &Scene, material: &Material, spawn: bool) -> bool {
+    !needs_normal(scene, material, spawn)
+        && scene.corner_colors.is_empty()
+        && material.alpha_mode == AlphaMode::Opaque
+        && material.texture.is_none()
+        && material.emission_texture.is_none()
+        && material.occlusion_texture.is_none()
+}
+
+/// Per material of `scene`, `shades_flat` for eye hits traced with `settings`.
+pub(in crate::render) fn flat_materials(scene: &Scene, settings: &TraceSettings) -> Vec<bool> {
+    let spawn = 1 < settings.max_depth;
+    scene
+        .materials
+        .iter()
+        .map(|m| shades_flat(scene, m, spawn))
+        .collect()
+}
+
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::environment::Environment;
     use crate::loaders::{nff::parse_nff, LoadOptions};
@@ -39,7 +68,7 @@ mod tests {
 
     /// A floor, a sphere and a cone under two lights, and a textured,
     /// normal-mapped quad (material 3) facing the camera.
-    fn scene() -> Scene {
+    pub(in crate::render) fn scene() -> Scene {
         let text = "b 0.1 0.2 0.3\nv\nfrom 0 -8 2\nat 0 0 1\nup 0 0 1\nangle 45\nhither 0.01\n\
             resolution 48 36\n\
             l -5 -5 6 0.6 0.5 0.5\nl 4 -3 5 0.5 0.6 0.5\n\
@@ -100,7 +129,7 @@ mod tests {
 
     /// Every material matte (`kd` 0.5: half of the colour is ambient),
     /// without lights: no hit needs a normal.
-    fn unlit(mut s: Scene) -> Scene {
+    pub(in crate::render) fn unlit(mut s: Scene) -> Scene {
         s.lights.clear();
         for m in &mut s.materials {
             (m.kd, m.ks, m.t, m.mirror) = (0.5, 0.0, 0.0, 0.0);
