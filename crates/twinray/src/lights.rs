@@ -66,7 +66,10 @@ impl Light {
     /// From `point`: the unit direction to the light, the distance a shadow ray
     /// must cover, and the colour arriving; `None` when no light arrives (the
     /// point is the light's position, outside its cone or beyond its range).
-    #[inline]
+    /// Inlined, with `shading::toward_light`, into `Tracer::direct_light`:
+    /// returned through memory, the answer's reload stalled on the stores
+    /// that wrote it (docs/benchmarks.md, "Issue 17, seventh pass").
+    #[inline(always)]
     pub fn toward(&self, point: Vec3) -> Option<(Vec3, f32, Color)> {
         let color = self.color.unwrap_or(Color::ONE);
         match self.kind {
@@ -103,6 +106,7 @@ impl Light {
     }
 }
 
+#[inline(always)]
 fn direction_to(position: Vec3, point: Vec3) -> Option<(Vec3, f32)> {
     let to_light = position - point;
     let dist = to_light.length();

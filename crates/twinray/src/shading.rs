@@ -241,7 +241,8 @@ pub fn blocks(world: &World, prim: u32, origin: Vec3, dir: Vec3, dist: f32) -> b
 
 /// The direction, distance and colour of a light arriving at a surface point,
 /// if the light is on the side the normal faces (else no shadow ray is cast).
-#[inline]
+/// Inlined with `Light::toward`: see there.
+#[inline(always)]
 pub fn toward_light(sp: &SurfacePoint, light: &Light) -> Option<(Vec3, f32, Color)> {
     let (l, dist, color) = light.toward(sp.point)?;
     (sp.normal.dot(l) > 0.0).then_some((l, dist, color))
