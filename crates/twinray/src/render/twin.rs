@@ -874,6 +874,25 @@ mod tests {
     use crate::render::sampler::Pattern;
     use crate::render::RenderOptions;
 
+    /// A render's inputs with nobody told of progress.
+    fn quiet_inputs<'a>(
+        world: &'a World,
+        camera: &'a Camera,
+        rig: &'a Rig,
+        opts: &'a RenderOptions,
+        cancel: &'a super::super::CancelToken,
+    ) -> RenderInputs<'a> {
+        fn no_progress(_: u64, _: u64) {}
+        RenderInputs {
+            world,
+            camera,
+            rig,
+            opts,
+            progress: &no_progress,
+            cancel,
+        }
+    }
+
     /// A batch of one view takes `trace_mono_row` (no grouping: the groups
     /// stay empty), and its colours and counts are, bit for bit, those of
     /// the staged path it replaces (eye pass, grouping, shading of groups of
@@ -887,14 +906,8 @@ mod tests {
         let camera = Camera::new(&world.scene.viewpoint, 64, 48);
         let rig = Rig::mono();
         let opts = RenderOptions::default();
-        let job = RenderInputs {
-            world: &world,
-            camera: &camera,
-            rig: &rig,
-            opts: &opts,
-            progress: &|_, _| {},
-            cancel: &super::super::CancelToken::new(),
-        };
+        let cancel = super::super::CancelToken::new();
+        let job = quiet_inputs(&world, &camera, &rig, &opts, &cancel);
         let batch = TwinBatch::<1>::new(&job, rig.clone(), 0);
         let width = camera.width as usize;
         let (mut fast, mut staged) = (RowScratch::<1>::default(), RowScratch::<1>::default());
@@ -1010,14 +1023,8 @@ mod tests {
             let camera = Camera::new(&world.scene.viewpoint, 48, 36);
             let rig = Rig::mono();
             let opts = RenderOptions::default();
-            let job = RenderInputs {
-                world: &world,
-                camera: &camera,
-                rig: &rig,
-                opts: &opts,
-                progress: &|_, _| {},
-                cancel: &super::super::CancelToken::new(),
-            };
+            let cancel = super::super::CancelToken::new();
+            let job = quiet_inputs(&world, &camera, &rig, &opts, &cancel);
             let fast = TwinBatch::<1>::new(&job, rig.clone(), 0);
             let mut every = TwinBatch::<1>::new(&job, rig.clone(), 0);
             every.flat.iter_mut().for_each(|f| *f = false);
@@ -1092,14 +1099,8 @@ mod tests {
         );
         let world_ref = &world;
         let opts = RenderOptions::default();
-        let job = RenderInputs {
-            world: world_ref,
-            camera: &camera,
-            rig: &rig,
-            opts: &opts,
-            progress: &|_, _| {},
-            cancel: &super::super::CancelToken::new(),
-        };
+        let cancel = super::super::CancelToken::new();
+        let job = quiet_inputs(world_ref, &camera, &rig, &opts, &cancel);
         let batch = TwinBatch::<2>::new(&job, rig.clone(), 0);
         let width = camera.width as usize;
         let mut scratch = RowScratch::<2>::default();
