@@ -25,12 +25,6 @@ const HEIGHT: u32 = 30;
 const INTERAXIAL: f32 = 0.01;
 const E: f32 = 0.01;
 
-const FLOOR: &str = OPEN_FLOOR;
-
-fn parse(text: &str) -> World {
-    nff_world(text)
-}
-
 fn interpolating(tolerance: f32) -> RenderOptions {
     RenderOptions {
         approx: Approximations {
@@ -79,7 +73,7 @@ fn floor_camera(world: &World) -> Camera {
 /// from them than were interpolated (the rest are shaded exactly).
 #[test]
 fn a_diffuse_open_floor_is_interpolated_within_the_tolerance() {
-    let world = parse(FLOOR);
+    let world = nff_world(OPEN_FLOOR);
     let camera = floor_camera(&world);
     for views in [3, 8, 48] {
         let (worst, differ, out) = against_exact(&world, &camera, views, E, 1);
@@ -101,7 +95,7 @@ fn a_diffuse_open_floor_is_interpolated_within_the_tolerance() {
 /// are the independent renders' bit for bit (the pass's shading is exact).
 #[test]
 fn with_no_tolerance_the_views_are_exact() {
-    let world = parse(FLOOR);
+    let world = nff_world(OPEN_FLOOR);
     let camera = floor_camera(&world);
     let (worst, differ, out) = against_exact(&world, &camera, 8, 0.0, 1);
     assert_eq!((worst, differ), (0.0, 0), "{:?}", out.counts.interp);
@@ -115,8 +109,8 @@ fn with_no_tolerance_the_views_are_exact() {
 #[test]
 fn a_pole_seen_by_one_view_only_is_kept() {
     let pole = "f 0.1 0.9 0.1 0.9 0 0 0 1\nc\n0.2 0 0 0.0015\n0.2 0 2 0.0015\n";
-    let world = parse(&format!("{FLOOR}{pole}"));
-    let bare = parse(FLOOR);
+    let world = nff_world(&format!("{OPEN_FLOOR}{pole}"));
+    let bare = nff_world(OPEN_FLOOR);
     let camera = floor_camera(&world);
     let rig = Rig::multi_view(&camera, 48, INTERAXIAL, None).expect("rig");
     let with = run(&world, &camera, &rig, &interpolating(E));
@@ -139,7 +133,7 @@ fn a_pole_seen_by_one_view_only_is_kept() {
 #[test]
 fn a_thin_shadow_between_two_views_hits_is_kept() {
     let bar = "f 0.5 0.5 0.5 0.9 0 0 0 1\nc\n2 -20 6 0.01\n2 20 6 0.01\n";
-    let world = parse(&format!("{FLOOR}{bar}"));
+    let world = nff_world(&format!("{OPEN_FLOOR}{bar}"));
     for views in [8, 48] {
         let i = kept_within_e(&world, views);
         assert!(i.refused_colour > 0, "{views} views: {i:?}");
@@ -168,11 +162,11 @@ fn a_small_balls_shadow_between_two_views_hits_is_kept() {
     // so only the shadow can refuse it.
     // A narrow view: the shadow, 0.2 wide, spans several rows and lies
     // within 48 views' spans (0.47 wide).
-    let far = FLOOR
+    let far = OPEN_FLOOR
         .replace("l 3 2 10", "l 30 20 100")
         .replace("angle 45", "angle 8");
     let ball = "f 0.5 0.5 0.5 0.9 0 0 0 1\ns 1.5 1 5 0.1\n";
-    let world = parse(&format!("{far}{ball}"));
+    let world = nff_world(&format!("{far}{ball}"));
     kept_within_e(&world, 8);
     // 48 views' spans are wider than the shadow: it falls between two ends.
     let i = kept_within_e(&world, 48);
@@ -189,7 +183,7 @@ fn a_mirror_whose_reflection_changes_between_views_is_refused() {
         resolution 40 30\nl 0 0 -10\n\
         f 0.8 0.8 0.7 0.5 0.5 20 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\n\
         f 0.05 0.05 0.05 0 0 0 0 1\nc\n0.1 3 0 0.01\n0.1 3 4 0.01\n";
-    let world = parse(mirror);
+    let world = nff_world(mirror);
     let camera = floor_camera(&world);
     let (worst, differ, out) = against_exact(&world, &camera, 48, E, 1);
     let i = out.counts.interp;
@@ -243,7 +237,7 @@ fn a_textured_floor_is_refused() {
 #[test]
 fn one_two_and_five_threads_give_the_same_images() {
     let bar = "f 0.5 0.5 0.5 0.9 0 0 0 1\nc\n2 -20 6 0.01\n2 20 6 0.01\n";
-    let world = parse(&format!("{FLOOR}{bar}"));
+    let world = nff_world(&format!("{OPEN_FLOOR}{bar}"));
     let camera = floor_camera(&world);
     let (_, _, one) = against_exact(&world, &camera, 24, E, 1);
     for threads in [2, 5] {

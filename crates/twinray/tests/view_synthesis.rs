@@ -22,12 +22,6 @@ const HEIGHT: u32 = 30;
 const INTERAXIAL: f32 = 0.01;
 const E: f32 = 0.01;
 
-const FLOOR: &str = OPEN_FLOOR;
-
-fn parse(text: &str) -> World {
-    nff_world(text)
-}
-
 fn synthesizing(spacing: usize, tolerance: f32, sampling: Sampling) -> RenderOptions {
     RenderOptions {
         approx: Approximations {
@@ -98,7 +92,7 @@ fn camera(world: &World) -> Camera {
 /// every sample is counted once.
 #[test]
 fn a_diffuse_open_floor_is_synthesized_within_the_tolerance() {
-    let world = parse(FLOOR);
+    let world = nff_world(OPEN_FLOOR);
     let camera = camera(&world);
     for views in [3, 9, 48] {
         let (worst, differ, out) = against_exact(&world, &camera, views, 8, 1);
@@ -123,7 +117,7 @@ fn a_diffuse_open_floor_is_synthesized_within_the_tolerance() {
 #[test]
 fn key_views_are_the_independent_renders() {
     let ball = "f 0.9 0.2 0.2 0.9 0 0 0 1\ns 0 0 0.6 0.5\n";
-    let world = parse(&format!("{FLOOR}{ball}"));
+    let world = nff_world(&format!("{OPEN_FLOOR}{ball}"));
     let camera = camera(&world);
     let rig = Rig::multi_view(&camera, 17, INTERAXIAL, None).expect("rig");
     let exact = independent(&world, &camera, &rig);
@@ -149,10 +143,10 @@ fn key_views_are_the_independent_renders() {
 /// view's samples on the floor, which the synthesis does not see.)
 #[test]
 fn a_pole_seen_by_one_view_only_is_kept() {
-    let above = FLOOR.replace("l 3 2 10", "l 0.2015 0 50");
+    let above = OPEN_FLOOR.replace("l 3 2 10", "l 0.2015 0 50");
     let pole = "f 0.1 0.9 0.1 0.9 0 0 0 1\np 4\n0.2 0 0\n0.203 0 0\n0.203 0 2\n0.2 0 2\n";
-    let world = parse(&format!("{above}{pole}"));
-    let bare = parse(&above);
+    let world = nff_world(&format!("{above}{pole}"));
+    let bare = nff_world(&above);
     let camera = camera(&world);
     let rig = Rig::multi_view(&camera, 48, INTERAXIAL, None).expect("rig");
     let exact = independent(&world, &camera, &rig);
@@ -172,7 +166,7 @@ fn a_pole_seen_by_one_view_only_is_kept() {
 #[test]
 fn a_shadow_edge_is_kept() {
     let bar = "f 0.5 0.5 0.5 0.9 0 0 0 1\nc\n2 -20 6 0.15\n2 20 6 0.15\n";
-    let world = parse(&format!("{FLOOR}{bar}"));
+    let world = nff_world(&format!("{OPEN_FLOOR}{bar}"));
     let camera = camera(&world);
     for views in [8, 48] {
         let (worst, _, out) = against_exact(&world, &camera, views, 8, 1);
@@ -188,7 +182,7 @@ fn a_shadow_edge_is_kept() {
 #[test]
 fn a_small_balls_shadow_is_kept() {
     let ball = "f 0.5 0.5 0.5 0.9 0 0 0 1\ns 1.5 1 1 0.3\n";
-    let world = parse(&format!("{FLOOR}{ball}"));
+    let world = nff_world(&format!("{OPEN_FLOOR}{ball}"));
     let camera = camera(&world);
     let (worst, _, out) = against_exact(&world, &camera, 24, 8, 1);
     let y = out.counts.synthesis;
@@ -205,7 +199,7 @@ fn a_mirror_whose_reflection_changes_between_views_is_traced() {
         resolution 40 30\nl 0 0 -10\n\
         f 0.8 0.8 0.7 0.5 0.5 20 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\n\
         f 0.05 0.05 0.05 0 0 0 0 1\nc\n0.1 3 0 0.01\n0.1 3 4 0.01\n";
-    let world = parse(mirror);
+    let world = nff_world(mirror);
     let camera = camera(&world);
     let (worst, _, out) = against_exact(&world, &camera, 48, 8, 1);
     let y = out.counts.synthesis;
@@ -228,7 +222,7 @@ fn a_mirror_whose_reflection_changes_between_views_is_traced() {
 /// traced exactly in every view.
 #[test]
 fn other_samplings_are_traced_exactly() {
-    let world = parse(FLOOR);
+    let world = nff_world(OPEN_FLOOR);
     let camera = camera(&world);
     let rig = Rig::multi_view(&camera, 5, INTERAXIAL, None).expect("rig");
     let sampling = Sampling::Stratified {
@@ -252,7 +246,7 @@ fn other_samplings_are_traced_exactly() {
 #[test]
 fn one_two_and_five_threads_give_the_same_images() {
     let bar = "f 0.5 0.5 0.5 0.9 0 0 0 1\nc\n2 -20 6 0.01\n2 20 6 0.01\n";
-    let world = parse(&format!("{FLOOR}{bar}"));
+    let world = nff_world(&format!("{OPEN_FLOOR}{bar}"));
     let camera = camera(&world);
     let (_, _, one) = against_exact(&world, &camera, 24, 8, 1);
     for threads in [2, 5] {
@@ -276,9 +270,9 @@ fn one_two_and_five_threads_give_the_same_images() {
 /// gives the same images, so no test can fail on that rule.)
 #[test]
 fn the_nearest_surface_covers_the_views_between() {
-    let above = FLOOR.replace("l 3 2 10", "l 0 0 50");
+    let above = OPEN_FLOOR.replace("l 3 2 10", "l 0 0 50");
     let ball = "f 0.9 0.2 0.2 0.9 0 0 0 1\ns 0 -3 2.5 0.3\n";
-    let world = parse(&format!("{above}{ball}"));
+    let world = nff_world(&format!("{above}{ball}"));
     let camera = camera(&world);
     let rig = Rig::multi_view(&camera, 9, 0.2, None).expect("rig");
     let exact = independent(&world, &camera, &rig);
