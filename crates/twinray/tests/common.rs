@@ -31,6 +31,15 @@ pub const OPEN_FLOOR: &str =
     resolution 40 30\nl 3 2 10\n\
     f 0.8 0.8 0.7 0.9 0 0 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\n";
 
+/// `OPEN_FLOOR`'s view of a mirror floor (unlit: the light is below it)
+/// reflecting a thin dark pole against a bright sky: what the mirror shows
+/// changes from view to view.
+pub const MIRROR_FLOOR_AND_POLE: &str =
+    "b 0.8 0.8 0.9\nv\nfrom 0 -6 5\nat 0 0 0\nup 0 0 1\nangle 45\nhither 0.01\n\
+    resolution 40 30\nl 0 0 -10\n\
+    f 0.8 0.8 0.7 0.5 0.5 20 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\n\
+    f 0.05 0.05 0.05 0 0 0 0 1\nc\n0.1 3 0 0.01\n0.1 3 4 0.01\n";
+
 /// The world of an NFF scene given as text.
 pub fn nff_world(text: &str) -> World {
     let scene =

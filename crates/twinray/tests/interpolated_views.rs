@@ -179,11 +179,7 @@ fn a_small_balls_shadow_between_two_views_hits_is_kept() {
 /// mirror weight above E) refuses the span.
 #[test]
 fn a_mirror_whose_reflection_changes_between_views_is_refused() {
-    let mirror = "b 0.8 0.8 0.9\nv\nfrom 0 -6 5\nat 0 0 0\nup 0 0 1\nangle 45\nhither 0.01\n\
-        resolution 40 30\nl 0 0 -10\n\
-        f 0.8 0.8 0.7 0.5 0.5 20 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\n\
-        f 0.05 0.05 0.05 0 0 0 0 1\nc\n0.1 3 0 0.01\n0.1 3 4 0.01\n";
-    let world = nff_world(mirror);
+    let world = nff_world(MIRROR_FLOOR_AND_POLE);
     let camera = floor_camera(&world);
     let (worst, differ, out) = against_exact(&world, &camera, 48, E, 1);
     let i = out.counts.interp;

@@ -195,11 +195,7 @@ fn a_small_balls_shadow_is_kept() {
 /// mirror weight above E), and the views equal the independent renders.
 #[test]
 fn a_mirror_whose_reflection_changes_between_views_is_traced() {
-    let mirror = "b 0.8 0.8 0.9\nv\nfrom 0 -6 5\nat 0 0 0\nup 0 0 1\nangle 45\nhither 0.01\n\
-        resolution 40 30\nl 0 0 -10\n\
-        f 0.8 0.8 0.7 0.5 0.5 20 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\n\
-        f 0.05 0.05 0.05 0 0 0 0 1\nc\n0.1 3 0 0.01\n0.1 3 4 0.01\n";
-    let world = nff_world(mirror);
+    let world = nff_world(MIRROR_FLOOR_AND_POLE);
     let camera = camera(&world);
     let (worst, _, out) = against_exact(&world, &camera, 48, 8, 1);
     let y = out.counts.synthesis;
