@@ -960,6 +960,61 @@ mod tests {
         assert_eq!(a, b);
     }
 
+    /// A key view of the view synthesis traces its row once and keeps its
+    /// hits (`RowWorker::trace_keeping_hits`): the colours of `trace`, and
+    /// per sample the hit of the separate eye pass (`eye_hits`), bit for bit.
+    #[test]
+    fn a_key_view_keeps_the_hits_of_its_eye_pass() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
+        let scene = load_scene(&path, &LoadOptions::default()).expect("shipped scene");
+        let world = World::new(scene);
+        let camera = Camera::new(&world.scene.viewpoint, 64, 48);
+        let rig = Rig::mono();
+        let opts = RenderOptions::default();
+        let cancel = super::super::CancelToken::new();
+        let job = quiet_inputs(&world, &camera, &rig, &opts, &cancel);
+        let batch = TwinBatch::<1>::new(&job, rig.clone(), 0);
+        let (mut keeping, mut separate) = (batch.worker(), batch.worker());
+        let mut tracer = Tracer::new(&world, opts.trace);
+        let width = camera.width as usize;
+        let mut hit_samples = 0;
+        for y in 0..camera.height {
+            let row = SampleRow::full(
+                width,
+                Pattern::Fixed {
+                    dx: 0.0,
+                    y: y as f32,
+                },
+            );
+            let (mut a, mut b) = (
+                vec![vec![Color::ZERO; width]],
+                vec![vec![Color::ZERO; width]],
+            );
+            let (mut kept, mut eye) = (Vec::new(), vec![Vec::new()]);
+            assert!(keeping.trace_keeping_hits(&mut tracer, &row, &mut a, &mut kept));
+            separate.trace(&mut tracer, &row, &mut b);
+            assert!(separate.eye_hits(&mut tracer, &row, &mut eye));
+            let bits = |c: &Color| c.to_array().map(f32::to_bits);
+            assert_eq!(
+                a[0].iter().map(bits).collect::<Vec<_>>(),
+                b[0].iter().map(bits).collect::<Vec<_>>(),
+                "row {y}"
+            );
+            let hit_bits = |h: &[(u32, SurfaceHit)]| {
+                h.iter()
+                    .map(|(p, s)| (*p, s.t.to_bits(), s.u.to_bits(), s.v.to_bits()))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(hit_bits(&kept), hit_bits(&eye[0]), "row {y}");
+            hit_samples += kept
+                .iter()
+                .filter(|h| h.0 != PacketHits::<1>::NO_HIT)
+                .count();
+        }
+        assert!(hit_samples > width, "{hit_samples} hits");
+    }
+
     /// Materials whose eye hits all shade to one colour are shaded once per
     /// row worker and copied (`TwinBatch::flat`): the mono rows' colours and
     /// counts are, bit for bit, those of shading every hit, on a scene
