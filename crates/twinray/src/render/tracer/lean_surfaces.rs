@@ -4,6 +4,8 @@
 //! and the normal map. Matte surfaces in a scene without lights or
 //! environment are such hits (the eye-ray benchmark against Embree renders
 //! them); in a lit scene every hit that takes light needs its normal.
+//! Hits that read nothing of the hit at all (`shades_flat`: no light, ray or
+//! texture taken) shade to one colour per material, shaded once per row.
 
 use crate::render::TraceSettings;
 use crate::scene::{AlphaMode, Material, Scene};
