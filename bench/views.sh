@@ -14,6 +14,7 @@
 # A mode ending in -runs adds the eye runs (--eye-runs): exact-runs,
 # shared-runs. exact-bK (K = 1, 2, 4, 8, ...): the exact method in batches
 # of K views (--views-per-batch K; its views compared with the exact ones).
+# Mode fast: every approximation at its default (--fast).
 # Mode interp: the interpolated views (--interpolate-views, which
 # implies the eye runs; its tolerance is --share-tolerance, default 0.01; a
 # mode interp-E sets it to E, e.g. interp-0.02); its samples interpolated and
@@ -91,6 +92,7 @@ for scene in "${scenes[@]}"; do
       [[ $mode == exact-b* ]] && extra=(--views-per-batch "${mode#exact-b}")
       [[ $mode == interp* ]] && extra=(--interpolate-views)
       [[ $mode == interp-* ]] && extra+=(--share-tolerance "${mode#interp-}")
+      [[ $mode == fast ]] && extra=(--fast)
       [[ $mode == synth* ]] && extra=(--synthesize-views)
       [[ $mode == synth-* ]] && extra+=(--synthesis-spacing "${mode#synth-}")
       s=$(cpu "$bin" render "$scene" -o "$tmp/$mode.pfm" "${common[@]}" "${rig[@]}" "${extra[@]}" \

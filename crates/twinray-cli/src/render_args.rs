@@ -331,7 +331,8 @@ pub struct ApproxArgs {
     /// those two (no shading, no shadow rays) where the two agree within
     /// --share-tolerance and the light's curvature and shadows between their
     /// hits allow; elsewhere the middle view is shaded and the halves judged
-    /// again (implies --eye-runs; also under --fast with 3 views or more).
+    /// again (implies --eye-runs; --fast does not turn it on: it measured
+    /// slower than the exact batches on the SPD scenes).
     #[arg(long)]
     pub interpolate_views: bool,
     /// Trace only every K-th view (--synthesis-spacing K) and the last; each

@@ -134,6 +134,29 @@ fn key_spacing_without_shared_shading_is_said_to_do_nothing() {
         .any(|m| m.text.contains("--key-spacing")));
 }
 
+/// `--fast` takes the approximations that measured faster than the exact
+/// batches (the shared shading, merged secondary rays, the reprojection),
+/// not the interpolated views, which measured slower (benchmarks.md, "Issue
+/// 16, eighth pass"); `--interpolate-views` still asks for them.
+#[test]
+fn fast_at_many_views_shares_shading_but_does_not_interpolate_views() {
+    let options = |fast: bool, interpolate: bool| {
+        let mut spec = pair("0.1");
+        spec.rig.stereo = false;
+        spec.rig.views = Some(8);
+        spec.approximations.fast = fast;
+        spec.approximations.interpolate_views = interpolate;
+        Job::check(spec).unwrap().render_options().approx
+    };
+    let fast = options(true, false);
+    assert!(fast.shared_shading.is_some());
+    assert!(fast.merge_secondary);
+    assert!(fast.reproject.is_some());
+    assert!(fast.interpolate_views.is_none());
+    assert!(options(false, true).interpolate_views.is_some());
+    assert!(options(true, true).interpolate_views.is_some());
+}
+
 /// `--eye-runs` and `--shadow-fans` share work between the twin method's
 /// views: with `--method independent` each says it does nothing.
 #[test]

@@ -1046,11 +1046,7 @@ impl Checked {
             };
             rig_choice::rig_request(&flags, quilt_layout, views, 1.0)?;
         }
-        let mut approx = approximations(&spec.approximations)?;
-        if views < 3 && !spec.approximations.interpolate_views {
-            // `--fast` interpolates views only where there are views between.
-            approx.interpolate_views = None;
-        }
+        let approx = approximations(&spec.approximations)?;
         check_cut(&spec.approximations)?;
         let method = match rig.method {
             MethodSpec::Independent => Method::Independent,
@@ -1326,7 +1322,10 @@ fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
         reproject,
         shared_shading,
         key_spacing: a.key_spacing,
-        interpolate_views: (a.interpolate_views || a.fast)
+        // Not under `fast`: on the SPD scenes the interpolation costs more
+        // than the shading it spares (benchmarks.md, "Issue 16, eighth pass").
+        interpolate_views: a
+            .interpolate_views
             .then_some(crate::render::InterpolateViews { tolerance }),
         synthesize_views: a.synthesize_views.then_some(crate::render::ViewSynthesis {
             spacing: a.synthesis_spacing,

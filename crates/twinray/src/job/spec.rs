@@ -222,8 +222,8 @@ pub struct ApproximationSpec {
     /// `render::Approximations`).
     pub key_spacing: usize,
     /// Issue 16: the views between proved key views of a camera column
-    /// interpolated (`--interpolate-views`; also under `fast` with 3 views
-    /// or more), within `share_tolerance`.
+    /// interpolated (`--interpolate-views`; not under `fast`, where it
+    /// measured slower), within `share_tolerance`.
     pub interpolate_views: bool,
     /// Issue 16: only every `synthesis_spacing`-th view traced, the views
     /// between synthesized from them where that is plain and proved free
