@@ -796,11 +796,13 @@ impl Job {
     pub fn write(&self, loaded: &Loaded, plan: &Plan, rendered: &Rendered) -> Result<Vec<PathBuf>> {
         let start = Instant::now();
         let targets = self.targets(&plan.rig, plan.interaxial);
-        let mut written = targets.write(
-            &rendered.output.images,
-            rendered.depth.as_deref(),
-            &plan.files,
-        )?;
+        let mut written = self.pool().install(|| {
+            targets.write(
+                &rendered.output.images,
+                rendered.depth.as_deref(),
+                &plan.files,
+            )
+        })?;
         let write_s = start.elapsed().as_secs_f64();
         if let Some(path) = &self.spec.output.stats {
             let report = self.report(loaded, plan, rendered, write_s);
