@@ -470,7 +470,10 @@ impl Animation {
                             codec: self.codec,
                         })?),
                     };
-                    writer.push(&to_rgb8(&picture, &job.write_options()))?;
+                    let bytes = job
+                        .pool()
+                        .install(|| to_rgb8(&picture, &job.write_options()));
+                    writer.push(&bytes)?;
                     Vec::new()
                 }
             };
