@@ -84,6 +84,9 @@ pub const PAD: u32 = u32::MAX;
 const PARALLEL_THRESHOLD: usize = 8192;
 /// Nodes with more primitives than this are binned by several threads.
 const PARALLEL_BINNING: usize = 65536;
+/// Nodes with at least this many primitives are binned into two sets of
+/// bins (`Bins::of`).
+const TWO_SETS: usize = 256;
 /// Most SAH bins per axis (`BuildOptions::bins` is clamped to it), so that
 /// the bins live on the stack.
 const MAX_BINS: usize = 32;
@@ -483,18 +486,58 @@ impl Bins {
         count: [[0; MAX_BINS]; 3],
     };
 
-    /// All three axes in one pass over `refs`.
+    /// All three axes in one pass over `refs`. A large node's first and
+    /// second halves are binned side by side into two sets of bins, merged
+    /// after: two elements in a row often fall in the same bins, and one
+    /// set made each union wait for the store of the one before it.
+    ///
+    /// Exactness: a bin's union over the first half, united with its union
+    /// over the second, is its union over all in order, NaN aside: `minps`
+    /// (`a < b ? a : b`) folded over a sequence gives the last of its least
+    /// values (by `<`, so `-0`/`+0` included), however the sequence is cut.
+    /// With a NaN the cut changes the result; so if any centroid has a NaN
+    /// lane (which every box with a NaN coordinate gives) the node is binned
+    /// again in one set.
     fn of(refs: &[PrimRef], binning: &Binning) -> Bins {
+        if refs.len() < TWO_SETS {
+            return Bins::of_in_one(refs, binning);
+        }
+        let (first, second) = refs.split_at(refs.len() / 2);
+        let (mut a, mut b) = (Bins::EMPTY, Bins::EMPTY);
+        let mut nan = f32x4::ZERO;
+        for (ra, rb) in first.iter().zip(second) {
+            nan |= a.add(ra, binning);
+            nan |= b.add(rb, binning);
+        }
+        for r in &second[first.len()..] {
+            nan |= b.add(r, binning);
+        }
+        if nan.any() {
+            return Bins::of_in_one(refs, binning);
+        }
+        a.merge(&b)
+    }
+
+    /// `of` in one set of bins, element after element.
+    fn of_in_one(refs: &[PrimRef], binning: &Binning) -> Bins {
         let mut b = Bins::EMPTY;
         for r in refs {
-            let bins = binning.bins(r.centroid());
-            for (axis, &i) in bins[..3].iter().enumerate() {
-                let i = i as usize;
-                b.bounds[axis][i] = b.bounds[axis][i].union(r.bounds());
-                b.count[axis][i] += 1;
-            }
+            b.add(r, binning);
         }
         b
+    }
+
+    /// Adds `r` to its bins; returns the lanes where its centroid is NaN.
+    #[inline(always)]
+    fn add(&mut self, r: &PrimRef, binning: &Binning) -> f32x4 {
+        let c = r.centroid();
+        let bins = binning.bins(c);
+        for (axis, &i) in bins[..3].iter().enumerate() {
+            let i = i as usize;
+            self.bounds[axis][i] = self.bounds[axis][i].union(r.bounds());
+            self.count[axis][i] += 1;
+        }
+        c.simd_ne(c)
     }
 
     fn merge(mut self, o: &Bins) -> Bins {
