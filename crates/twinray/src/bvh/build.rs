@@ -841,6 +841,57 @@ mod tests {
         assert!(bvh.depth() < 40);
     }
 
+    /// `Bins::of`'s two sets of bins give, bit for bit, the bounds and
+    /// counts of one set: odd and even counts, ties between `-0` and `+0`
+    /// (the least x of every bin is a zero of either sign, so the last one
+    /// decides), and a NaN in the second half (where cutting the sequence
+    /// would change the unions, so the node is binned again in one set).
+    #[test]
+    fn two_sets_of_bins_are_one_set_bit_for_bit() {
+        for (n, nan) in [
+            (TWO_SETS, false),
+            (1001, false),
+            (4096, false),
+            (1001, true),
+        ] {
+            let mut boxes = random_boxes(n, n as u64);
+            for (k, b) in boxes.iter_mut().enumerate() {
+                b.min.x = if k % 3 == 0 { 0.0 } else { 2.0 };
+                if k % 6 == 3 {
+                    b.min.x = -0.0;
+                }
+            }
+            if nan {
+                boxes[2 * n / 3].min.y = f32::NAN;
+            }
+            let refs: Vec<PrimRef> = boxes
+                .iter()
+                .enumerate()
+                .map(|(i, b)| PrimRef::new(b, i as u32))
+                .collect();
+            let (_, cb) = bounds_of(&refs);
+            let binning = Binning::new(&cb.aabb(), 16);
+            let (two, one) = (Bins::of(&refs, &binning), Bins::of_in_one(&refs, &binning));
+            let bits = |b: &Bins| {
+                let mut v = Vec::new();
+                for axis in 0..3 {
+                    for i in 0..MAX_BINS {
+                        let (lo, hi) = (b.bounds[axis][i].lo, b.bounds[axis][i].hi);
+                        v.extend(
+                            lo.to_array()
+                                .iter()
+                                .chain(&hi.to_array()[..3])
+                                .map(|f| f.to_bits()),
+                        );
+                        v.push(b.count[axis][i]);
+                    }
+                }
+                v
+            };
+            assert_eq!(bits(&two), bits(&one), "{n} boxes, NaN: {nan}");
+        }
+    }
+
     #[test]
     fn empty_input() {
         let bvh = build(&[], &BuildOptions::default());
