@@ -50,18 +50,7 @@ impl Bvh {
     /// order's primitive indices); leaves that do not start a block, or hold
     /// another shape, keep the scalar tests.
     pub fn attach_blocks(&mut self, shapes: &[Shape]) {
-        use rayon::prelude::*;
-        // The leaves picked out on all threads.
-        let leaves: Vec<(usize, &[u32])> = self
-            .nodes
-            .par_iter()
-            .filter(|n| n.is_leaf())
-            .map(|n| {
-                let first = n.first as usize;
-                (first, &self.order[first..first + n.count() as usize])
-            })
-            .collect();
-        self.blocks = LeafBlocks::new(shapes, self.order.len(), leaves.into_iter());
+        self.blocks = LeafBlocks::new(shapes, self.order.len(), self.leaf_slots());
     }
 }
 

@@ -245,23 +245,18 @@ impl LeafBlocks {
             Some(Shape::Triangle(t)) => Some(t),
             _ => None,
         };
-        // The leaves that get blocks, found on all threads (each looks at
-        // its primitives' shapes).
-        let leaves: Vec<(usize, &[u32])> = leaves.collect();
-        let blocked: Vec<(usize, &[u32])> = leaves
-            .into_par_iter()
-            .filter(|(first, prims)| {
-                first.is_multiple_of(BLOCK)
-                    && !prims.is_empty()
-                    && prims.iter().all(|&p| triangle(p).is_some())
-            })
-            .collect();
         // Per block: the primitives of its lanes (a leaf's, `BLOCK` at a time).
         let mut lanes: Vec<&[u32]> = Vec::new();
-        if !blocked.is_empty() {
-            lanes = vec![&[]; slots.div_ceil(BLOCK)];
-        }
-        for (first, prims) in blocked {
+        for (first, prims) in leaves {
+            if !first.is_multiple_of(BLOCK)
+                || prims.is_empty()
+                || !prims.iter().all(|&p| triangle(p).is_some())
+            {
+                continue;
+            }
+            if lanes.is_empty() {
+                lanes = vec![&[]; slots.div_ceil(BLOCK)];
+            }
             for (i, chunk) in prims.chunks(BLOCK).enumerate() {
                 lanes[first / BLOCK + i] = chunk;
             }
@@ -276,7 +271,7 @@ impl LeafBlocks {
             .collect();
         LeafBlocks {
             tris,
-            lanes: lanes.par_iter().map(|p| p.len() as u8).collect(),
+            lanes: lanes.iter().map(|p| p.len() as u8).collect(),
         }
     }
 }
