@@ -86,6 +86,19 @@ pub(crate) fn build_options<'a>(shapes: impl Iterator<Item = &'a Shape>) -> Buil
     }
 }
 
+/// `build_options` of all of `shapes`, counted on all threads.
+fn build_options_par(shapes: &[Shape]) -> BuildOptions {
+    let others = shapes
+        .par_iter()
+        .filter(|s| !matches!(s, Shape::Triangle(_)))
+        .count();
+    if others * MOSTLY_TRIANGLES <= shapes.len() {
+        BuildOptions::triangle_blocks()
+    } else {
+        BuildOptions::aligned()
+    }
+}
+
 /// See `build_options`.
 const MOSTLY_TRIANGLES: usize = 16;
 
@@ -102,10 +115,11 @@ pub(crate) fn into_leaf_order<'a>(scene: &mut Scene, trees: impl Iterator<Item =
             *o = order.len() as u32 - 1;
         }
     }
-    scene.shapes = order
+    let shapes = order
         .par_iter()
         .map(|&i| scene.shapes[i as usize].clone())
         .collect();
+    let old_shapes = std::mem::replace(&mut scene.shapes, shapes);
     scene.shape_material = order
         .par_iter()
         .map(|&i| scene.shape_material[i as usize])
@@ -114,9 +128,15 @@ pub(crate) fn into_leaf_order<'a>(scene: &mut Scene, trees: impl Iterator<Item =
         .par_iter()
         .map(|&i| scene.shape_group[i as usize])
         .collect();
-    for tree in trees {
-        tree.attach_blocks(&scene.shapes);
-    }
+    // The shapes in their first order freed beside the blocks, off their path.
+    rayon::join(
+        || drop(old_shapes),
+        || {
+            for tree in trees {
+                tree.attach_blocks(&scene.shapes);
+            }
+        },
+    );
 }
 
 impl World {
@@ -148,13 +168,25 @@ impl World {
                 beyond
             }
         };
-        let (near, far): (Vec<u32>, Vec<u32>) = (0..boxes.len() as u32).partition(|&i| {
-            !far_groups
-                .get(scene.shape_group[i as usize] as usize)
-                .copied()
-                .unwrap_or(false)
-        });
-        let build = |set: &[u32]| {
+        // Without a cut every shape is near: the build then takes the boxes
+        // and the shapes as they are (no index list, no copy of the boxes, no
+        // renumbering of the order).
+        let (near, far): (Vec<u32>, Vec<u32>) = if far_groups.is_empty() {
+            (Vec::new(), Vec::new())
+        } else {
+            (0..boxes.len() as u32).partition(|&i| {
+                !far_groups
+                    .get(scene.shape_group[i as usize] as usize)
+                    .copied()
+                    .unwrap_or(false)
+            })
+        };
+        // `set`: the shapes to build over, or all of them.
+        let build = |set: Option<&[u32]>| {
+            let Some(set) = set else {
+                let opts = build_options_par(&scene.shapes);
+                return bvh::build(&boxes, &opts);
+            };
             let set_boxes: Vec<Aabb> = set.par_iter().map(|&i| boxes[i as usize]).collect();
             let opts = build_options(set.iter().map(|&i| &scene.shapes[i as usize]));
             let mut bvh = bvh::build(&set_boxes, &opts);
@@ -163,8 +195,8 @@ impl World {
             }
             bvh
         };
-        let mut bvh = build(&near);
-        let mut far_bvh = (!far.is_empty()).then(|| build(&far));
+        let mut bvh = build((!far_groups.is_empty()).then_some(&near[..]));
+        let mut far_bvh = (!far.is_empty()).then(|| build(Some(&far)));
         // Shapes into leaf order (near, then far).
         into_leaf_order(
             &mut scene,

@@ -60,7 +60,16 @@ impl BuildOptions {
     #[inline(always)]
     fn leaf_cost(&self, n: u32) -> f32 {
         if self.cost_in_blocks {
-            n.div_ceil(self.block.max(1) as u32) as f32
+            // The blocks of a power of two by a shift: the sweep asks for
+            // two leaf costs per bin, and a division took longer than the
+            // rest of the bin.
+            let block = self.block.max(1) as u32;
+            let blocks = if block.is_power_of_two() {
+                (n >> block.trailing_zeros()) + (n & (block - 1) != 0) as u32
+            } else {
+                n.div_ceil(block)
+            };
+            blocks as f32
         } else {
             n as f32
         }
@@ -75,6 +84,9 @@ pub const PAD: u32 = u32::MAX;
 const PARALLEL_THRESHOLD: usize = 8192;
 /// Nodes with more primitives than this are binned by several threads.
 const PARALLEL_BINNING: usize = 65536;
+/// Nodes with at least this many primitives are binned into two sets of
+/// bins (`Bins::of`).
+const TWO_SETS: usize = 256;
 /// Most SAH bins per axis (`BuildOptions::bins` is clamped to it), so that
 /// the bins live on the stack.
 const MAX_BINS: usize = 32;
@@ -96,9 +108,16 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     let tree = build_subtree(&mut refs, opts);
     let (nodes, order) = flatten(&tree, &refs, opts.block.max(1));
     // The four- and the eight-wide collapses (each serial) on two threads,
-    // and the build's own tree freed on a third task, off their path.
+    // and the build's own tree freed on a third task, off their path. Each
+    // wide tree is dropped in its own task if a descent could need more
+    // stack than the traversals hold (`fits`).
     let ((wide, wide8), ()) = rayon::join(
-        || rayon::join(|| super::collapse(&nodes), || super::collapse8(&nodes)),
+        || {
+            rayon::join(
+                || fits(super::collapse(&nodes)),
+                || fits(super::collapse8(&nodes)),
+            )
+        },
         || drop((tree, refs)),
     );
     Bvh {
@@ -107,6 +126,16 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
         wide,
         wide8,
         ..Bvh::default()
+    }
+}
+
+/// `tree`, or none if a descent of it could need more stack entries than the
+/// traversals hold (`stack_bound.rs`).
+fn fits<const W: usize>(tree: Vec<super::WideNode<W>>) -> Vec<super::WideNode<W>> {
+    if super::stack_bound::stack_need(&tree) > super::traverse::STACK {
+        Vec::new()
+    } else {
+        tree
     }
 }
 
@@ -298,9 +327,7 @@ fn build_range(
     if split.cost >= leaf_cost && refs.len() <= opts.max_leaf {
         return leaf();
     }
-    let (mid, sides) = partition(refs, |c| {
-        split.binning.bins(c)[split.axis] < split.bin as i32
-    });
+    let (mid, sides) = partition(refs, |c| split.binning.left_of(c, split.axis, split.bin));
     if mid == 0 || mid == refs.len() {
         return median_split(refs, offset, depth, bounds, &centroid_bounds, opts);
     }
@@ -433,6 +460,16 @@ impl Binning {
             .min(self.last)
             .to_array()
     }
+
+    /// Whether `bins(c)[axis] < bin`, from a mask (no trip through memory).
+    #[inline(always)]
+    fn left_of(&self, c: f32x4, axis: usize, bin: usize) -> bool {
+        let k = ((c - self.lo) * self.scale)
+            .trunc_int()
+            .max(i32x4::ZERO)
+            .min(self.last);
+        (k.simd_lt(i32x4::splat(bin as i32)).to_bitmask() >> axis) & 1 != 0
+    }
 }
 
 /// Per axis and bin, the union of the boxes and the count of primitives
@@ -449,18 +486,58 @@ impl Bins {
         count: [[0; MAX_BINS]; 3],
     };
 
-    /// All three axes in one pass over `refs`.
+    /// All three axes in one pass over `refs`. A large node's first and
+    /// second halves are binned side by side into two sets of bins, merged
+    /// after: two elements in a row often fall in the same bins, and one
+    /// set made each union wait for the store of the one before it.
+    ///
+    /// Exactness: a bin's union over the first half, united with its union
+    /// over the second, is its union over all in order, NaN aside: `minps`
+    /// (`a < b ? a : b`) folded over a sequence gives the last of its least
+    /// values (by `<`, so `-0`/`+0` included), however the sequence is cut.
+    /// With a NaN the cut changes the result; so if any centroid has a NaN
+    /// lane (which every box with a NaN coordinate gives) the node is binned
+    /// again in one set.
     fn of(refs: &[PrimRef], binning: &Binning) -> Bins {
+        if refs.len() < TWO_SETS {
+            return Bins::of_in_one(refs, binning);
+        }
+        let (first, second) = refs.split_at(refs.len() / 2);
+        let (mut a, mut b) = (Bins::EMPTY, Bins::EMPTY);
+        let mut nan = f32x4::ZERO;
+        for (ra, rb) in first.iter().zip(second) {
+            nan |= a.add(ra, binning);
+            nan |= b.add(rb, binning);
+        }
+        for r in &second[first.len()..] {
+            nan |= b.add(r, binning);
+        }
+        if nan.any() {
+            return Bins::of_in_one(refs, binning);
+        }
+        a.merge(&b)
+    }
+
+    /// `of` in one set of bins, element after element.
+    fn of_in_one(refs: &[PrimRef], binning: &Binning) -> Bins {
         let mut b = Bins::EMPTY;
         for r in refs {
-            let bins = binning.bins(r.centroid());
-            for (axis, &i) in bins[..3].iter().enumerate() {
-                let i = i as usize;
-                b.bounds[axis][i] = b.bounds[axis][i].union(r.bounds());
-                b.count[axis][i] += 1;
-            }
+            b.add(r, binning);
         }
         b
+    }
+
+    /// Adds `r` to its bins; returns the lanes where its centroid is NaN.
+    #[inline(always)]
+    fn add(&mut self, r: &PrimRef, binning: &Binning) -> f32x4 {
+        let c = r.centroid();
+        let bins = binning.bins(c);
+        for (axis, &i) in bins[..3].iter().enumerate() {
+            let i = i as usize;
+            self.bounds[axis][i] = self.bounds[axis][i].union(r.bounds());
+            self.count[axis][i] += 1;
+        }
+        c.simd_ne(c)
     }
 
     fn merge(mut self, o: &Bins) -> Bins {
@@ -531,23 +608,55 @@ fn best_split(refs: &[PrimRef], bounds: &Aabb, cb: &Box4, opts: &BuildOptions) -
 /// `left` holds for, and the bounds and centroid bounds of both sides (found
 /// on the way, which saves the children a pass over their primitives).
 /// Lomuto's: element `j` goes to slot `i` when `left`, as a swap that
-/// writes both slots either way (no branch to mispredict).
+/// writes both slots either way (no branch to mispredict). Both sides'
+/// bounds stay in registers: each element's unions with both are made, and
+/// a blend keeps the one of its side (the other side's bounds unchanged), so
+/// every side's bounds are the same unions in the same order as before, and
+/// no union waits on the store of the one before it.
 fn partition(refs: &mut [PrimRef], left: impl Fn(f32x4) -> bool) -> (usize, [(Box4, Box4); 2]) {
-    let mut sides = [(Box4::EMPTY, Box4::EMPTY); 2];
+    let (mut l, mut lc) = (Box4::EMPTY, Box4::EMPTY);
+    let (mut r, mut rc) = (Box4::EMPTY, Box4::EMPTY);
     let mut i = 0;
     for j in 0..refs.len() {
-        let r = refs[j];
-        let c = r.centroid();
+        let p = refs[j];
+        let c = p.centroid();
         let left = left(c);
-        let side = &mut sides[!left as usize];
-        *side = (side.0.union(r.bounds()), side.1.grow(c));
+        let m = f32x4::splat(f32::from_bits(0u32.wrapping_sub(left as u32)));
+        let (lu, lg) = (l.union(p.bounds()), lc.grow(c));
+        let (ru, rg) = (r.union(p.bounds()), rc.grow(c));
+        l = Box4 {
+            lo: m.select(lu.lo, l.lo),
+            hi: m.select(lu.hi, l.hi),
+        };
+        lc = Box4 {
+            lo: m.select(lg.lo, lc.lo),
+            hi: m.select(lg.hi, lc.hi),
+        };
+        r = Box4 {
+            lo: m.select(r.lo, ru.lo),
+            hi: m.select(r.hi, ru.hi),
+        };
+        rc = Box4 {
+            lo: m.select(rc.lo, rg.lo),
+            hi: m.select(rc.hi, rg.hi),
+        };
+        // The swap as blends on the same mask (a branch on `left` would be
+        // taken at random). Slot `j` is written first: slot `i` may then be
+        // `j` itself, so the compiler cannot make the write to `i` a masked
+        // store (which the next element's load of slot `i` would wait on).
         let a = refs[i];
-        let (to_i, to_j) = if left { (r, a) } else { (a, r) };
-        refs[i] = to_i;
-        refs[j] = to_j;
+        let (p, a) = (p.bounds(), a.bounds());
+        refs[j] = PrimRef(Box4 {
+            lo: m.select(a.lo, p.lo),
+            hi: m.select(a.hi, p.hi),
+        });
+        refs[i] = PrimRef(Box4 {
+            lo: m.select(p.lo, a.lo),
+            hi: m.select(p.hi, a.hi),
+        });
         i += left as usize;
     }
-    (i, sides)
+    (i, [(l, lc), (r, rc)])
 }
 
 /// Lays the tree out depth-first with siblings adjacent, and the
@@ -730,6 +839,57 @@ mod tests {
         let bvh = build(&boxes, &BuildOptions::default());
         check(&bvh, &boxes);
         assert!(bvh.depth() < 40);
+    }
+
+    /// `Bins::of`'s two sets of bins give, bit for bit, the bounds and
+    /// counts of one set: odd and even counts, ties between `-0` and `+0`
+    /// (the least x of every bin is a zero of either sign, so the last one
+    /// decides), and a NaN in the second half (where cutting the sequence
+    /// would change the unions, so the node is binned again in one set).
+    #[test]
+    fn two_sets_of_bins_are_one_set_bit_for_bit() {
+        for (n, nan) in [
+            (TWO_SETS, false),
+            (1001, false),
+            (4096, false),
+            (1001, true),
+        ] {
+            let mut boxes = random_boxes(n, n as u64);
+            for (k, b) in boxes.iter_mut().enumerate() {
+                b.min.x = if k % 3 == 0 { 0.0 } else { 2.0 };
+                if k % 6 == 3 {
+                    b.min.x = -0.0;
+                }
+            }
+            if nan {
+                boxes[2 * n / 3].min.y = f32::NAN;
+            }
+            let refs: Vec<PrimRef> = boxes
+                .iter()
+                .enumerate()
+                .map(|(i, b)| PrimRef::new(b, i as u32))
+                .collect();
+            let (_, cb) = bounds_of(&refs);
+            let binning = Binning::new(&cb.aabb(), 16);
+            let (two, one) = (Bins::of(&refs, &binning), Bins::of_in_one(&refs, &binning));
+            let bits = |b: &Bins| {
+                let mut v = Vec::new();
+                for axis in 0..3 {
+                    for i in 0..MAX_BINS {
+                        let (lo, hi) = (b.bounds[axis][i].lo, b.bounds[axis][i].hi);
+                        v.extend(
+                            lo.to_array()
+                                .iter()
+                                .chain(&hi.to_array()[..3])
+                                .map(|f| f.to_bits()),
+                        );
+                        v.push(b.count[axis][i]);
+                    }
+                }
+                v
+            };
+            assert_eq!(bits(&two), bits(&one), "{n} boxes, NaN: {nan}");
+        }
     }
 
     #[test]

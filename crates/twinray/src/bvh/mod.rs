@@ -98,9 +98,8 @@ pub struct Bvh {
 /// Builds a hierarchy over primitives with the given boxes (`build.rs`'s
 /// binned SAH), and its four- and eight-wide forms.
 pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
-    let mut bvh = build::build(boxes, opts);
-    bvh.drop_trees_beyond_stack();
-    bvh
+    // (A wide tree beyond the traversals' stack is dropped there.)
+    build::build(boxes, opts)
 }
 
 impl Bvh {
