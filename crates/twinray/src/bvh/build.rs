@@ -175,6 +175,15 @@ impl Box4 {
         hi: f32x4::splat(f32::NEG_INFINITY),
     };
 
+    /// `self` where the mask `m` is set (all lanes alike), else `other`.
+    #[inline(always)]
+    fn or_else(self, m: f32x4, other: Box4) -> Box4 {
+        Box4 {
+            lo: m.select(self.lo, other.lo),
+            hi: m.select(self.hi, other.hi),
+        }
+    }
+
     #[inline(always)]
     fn union(self, o: Box4) -> Box4 {
         Box4 {
@@ -624,36 +633,18 @@ fn partition(refs: &mut [PrimRef], left: impl Fn(f32x4) -> bool) -> (usize, [(Bo
         let m = f32x4::splat(f32::from_bits(0u32.wrapping_sub(left as u32)));
         let (lu, lg) = (l.union(p.bounds()), lc.grow(c));
         let (ru, rg) = (r.union(p.bounds()), rc.grow(c));
-        l = Box4 {
-            lo: m.select(lu.lo, l.lo),
-            hi: m.select(lu.hi, l.hi),
-        };
-        lc = Box4 {
-            lo: m.select(lg.lo, lc.lo),
-            hi: m.select(lg.hi, lc.hi),
-        };
-        r = Box4 {
-            lo: m.select(r.lo, ru.lo),
-            hi: m.select(r.hi, ru.hi),
-        };
-        rc = Box4 {
-            lo: m.select(rc.lo, rg.lo),
-            hi: m.select(rc.hi, rg.hi),
-        };
+        l = lu.or_else(m, l);
+        lc = lg.or_else(m, lc);
+        r = r.or_else(m, ru);
+        rc = rc.or_else(m, rg);
         // The swap as blends on the same mask (a branch on `left` would be
         // taken at random). Slot `j` is written first: slot `i` may then be
         // `j` itself, so the compiler cannot make the write to `i` a masked
         // store (which the next element's load of slot `i` would wait on).
         let a = refs[i];
         let (p, a) = (p.bounds(), a.bounds());
-        refs[j] = PrimRef(Box4 {
-            lo: m.select(a.lo, p.lo),
-            hi: m.select(a.hi, p.hi),
-        });
-        refs[i] = PrimRef(Box4 {
-            lo: m.select(p.lo, a.lo),
-            hi: m.select(p.hi, a.hi),
-        });
+        refs[j] = PrimRef(a.or_else(m, p));
+        refs[i] = PrimRef(p.or_else(m, a));
         i += left as usize;
     }
     (i, [(l, lc), (r, rc)])
