@@ -79,11 +79,7 @@ pub(crate) fn build_options<'a>(shapes: impl Iterator<Item = &'a Shape>) -> Buil
         all += 1;
         others += !matches!(s, Shape::Triangle(_)) as usize;
     }
-    if others * MOSTLY_TRIANGLES <= all {
-        BuildOptions::triangle_blocks()
-    } else {
-        BuildOptions::aligned()
-    }
+    options_for(others, all)
 }
 
 /// `build_options` of all of `shapes`, counted on all threads.
@@ -92,7 +88,13 @@ fn build_options_par(shapes: &[Shape]) -> BuildOptions {
         .par_iter()
         .filter(|s| !matches!(s, Shape::Triangle(_)))
         .count();
-    if others * MOSTLY_TRIANGLES <= shapes.len() {
+    options_for(others, shapes.len())
+}
+
+/// The choice of `build_options`, given how many of `all` shapes are not
+/// triangles.
+fn options_for(others: usize, all: usize) -> BuildOptions {
+    if others * MOSTLY_TRIANGLES <= all {
         BuildOptions::triangle_blocks()
     } else {
         BuildOptions::aligned()
