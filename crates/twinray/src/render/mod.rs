@@ -973,3 +973,12 @@ impl Run<'_, '_> {
         })
     }
 }
+
+/// The shipped example scene (spheres, a cone, polygons), loaded for the
+/// render stages' unit tests.
+#[cfg(test)]
+fn example_scene() -> crate::Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
+    crate::loaders::load_scene(&path, &crate::loaders::LoadOptions::default())
+        .expect("shipped scene")
+}

@@ -572,7 +572,6 @@ fn sphere_cover(s: &Sphere, f: &Family) -> Cover {
 mod tests {
     use super::*;
     use crate::bvh::{Packet, StripStats, TraversalStats};
-    use crate::loaders::{load_scene, LoadOptions};
     use crate::render::sampler::Pattern;
     use crate::render::TraceSettings;
 
@@ -586,10 +585,7 @@ mod tests {
     /// rests on (the family's widened interval alone admits more leaves).
     #[test]
     fn strip_hits_are_single_ray_hits_with_fewer_node_visits() {
-        let path =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
-        let scene = load_scene(&path, &LoadOptions::default()).expect("shipped scene");
-        let world = World::new(scene);
+        let world = World::new(crate::render::example_scene());
         let camera = Camera::new(&world.scene.viewpoint, 64, 48);
         let views = 16;
         let rig = Rig::multi_view(&camera, views, 0.05, Some(8.0)).expect("rig");

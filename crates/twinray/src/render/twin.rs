@@ -870,8 +870,8 @@ impl KeptShading {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::loaders::{load_scene, LoadOptions};
     use crate::render::sampler::Pattern;
+    use crate::render::CancelToken;
     use crate::render::RenderOptions;
 
     /// A render's inputs with nobody told of progress.
@@ -893,20 +893,26 @@ mod tests {
         }
     }
 
+    /// The example scene at 64×48, one view, default options.
+    fn example_mono() -> (World, Camera, Rig, RenderOptions, CancelToken) {
+        let world = World::new(crate::render::example_scene());
+        let camera = Camera::new(&world.scene.viewpoint, 64, 48);
+        (
+            world,
+            camera,
+            Rig::mono(),
+            RenderOptions::default(),
+            CancelToken::new(),
+        )
+    }
+
     /// A batch of one view takes `trace_mono_row` (no grouping: the groups
     /// stay empty), and its colours and counts are, bit for bit, those of
     /// the staged path it replaces (eye pass, grouping, shading of groups of
     /// one), on rows of pixel centres, of corners and of Sobol samples.
     #[test]
     fn a_mono_row_is_the_staged_row_bit_for_bit() {
-        let path =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
-        let scene = load_scene(&path, &LoadOptions::default()).expect("shipped scene");
-        let world = World::new(scene);
-        let camera = Camera::new(&world.scene.viewpoint, 64, 48);
-        let rig = Rig::mono();
-        let opts = RenderOptions::default();
-        let cancel = super::super::CancelToken::new();
+        let (world, camera, rig, opts, cancel) = example_mono();
         let job = quiet_inputs(&world, &camera, &rig, &opts, &cancel);
         let batch = TwinBatch::<1>::new(&job, rig.clone(), 0);
         let width = camera.width as usize;
@@ -965,14 +971,7 @@ mod tests {
     /// per sample the hit of the separate eye pass (`eye_hits`), bit for bit.
     #[test]
     fn a_key_view_keeps_the_hits_of_its_eye_pass() {
-        let path =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
-        let scene = load_scene(&path, &LoadOptions::default()).expect("shipped scene");
-        let world = World::new(scene);
-        let camera = Camera::new(&world.scene.viewpoint, 64, 48);
-        let rig = Rig::mono();
-        let opts = RenderOptions::default();
-        let cancel = super::super::CancelToken::new();
+        let (world, camera, rig, opts, cancel) = example_mono();
         let job = quiet_inputs(&world, &camera, &rig, &opts, &cancel);
         let batch = TwinBatch::<1>::new(&job, rig.clone(), 0);
         let (mut keeping, mut separate) = (batch.worker(), batch.worker());
@@ -1140,9 +1139,7 @@ mod tests {
     /// far apart (its cost shows only in node visits).
     #[test]
     fn grouped_samples_see_the_same_point_under_a_converged_rig() {
-        let path =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
-        let scene = load_scene(&path, &LoadOptions::default()).expect("shipped scene");
+        let scene = crate::render::example_scene();
         let distance = (scene.viewpoint.at - scene.viewpoint.from).length() as f64;
         let world = World::new(scene);
         let camera = Camera::new(&world.scene.viewpoint, 96, 72);
