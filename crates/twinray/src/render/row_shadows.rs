@@ -311,7 +311,6 @@ mod tests {
     use super::*;
     use crate::loaders::nff::parse_nff;
     use crate::loaders::LoadOptions;
-    use crate::render::sampler::Pattern;
     use crate::render::strip::StripEyePass;
     use crate::render::TraceSettings;
 
@@ -339,13 +338,7 @@ mod tests {
         let order: Vec<usize> = pass.views.iter().map(|v| v.0).collect();
         let (mut runs, mut prims) = (0, std::collections::HashSet::new());
         for y in 0..24 {
-            let row = SampleRow::full(
-                32,
-                Pattern::Fixed {
-                    dx: 0.0,
-                    y: y as f32,
-                },
-            );
+            let row = SampleRow::centres(32, y);
             strip.trace_row(&mut tracer, &row, &mut eye);
             tracer.row_shadows.runs.clear();
             pass.prove_row(&mut tracer, &row, &eye);

@@ -248,6 +248,19 @@ impl SampleRow {
         SampleRow::new((0..count as i32).collect(), pattern)
     }
 
+    /// The centres of the pixels of columns `0..count` of image row `y`
+    /// (the render stages' tests' rows).
+    #[cfg(test)]
+    pub(super) fn centres(count: usize, y: u32) -> SampleRow {
+        SampleRow::full(
+            count,
+            Pattern::Fixed {
+                dx: 0.0,
+                y: y as f32,
+            },
+        )
+    }
+
     pub fn len(&self) -> usize {
         self.pixels.len()
     }

@@ -572,7 +572,6 @@ fn sphere_cover(s: &Sphere, f: &Family) -> Cover {
 mod tests {
     use super::*;
     use crate::bvh::{Packet, StripStats, TraversalStats};
-    use crate::render::sampler::Pattern;
     use crate::render::TraceSettings;
 
     /// Every view's hit through every sample of the shipped example scene
@@ -597,11 +596,7 @@ mod tests {
         for y in 0..camera.height {
             row_hits.tested.clear();
             let mut alone_tested = std::collections::HashSet::new();
-            let pattern = Pattern::Fixed {
-                dx: 0.0,
-                y: y as f32,
-            };
-            let row = SampleRow::full(camera.width as usize, pattern);
+            let row = SampleRow::centres(camera.width as usize, y);
             pass.trace_row(&mut tracer, &row, &mut row_hits);
             assert!(row_hits.traced);
             for (v, view) in rig.views.iter().enumerate() {

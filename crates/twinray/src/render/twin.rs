@@ -979,13 +979,7 @@ mod tests {
         let width = camera.width as usize;
         let mut hit_samples = 0;
         for y in 0..camera.height {
-            let row = SampleRow::full(
-                width,
-                Pattern::Fixed {
-                    dx: 0.0,
-                    y: y as f32,
-                },
-            );
+            let row = SampleRow::centres(width, y);
             let (mut a, mut b) = (
                 vec![vec![Color::ZERO; width]],
                 vec![vec![Color::ZERO; width]],
@@ -1089,13 +1083,7 @@ mod tests {
             let mut b_tracer = Tracer::new(&world, opts.trace);
             let mut colours = std::collections::HashSet::new();
             for y in 0..camera.height {
-                let row = SampleRow::full(
-                    width,
-                    Pattern::Fixed {
-                        dx: 0.0,
-                        y: y as f32,
-                    },
-                );
+                let row = SampleRow::centres(width, y);
                 let mut a = vec![vec![Color::ZERO; width]];
                 let mut b = vec![vec![Color::ZERO; width]];
                 fast.trace_row(&mut a_tracer, &row, &mut a_scratch, None, &mut a);
@@ -1159,13 +1147,7 @@ mod tests {
         let mut tracer = Tracer::new(&world, RenderOptions::default().trace);
         let (mut pairs, mut same) = (0, 0);
         for y in 0..camera.height {
-            let row = SampleRow::full(
-                width,
-                Pattern::Fixed {
-                    dx: 0.0,
-                    y: y as f32,
-                },
-            );
+            let row = SampleRow::centres(width, y);
             batch.eye_pass(&mut tracer, &row, &mut scratch, None);
             batch.group(&row, &mut scratch);
             for group in &scratch.groups {
