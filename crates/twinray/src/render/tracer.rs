@@ -19,7 +19,7 @@ pub(super) use lean_surfaces::tests::{scene as test_scene, unlit as unlit_test_s
 
 use crate::bvh::{
     primitive_box, segment_enters, Bvh, NearestTest, Packet, PacketHits, SegmentPacket,
-    TraversalStats,
+    TraversalStats, EYE_PACKET,
 };
 use crate::math::{reflect, refract, Color, Ray, Vec3};
 use crate::shading::{
@@ -257,6 +257,42 @@ impl<'a> Tracer<'a> {
             }
         }
         (prim, hit)
+    }
+
+    /// `eye_hit` for up to eight neighbouring eye rays of view `view` (the
+    /// lanes of `packet.mask`) in one descent (`Bvh::closest_eye_packet8`):
+    /// each lane's hit bit for bit `eye_hit`'s, counted as `eye_hit` counts
+    /// it, and the packet counted. `None` (nothing traced, nothing counted)
+    /// where the packet does not apply: the caller traces the rays alone.
+    /// Only where `eye_hit_applies`.
+    #[inline]
+    pub fn eye_hits8(
+        &mut self,
+        packet: &Packet<EYE_PACKET>,
+        view: usize,
+    ) -> Option<PacketHits<EYE_PACKET>> {
+        let world = self.world;
+        let test = NearestShape {
+            shapes: &world.scene.shapes,
+            packet,
+        };
+        let hits = world
+            .bvh
+            .closest_eye_packet8(packet, &mut self.traversal, test)?;
+        let rays = (packet.mask & 0xff).count_ones() as u64;
+        self.counts.eye_packets += 1;
+        self.counts.eye_packet_rays += rays;
+        self.counts.closest_traversals += rays;
+        self.counts.eye_traversals += rays;
+        self.counts.rays.eye += rays;
+        let hit = (0..EYE_PACKET)
+            .filter(|&l| packet.mask & (1 << l) != 0 && hits.has_hit(l))
+            .count() as u64;
+        self.counts.rays.eye_hit += hit;
+        if let Some(h) = self.counts.per_view_hits.0.get_mut(view) {
+            *h += hit;
+        }
+        Some(hits)
     }
 
     /// Eye rays and their hits, per view.

@@ -36,7 +36,7 @@ use super::tracer::{flat_materials, Donor, SecondaryRays};
 use super::{
     RenderInputs, ReprojectMode, Reprojection, RowWorker, SharedShading, Tracer, ViewBatch,
 };
-use crate::bvh::{Packet, PacketHits};
+use crate::bvh::{Packet, PacketHits, EYE_PACKET};
 use crate::math::{Color, Vec3};
 use crate::rig::Camera;
 use crate::rig::Rig;
@@ -654,8 +654,31 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             );
         }
         if tracer.eye_hit_applies() {
-            for (dir, prim, hit) in mono.iter_mut() {
-                (*prim, *hit) = tracer.eye_hit(&self.eye_ray(origin, *dir), self.first_view);
+            // Eight neighbouring samples' rays in one descent where their
+            // direction signs agree (each hit bit for bit `eye_hit`'s),
+            // else one by one.
+            for chunk in mono.chunks_mut(EYE_PACKET) {
+                let mut packet = Packet {
+                    origins: [origin; EYE_PACKET],
+                    dirs: [Vec3::Z; EYE_PACKET],
+                    t_min: self.camera.hither,
+                    t_max: [f32::INFINITY; EYE_PACKET],
+                    mask: (1u32 << chunk.len()) - 1,
+                };
+                for (d, &(dir, _, _)) in packet.dirs.iter_mut().zip(chunk.iter()) {
+                    *d = dir;
+                }
+                if chunk.len() > 1 {
+                    if let Some(hits) = tracer.eye_hits8(&packet, self.first_view) {
+                        for (l, (_, prim, hit)) in chunk.iter_mut().enumerate() {
+                            (*prim, *hit) = (hits.prim[l], hits.hit[l]);
+                        }
+                        continue;
+                    }
+                }
+                for (dir, prim, hit) in chunk.iter_mut() {
+                    (*prim, *hit) = tracer.eye_hit(&self.eye_ray(origin, *dir), self.first_view);
+                }
             }
         } else {
             for (dir, prim, hit) in mono.iter_mut() {
