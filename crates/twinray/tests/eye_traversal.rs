@@ -457,7 +457,7 @@ fn an_eye_packet_stops_in_the_nearest_cluster() {
         let p = Packet {
             origins: [origin; 8],
             dirs: std::array::from_fn(|l| {
-                Vec3::new(towards, 0.001 * l as f32, 0.002 * l as f32).normalize()
+                Vec3::new(towards, 1e-4 * l as f32, 2e-4 * l as f32).normalize()
             }),
             t_min: 0.0,
             t_max: [f32::INFINITY; 8],
