@@ -24,6 +24,11 @@ pub struct TraceCounts {
     pub closest_traversals: u64,
     /// Of those, the eye-ray descents.
     pub eye_traversals: u64,
+    /// Eye rays traced in packets of neighbouring samples (the mono row's
+    /// packets of eight, `Bvh::closest_eye_packet8`: one descent each,
+    /// counted per ray in the traversals above), and those packets.
+    pub eye_packet_rays: u64,
+    pub eye_packets: u64,
     /// Secondary (reflected or refracted) descents that served more than one view.
     pub shared_secondary: u64,
     /// Views' secondary rays served by those shared descents.
@@ -122,6 +127,8 @@ impl TraceCounts {
         self.rays.shadow += o.rays.shadow;
         self.closest_traversals += o.closest_traversals;
         self.eye_traversals += o.eye_traversals;
+        self.eye_packet_rays += o.eye_packet_rays;
+        self.eye_packets += o.eye_packets;
         self.shared_secondary += o.shared_secondary;
         self.shared_secondary_rays += o.shared_secondary_rays;
         self.grouped_samples += o.grouped_samples;
@@ -233,6 +240,9 @@ pub struct Report {
     pub eye_traversals: u64,
     /// Eye-ray descents per eye ray: 1 for independent renders, about 1/views for twin.
     pub traversals_per_eye_ray: f64,
+    /// Eye rays traced in packets of neighbouring samples, and the packets.
+    pub eye_packet_rays: u64,
+    pub eye_packets: u64,
     pub shared_secondary: u64,
     pub shared_secondary_rays: u64,
     /// Samples shaded together with other views' samples of the same point.
@@ -302,6 +312,8 @@ impl Report {
         self.rays = c.rays;
         self.closest_traversals = c.closest_traversals;
         self.eye_traversals = c.eye_traversals;
+        self.eye_packet_rays = c.eye_packet_rays;
+        self.eye_packets = c.eye_packets;
         self.traversals_per_eye_ray = if c.rays.eye > 0 {
             c.eye_traversals as f64 / c.rays.eye as f64
         } else {

@@ -270,3 +270,217 @@ fn sorted_children_stop_a_ray_in_the_nearest_cluster() {
         );
     }
 }
+
+/// `scene`'s triangles, then copies of every fifth (exact ties in distance
+/// on a higher index, often in another leaf) and of the grid's first row
+/// moved to the front (exact ties on a lower index).
+fn scene_with_ties(n: usize, seed: u64) -> Vec<Shape> {
+    let base = scene(n, seed);
+    let grid_row: Vec<Shape> = base[n..n + 24].to_vec();
+    let mut shapes = grid_row;
+    shapes.extend(base.iter().cloned());
+    shapes.extend(base.iter().step_by(5).cloned());
+    shapes
+}
+
+/// Packets of eight neighbouring eye rays, as the mono row makes them: one
+/// origin, the directions of eight consecutive samples of a row (a pixel
+/// step of `step` apart, some rows aimed at the grid's vertices and edges,
+/// some along the plane z = 2), each lane its own `t_max` (most infinite,
+/// some short), some lanes masked off.
+fn eye_packets(count: usize, seed: u64) -> Vec<Packet<8>> {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    (0..count)
+        .map(|i| {
+            let mut v = || Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
+            let (origin, aim, step) = match i % 4 {
+                // Down onto the grid (z = -3): its vertices and edges.
+                0 => {
+                    let o = Vec3::new(0.25, -0.5, 30.0);
+                    let k = (i / 4) % 12;
+                    let aim = Vec3::new(k as f32 - 6.0, (k as f32 * 0.5).floor() - 3.0, -3.0);
+                    (o, aim, Vec3::new(0.25, 0.0, 0.0))
+                }
+                // Along the plane z = 2 of many triangles.
+                1 => {
+                    let o = Vec3::new(v().x * 40.0, -30.0, 2.0);
+                    (
+                        o,
+                        Vec3::new(v().x * 16.0, 0.0, 2.0),
+                        Vec3::new(0.1, 0.0, 0.0),
+                    )
+                }
+                // From anywhere at anything, rows of near-parallel rays.
+                _ => {
+                    let o = v() * 40.0;
+                    (o, v() * 16.0, v() * 0.05)
+                }
+            };
+            let dirs = std::array::from_fn(|l| (aim + step * l as f32 - origin).normalize());
+            let t_max = std::array::from_fn(|_| {
+                if rng.u8(..4) == 0 {
+                    rng.f32() * 40.0
+                } else {
+                    f32::INFINITY
+                }
+            });
+            Packet {
+                origins: [origin; 8],
+                dirs,
+                t_min: if i % 3 == 0 { 1e-3 } else { 0.0 },
+                t_max,
+                mask: if i % 5 == 0 { rng.u32(1..256) } else { 0xff },
+            }
+        })
+        .collect()
+}
+
+/// Each lane of an eye packet, alone on the eight-wide tree (the single
+/// descent the packet must equal) and by brute force.
+fn alone_and_brute(
+    shapes: &[Shape],
+    bvh: &Bvh,
+    p: &Packet<8>,
+    l: usize,
+    stats: &mut TraversalStats,
+) -> [Option<(u32, [u32; 3])>; 2] {
+    let one = Packet {
+        origins: [p.origins[l]],
+        dirs: [p.dirs[l]],
+        t_min: p.t_min,
+        t_max: [p.t_max[l]],
+        mask: 1,
+    };
+    let (single, two) = (Cell::new(0), Cell::new(0));
+    let test = Counting {
+        shapes,
+        packet: &one,
+        single: &single,
+        two: &two,
+        two_off: false,
+    };
+    let alone = bvh.closest_each_wide8(&one, stats, test);
+    let bits = |h: SurfaceHit| [h.t, h.u, h.v].map(f32::to_bits);
+    let brute = brute(
+        shapes,
+        &Ray::new(p.origins[l], p.dirs[l]),
+        p.t_min,
+        p.t_max[l],
+    );
+    [
+        alone
+            .has_hit(0)
+            .then(|| (alone.prim[0], bits(alone.hit[0]))),
+        brute.map(|(prim, h)| (prim, bits(h))),
+    ]
+}
+
+/// Eight neighbouring eye rays in one descent (`closest_eye_packet8`, the
+/// mono row's): every active lane's hit is, bit for bit, the one the ray
+/// gets alone and brute force's, on scenes of ties (copies of triangles,
+/// shared edges and vertices, a plane of triangles grazed), with per-lane
+/// `t_max` and masks; lanes off stay without a hit; a packet whose lanes'
+/// direction signs differ is refused (traced alone by the caller).
+#[test]
+fn an_eye_packet_gives_each_ray_its_single_descents_hit() {
+    let (mut packets, mut refused, mut hits) = (0, 0, 0);
+    for (n, seed) in [(60, 4), (700, 5), (3000, 6)] {
+        let shapes = scene_with_ties(n, seed);
+        let bvh = hierarchy(&shapes, &BuildOptions::triangle_blocks());
+        let mut stats = TraversalStats::default();
+        for (i, p) in eye_packets(1200, seed + 20).iter().enumerate() {
+            let (single, two) = (Cell::new(0), Cell::new(0));
+            let test = Counting {
+                shapes: &shapes,
+                packet: p,
+                single: &single,
+                two: &two,
+                two_off: false,
+            };
+            let signs = |l: usize| p.dirs[l].to_array().map(f32::is_sign_negative);
+            let lanes: Vec<usize> = (0..8).filter(|&l| p.mask & (1 << l) != 0).collect();
+            let agree = lanes.iter().all(|&l| signs(l) == signs(lanes[0]));
+            let Some(got) = bvh.closest_eye_packet8(p, &mut stats, test) else {
+                assert!(
+                    !agree,
+                    "{n} triangles, packet {i}: refused, yet its signs agree"
+                );
+                refused += 1;
+                continue;
+            };
+            packets += 1;
+            for l in 0..8 {
+                let found = got.has_hit(l).then(|| {
+                    let h = got.hit[l];
+                    (got.prim[l], [h.t, h.u, h.v].map(f32::to_bits))
+                });
+                if p.mask & (1 << l) == 0 {
+                    assert_eq!(found, None, "{n} triangles, packet {i}: lane {l} is off");
+                    continue;
+                }
+                let [alone, brute] = alone_and_brute(&shapes, &bvh, p, l, &mut stats);
+                assert_eq!(found, alone, "{n} triangles, packet {i}, lane {l}: {p:?}");
+                assert_eq!(found, brute, "{n} triangles, packet {i}, lane {l}: {p:?}");
+                hits += u64::from(found.is_some());
+            }
+        }
+    }
+    assert!(
+        packets > 2500 && refused > 30,
+        "{packets} packets, {refused} refused"
+    );
+    assert!(hits > 8000, "{hits} hits");
+}
+
+/// A packet visits children nearest first too: eight rays down the street
+/// of clusters stop in the first cluster (each ray tests at most its two
+/// blocks there), where farthest first would test them all.
+#[test]
+fn an_eye_packet_stops_in_the_nearest_cluster() {
+    let mut shapes = Vec::new();
+    for c in 0..64 {
+        let x = c as f32 * 4.0;
+        for k in 0..8 {
+            let y = k as f32 * 0.1;
+            shapes.push(tri(
+                Vec3::new(x, y - 1.0, -1.0),
+                Vec3::new(x, y + 1.0, -1.0),
+                Vec3::new(x, y, 1.0),
+            ));
+        }
+    }
+    let bvh = hierarchy(&shapes, &BuildOptions::triangle_blocks());
+    for (origin, towards, first) in [
+        (Vec3::new(-5.0, 0.35, 0.0), 1.0f32, 0u32),
+        (Vec3::new(300.0, 0.35, 0.0), -1.0, 63 * 8),
+    ] {
+        let p = Packet {
+            origins: [origin; 8],
+            dirs: std::array::from_fn(|l| {
+                Vec3::new(towards, 1e-4 * l as f32, 2e-4 * l as f32).normalize()
+            }),
+            t_min: 0.0,
+            t_max: [f32::INFINITY; 8],
+            mask: 0xff,
+        };
+        let (single, two) = (Cell::new(0), Cell::new(0));
+        let test = Counting {
+            shapes: &shapes,
+            packet: &p,
+            single: &single,
+            two: &two,
+            two_off: false,
+        };
+        let mut st = TraversalStats::default();
+        let got = bvh
+            .closest_eye_packet8(&p, &mut st, test)
+            .expect("the rays' signs agree");
+        // Eight triangles at one distance: the lowest index wins.
+        assert_eq!(got.prim, [first; 8], "towards {towards}");
+        assert!(
+            st.prim_tests <= 8 * 16,
+            "towards {towards}: {} primitive tests for 8 rays (a cluster has 8)",
+            st.prim_tests
+        );
+    }
+}

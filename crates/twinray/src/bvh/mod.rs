@@ -20,6 +20,7 @@ mod traverse;
 mod wedge;
 mod wide;
 mod wide8;
+mod wide8_eye;
 mod wide8_pair;
 
 pub use build::{primitive_box, BuildOptions, PAD};
@@ -34,6 +35,7 @@ pub use traverse::{
 pub use wedge::{distance_to_segment, distance_to_triangle, FanWork, ShadowFan};
 pub use wide::{collapse, collapse_sah, collapse_to, Node4, WideNode, WIDTH};
 pub use wide8::{collapse8, Node8, WIDTH8};
+pub use wide8_eye::EYE_PACKET;
 
 use crate::math::Aabb;
 use crate::shapes::LeafBlocks;

@@ -19,7 +19,7 @@ pub(super) use lean_surfaces::tests::{scene as test_scene, unlit as unlit_test_s
 
 use crate::bvh::{
     primitive_box, segment_enters, Bvh, NearestTest, Packet, PacketHits, SegmentPacket,
-    TraversalStats,
+    TraversalStats, EYE_PACKET,
 };
 use crate::math::{reflect, refract, Color, Ray, Vec3};
 use crate::shading::{
@@ -257,6 +257,42 @@ impl<'a> Tracer<'a> {
             }
         }
         (prim, hit)
+    }
+
+    /// `eye_hit` for up to eight neighbouring eye rays of view `view` (the
+    /// lanes of `packet.mask`) in one descent (`Bvh::closest_eye_packet8`):
+    /// each lane's hit bit for bit `eye_hit`'s, counted as `eye_hit` counts
+    /// it, and the packet counted. `None` (nothing traced, nothing counted)
+    /// where the packet does not apply: the caller traces the rays alone.
+    /// Only where `eye_hit_applies`.
+    #[inline]
+    pub fn eye_hits8(
+        &mut self,
+        packet: &Packet<EYE_PACKET>,
+        view: usize,
+    ) -> Option<PacketHits<EYE_PACKET>> {
+        let world = self.world;
+        let test = NearestShape {
+            shapes: &world.scene.shapes,
+            packet,
+        };
+        let hits = world
+            .bvh
+            .closest_eye_packet8(packet, &mut self.traversal, test)?;
+        let rays = (packet.mask & 0xff).count_ones() as u64;
+        self.counts.eye_packets += 1;
+        self.counts.eye_packet_rays += rays;
+        self.counts.closest_traversals += rays;
+        self.counts.eye_traversals += rays;
+        self.counts.rays.eye += rays;
+        let hit = (0..EYE_PACKET)
+            .filter(|&l| packet.mask & (1 << l) != 0 && hits.has_hit(l))
+            .count() as u64;
+        self.counts.rays.eye_hit += hit;
+        if let Some(h) = self.counts.per_view_hits.0.get_mut(view) {
+            *h += hit;
+        }
+        Some(hits)
     }
 
     /// Eye rays and their hits, per view.
@@ -1101,6 +1137,53 @@ mod tests {
         let (a, b) = (alone.finish(), packed.finish());
         assert_eq!(a.per_view_hits, b.per_view_hits);
         assert_eq!(a, b);
+    }
+
+    /// Eight eye rays in one descent (`eye_hits8`, the mono row's packets)
+    /// give each lane, bit for bit, what `eye_hit` gives it alone, and count
+    /// the same rays, hits and traversals; a refused packet (its lanes'
+    /// signs differ) counts nothing.
+    #[test]
+    fn eight_eye_rays_in_one_descent_are_eight_alone() {
+        let world = world(SCENE);
+        let camera = Camera::new(&world.scene.viewpoint, 64, 48);
+        let mut rng = fastrand::Rng::with_seed(23);
+        let mut alone = Tracer::new(&world, TraceSettings::default());
+        let mut packed = Tracer::new(&world, TraceSettings::default());
+        assert!(packed.eye_hit_applies());
+        let (mut in_packets, mut refused) = (0, 0);
+        for (n, packet) in eye_packets::<8>(&camera, &mut rng, 1500).iter().enumerate() {
+            let view = n % 3;
+            let got = packed.eye_hits8(packet, view);
+            refused += usize::from(got.is_none());
+            for l in (0..8).filter(|&l| packet.mask & (1 << l) != 0) {
+                let one = Packet {
+                    origins: [packet.origins[l]],
+                    dirs: [packet.dirs[l]],
+                    t_min: packet.t_min,
+                    t_max: [packet.t_max[l]],
+                    mask: 1,
+                };
+                let (prim, h) = alone.eye_hit(&one, view);
+                let Some(got) = got else {
+                    packed.eye_hit(&one, view);
+                    continue;
+                };
+                in_packets += 1;
+                assert_eq!(prim, got.prim[l], "packet {n}, lane {l}");
+                let bits = |h: SurfaceHit| [h.t, h.u, h.v].map(f32::to_bits);
+                assert_eq!(bits(h), bits(got.hit[l]), "packet {n}, lane {l}");
+            }
+        }
+        assert!(in_packets > 3000 && refused > 50, "{in_packets} {refused}");
+        let (a, p) = (alone.finish(), packed.finish());
+        assert_eq!(p.eye_packet_rays, in_packets as u64);
+        assert_eq!(p.eye_packets as usize, 1500 - refused);
+        assert_eq!(a.per_view_hits, p.per_view_hits);
+        assert_eq!(
+            (a.rays, a.closest_traversals, a.eye_traversals),
+            (p.rays, p.closest_traversals, p.eye_traversals)
+        );
     }
 
     /// A packet of `K` lanes through one tracer (its shadow cache filled by
