@@ -259,17 +259,18 @@ impl<'a> Tracer<'a> {
         (prim, hit)
     }
 
-    /// `eye_hit` for up to eight neighbouring eye rays of view `view` (the
-    /// lanes of `packet.mask`) in one descent (`Bvh::closest_eye_packet8`):
-    /// each lane's hit bit for bit `eye_hit`'s, counted as `eye_hit` counts
-    /// it, and the packet counted. `None` (nothing traced, nothing counted)
-    /// where the packet does not apply: the caller traces the rays alone.
-    /// Only where `eye_hit_applies`.
+    /// `eye_hit` for up to eight neighbouring eye rays (the lanes of
+    /// `packet.mask`, lane `l` of view `views[l]`: one view's neighbouring
+    /// samples, or a few samples of a batch of views) in one descent
+    /// (`Bvh::closest_eye_packet8`): each lane's hit bit for bit `eye_hit`'s,
+    /// counted as `eye_hit` counts it, and the packet counted. `None`
+    /// (nothing traced, nothing counted) where the packet does not apply: the
+    /// caller traces the rays alone. Only where `eye_hit_applies`.
     #[inline]
     pub fn eye_hits8(
         &mut self,
         packet: &Packet<EYE_PACKET>,
-        view: usize,
+        views: &[usize; EYE_PACKET],
     ) -> Option<PacketHits<EYE_PACKET>> {
         let world = self.world;
         let test = NearestShape {
@@ -285,12 +286,11 @@ impl<'a> Tracer<'a> {
         self.counts.closest_traversals += rays;
         self.counts.eye_traversals += rays;
         self.counts.rays.eye += rays;
-        let hit = (0..EYE_PACKET)
-            .filter(|&l| packet.mask & (1 << l) != 0 && hits.has_hit(l))
-            .count() as u64;
-        self.counts.rays.eye_hit += hit;
-        if let Some(h) = self.counts.per_view_hits.0.get_mut(view) {
-            *h += hit;
+        for l in (0..EYE_PACKET).filter(|&l| packet.mask & (1 << l) != 0 && hits.has_hit(l)) {
+            self.counts.rays.eye_hit += 1;
+            if let Some(h) = self.counts.per_view_hits.0.get_mut(views[l]) {
+                *h += 1;
+            }
         }
         Some(hits)
     }
@@ -1154,7 +1154,7 @@ mod tests {
         let (mut in_packets, mut refused) = (0, 0);
         for (n, packet) in eye_packets::<8>(&camera, &mut rng, 1500).iter().enumerate() {
             let view = n % 3;
-            let got = packed.eye_hits8(packet, view);
+            let got = packed.eye_hits8(packet, &[view; 8]);
             refused += usize::from(got.is_none());
             for l in (0..8).filter(|&l| packet.mask & (1 << l) != 0) {
                 let one = Packet {

@@ -208,6 +208,9 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             scratch.far_rays.clear();
             scratch.far_rays.resize(columns, None);
         }
+        if strip.is_none() && !cut && tracer.eye_hit_applies() && n <= EYE_PACKET {
+            return self.eye_pass_packed(tracer, row, scratch);
+        }
         let all = if n == 32 { u32::MAX } else { (1u32 << n) - 1 };
         let view_of_lane: [usize; K] = std::array::from_fn(|l| self.first_view + l);
         for i in 0..row.len() {
@@ -251,6 +254,44 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
                 scratch.hits[v][i] = (h.prim[v], h.hit[v]);
                 scratch.points[v][i] = (h.has_hit(v) && !(cut && scratch.far[v][i]))
                     .then(|| self.origins[v] + packet.dirs[v] * h.hit[v].t);
+            }
+        }
+    }
+
+    /// `eye_pass` for a batch of at most eight views, without a cut or a
+    /// strip, where `eye_hit_applies`: the views' rays of a few neighbouring
+    /// samples (two for four views) in one eight-ray descent
+    /// (`Tracer::eye_hits8`; lane `l` is view `l % n` of the chunk's sample
+    /// `l / n`), each hit bit for bit the ray's alone; a packet refused (its
+    /// rays' direction signs differ) traced ray by ray.
+    fn eye_pass_packed(&self, tracer: &mut Tracer, row: &SampleRow, scratch: &mut RowScratch<K>) {
+        let n = self.views;
+        let per = EYE_PACKET / n;
+        let views: [usize; EYE_PACKET] = std::array::from_fn(|l| self.first_view + l % n);
+        for first in (0..row.len()).step_by(per) {
+            let lanes = per.min(row.len() - first) * n;
+            let (view, sample) = (|l: usize| l % n, |l: usize| first + l / n);
+            let packet = Packet {
+                origins: std::array::from_fn(|l| self.origins[view(l)]),
+                dirs: std::array::from_fn(|l| match l < lanes {
+                    true => scratch.dirs[view(l)][sample(l)],
+                    false => Vec3::Z,
+                }),
+                t_min: self.camera.hither,
+                t_max: [f32::INFINITY; EYE_PACKET],
+                mask: (1u32 << lanes) - 1,
+            };
+            let hits = tracer.eye_hits8(&packet, &views);
+            for l in 0..lanes {
+                let (v, i) = (view(l), sample(l));
+                let dir = packet.dirs[l];
+                let (prim, hit) = match &hits {
+                    Some(h) => (h.prim[l], h.hit[l]),
+                    None => tracer.eye_hit(&self.eye_ray(self.origins[v], dir), views[l]),
+                };
+                scratch.hits[v][i] = (prim, hit);
+                scratch.points[v][i] =
+                    (prim != PacketHits::<K>::NO_HIT).then(|| self.origins[v] + dir * hit.t);
             }
         }
     }
@@ -668,7 +709,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
                     mask: (1u32 << chunk.len()) - 1,
                 };
                 if chunk.len() > 1 {
-                    if let Some(hits) = tracer.eye_hits8(&packet, self.first_view) {
+                    if let Some(hits) = tracer.eye_hits8(&packet, &[self.first_view; EYE_PACKET]) {
                         for (l, (_, prim, hit)) in chunk.iter_mut().enumerate() {
                             (*prim, *hit) = (hits.prim[l], hits.hit[l]);
                         }
