@@ -21,6 +21,7 @@ mod wedge;
 mod wide;
 mod wide8;
 mod wide8_eye;
+mod wide8_shadow;
 mod wide8_pair;
 
 pub use build::{primitive_box, BuildOptions, PAD};
