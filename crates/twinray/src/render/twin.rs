@@ -656,17 +656,22 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         if tracer.eye_hit_applies() {
             // Eight neighbouring samples' rays in one descent where their
             // direction signs agree (each hit bit for bit `eye_hit`'s),
-            // else one by one.
+            // else one by one. One packet for the row, its directions
+            // written lane by lane in place (a packet made whole for each
+            // eight, then moved, was reloaded wide from the narrow stores
+            // that wrote it: a store-forwarding stall).
+            let mut packet = Packet {
+                origins: [origin; EYE_PACKET],
+                dirs: [Vec3::Z; EYE_PACKET],
+                t_min: self.camera.hither,
+                t_max: [f32::INFINITY; EYE_PACKET],
+                mask: 0,
+            };
             for chunk in mono.chunks_mut(EYE_PACKET) {
-                // The directions written whole (written lane by lane, then
-                // read as a register, they stalled on the forwarding).
-                let packet = Packet {
-                    origins: [origin; EYE_PACKET],
-                    dirs: std::array::from_fn(|l| chunk.get(l).map_or(Vec3::Z, |m| m.0)),
-                    t_min: self.camera.hither,
-                    t_max: [f32::INFINITY; EYE_PACKET],
-                    mask: (1u32 << chunk.len()) - 1,
-                };
+                for (d, m) in packet.dirs.iter_mut().zip(chunk.iter()) {
+                    *d = m.0;
+                }
+                packet.mask = (1u32 << chunk.len()) - 1;
                 if chunk.len() > 1 {
                     if let Some(hits) = tracer.eye_hits8(&packet, self.first_view) {
                         for (l, (_, prim, hit)) in chunk.iter_mut().enumerate() {
