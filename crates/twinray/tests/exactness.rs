@@ -69,13 +69,20 @@ fn check_scene(name: &str, width: u32, height: u32, interaxials: &[f32], samplin
                     format!("{name} interaxial={interaxial} convergence={convergence:?} view {v} {sampling:?}");
                 assert_same_pixels(&reference.images[v], &twin.images[v], &what);
             }
-            // Same rays traced; one eye-ray descent per sample for both views.
+            // Same rays traced; each eye-ray descent serves both views (a
+            // packet holds a few samples' rays of both eyes), so at most one
+            // descent per sample, and no more than two mono renders make
+            // (their packets hold neighbouring samples of one eye).
             assert_eq!(
                 reference.counts.rays, twin.counts.rays,
                 "{name} interaxial={interaxial}: ray counts"
             );
-            assert_eq!(
-                2 * twin.counts.eye_traversals,
+            assert!(
+                2 * twin.counts.eye_traversals <= twin.counts.rays.eye
+                    && twin.counts.eye_traversals <= reference.counts.eye_traversals,
+                "{name} interaxial={interaxial}: {} descents for {} eye rays, independent {}",
+                twin.counts.eye_traversals,
+                twin.counts.rays.eye,
                 reference.counts.eye_traversals
             );
         }
@@ -145,12 +152,12 @@ fn multi_view_twin_equals_independent() {
             );
         }
         // One descent serves the eye rays of every view of a batch through a
-        // sample (batches of 4 neighbouring views by default).
+        // sample, or of two samples (batches of 4 neighbouring views by
+        // default, eight rays a descent): at most one per sample and batch.
         let batches = count.div_ceil(twinray::render::views_per_batch(count, 0)) as u64;
-        assert_eq!(
-            twin.counts.eye_traversals * count as u64,
-            twin.counts.rays.eye * batches,
-            "{count} views: one eye-ray descent per sample and batch"
+        assert!(
+            twin.counts.eye_traversals * count as u64 <= twin.counts.rays.eye * batches,
+            "{count} views: at most one eye-ray descent per sample and batch"
         );
     }
 }

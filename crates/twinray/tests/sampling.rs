@@ -309,7 +309,8 @@ fn more_samples_keep_the_views_grouped() {
         "{} of {hits} hit samples grouped",
         out.counts.grouped_samples
     );
-    assert_eq!(out.counts.eye_traversals * 2, out.counts.rays.eye);
+    // Every descent serves both eyes' rays (of one sample or a few).
+    assert!(out.counts.eye_traversals * 2 <= out.counts.rays.eye);
 }
 
 #[test]
@@ -336,13 +337,14 @@ fn views_beyond_one_packet_are_traced_in_batches_and_stay_exact() {
             &twin,
             &format!("{count} views in batches of {batch}"),
         );
-        // One eye-ray descent per sample and batch.
+        // At most one eye-ray descent per sample and batch (a descent
+        // serves every view of its batch, for one sample or a few).
         let size = twinray::render::views_per_batch(count, batch);
         let batches = count.div_ceil(size) as u64;
-        assert_eq!(
-            twin.counts.eye_traversals,
-            batches * u64::from(cam.width * cam.height),
-            "{count} views, batches of {size}"
+        assert!(
+            twin.counts.eye_traversals <= batches * u64::from(cam.width * cam.height),
+            "{count} views, batches of {size}: {} descents",
+            twin.counts.eye_traversals
         );
     }
 }

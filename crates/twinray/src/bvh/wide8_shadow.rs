@@ -159,7 +159,10 @@ mod tests {
         let mut met: [Vec<u32>; K] = std::array::from_fn(|_| Vec::new());
         let mut test = |p: u32, l: usize| {
             let ray = Ray::new(segments.origins[l], segments.dirs[l]);
-            if shapes[p as usize].intersect(&ray, 0.0, segments.t_max[l]).is_some() {
+            if shapes[p as usize]
+                .intersect(&ray, 0.0, segments.t_max[l])
+                .is_some()
+            {
                 met[l].push(p);
                 if stop {
                     return AnyHit::Stop;
@@ -182,7 +185,12 @@ mod tests {
 
     /// Checks `count` packets of `K` lanes; returns the lanes that met
     /// something and the packets refused (mixed direction signs).
-    fn check<const K: usize>(shapes: &[Shape], bvh: &Bvh, seed: u64, count: usize) -> (usize, usize) {
+    fn check<const K: usize>(
+        shapes: &[Shape],
+        bvh: &Bvh,
+        seed: u64,
+        count: usize,
+    ) -> (usize, usize) {
         let mut rng = fastrand::Rng::with_seed(seed);
         let (mut met, mut refused) = (0, 0);
         for n in 0..count {
@@ -223,7 +231,10 @@ mod tests {
         let shapes = random_shapes(&mut rng, 400);
         let bvh = tree(&shapes, &BuildOptions::default());
         let (met, refused) = check::<4>(&shapes, &bvh, 3, 1500);
-        assert!(met > 500 && refused < 750, "{met} lanes met something, {refused} refused");
+        assert!(
+            met > 500 && refused < 750,
+            "{met} lanes met something, {refused} refused"
+        );
         let (met, _) = check::<8>(&shapes, &bvh, 4, 800);
         assert!(met > 500, "{met}");
         let mesh = super::super::leaf::tests::terrain(24);

@@ -263,7 +263,8 @@ impl<'a> Tracer<'a> {
     /// `packet.mask`, lane `l` of view `views[l]`: one view's neighbouring
     /// samples, or a few samples of a batch of views) in one descent
     /// (`Bvh::closest_eye_packet8`): each lane's hit bit for bit `eye_hit`'s,
-    /// counted as `eye_hit` counts it, and the packet counted. `None`
+    /// counted as `eye_hit` counts it, the packet counted, and one
+    /// traversal (one descent; a batch's packet of views also counts one). `None`
     /// (nothing traced, nothing counted) where the packet does not apply: the
     /// caller traces the rays alone. Only where `eye_hit_applies`.
     #[inline]
@@ -283,8 +284,9 @@ impl<'a> Tracer<'a> {
         let rays = (packet.mask & 0xff).count_ones() as u64;
         self.counts.eye_packets += 1;
         self.counts.eye_packet_rays += rays;
-        self.counts.closest_traversals += rays;
-        self.counts.eye_traversals += rays;
+        // One descent, as a batch's packet of views counts one.
+        self.counts.closest_traversals += 1;
+        self.counts.eye_traversals += 1;
         self.counts.rays.eye += rays;
         for l in (0..EYE_PACKET).filter(|&l| packet.mask & (1 << l) != 0 && hits.has_hit(l)) {
             self.counts.rays.eye_hit += 1;
@@ -1141,8 +1143,8 @@ mod tests {
 
     /// Eight eye rays in one descent (`eye_hits8`, the mono row's packets)
     /// give each lane, bit for bit, what `eye_hit` gives it alone, and count
-    /// the same rays, hits and traversals; a refused packet (its lanes'
-    /// signs differ) counts nothing.
+    /// the same rays and hits, and one traversal a packet; a refused packet
+    /// (its lanes' signs differ) counts nothing.
     #[test]
     fn eight_eye_rays_in_one_descent_are_eight_alone() {
         let world = world(SCENE);
@@ -1180,10 +1182,13 @@ mod tests {
         assert_eq!(p.eye_packet_rays, in_packets as u64);
         assert_eq!(p.eye_packets as usize, 1500 - refused);
         assert_eq!(a.per_view_hits, p.per_view_hits);
+        assert_eq!(a.rays, p.rays);
+        let descents = p.eye_packets + (a.rays.eye - p.eye_packet_rays);
         assert_eq!(
-            (a.rays, a.closest_traversals, a.eye_traversals),
-            (p.rays, p.closest_traversals, p.eye_traversals)
+            (p.closest_traversals, p.eye_traversals),
+            (descents, descents)
         );
+        assert_eq!(a.eye_traversals, a.rays.eye);
     }
 
     /// A packet of `K` lanes through one tracer (its shadow cache filled by

@@ -263,7 +263,9 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
     /// samples (two for four views) in one eight-ray descent
     /// (`Tracer::eye_hits8`; lane `l` is view `l % n` of the chunk's sample
     /// `l / n`), each hit bit for bit the ray's alone; a packet refused (its
-    /// rays' direction signs differ) traced ray by ray.
+    /// rays' direction signs differ) traced sample by sample, as without
+    /// packets. A packet counts as one traversal, as a batch's packet of
+    /// views does.
     fn eye_pass_packed(&self, tracer: &mut Tracer, row: &SampleRow, scratch: &mut RowScratch<K>) {
         let n = self.views;
         let per = EYE_PACKET / n;
@@ -288,12 +290,33 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
                 true => tracer.eye_hits8(&packet, &views),
                 false => None,
             };
+            let Some(hits) = hits else {
+                // Refused: each sample's views as one batch packet, as
+                // without packets.
+                for i in first..first + lanes / n {
+                    let batch = Packet {
+                        origins: self.origins,
+                        dirs: std::array::from_fn(|v| match v < n {
+                            true => scratch.dirs[v][i],
+                            false => Vec3::Z,
+                        }),
+                        t_min: self.camera.hither,
+                        t_max: [f32::INFINITY; K],
+                        mask: (1u32 << n) - 1,
+                    };
+                    let h = tracer.eye_hits(&batch, &std::array::from_fn(|l| self.first_view + l));
+                    for v in 0..n {
+                        scratch.hits[v][i] = (h.prim[v], h.hit[v]);
+                        scratch.points[v][i] = h
+                            .has_hit(v)
+                            .then(|| self.origins[v] + batch.dirs[v] * h.hit[v].t);
+                    }
+                }
+                continue;
+            };
             for l in 0..lanes {
                 let (v, i, dir) = (l % n, first + l / n, packet.dirs[l]);
-                let (prim, hit) = match &hits {
-                    Some(h) => (h.prim[l], h.hit[l]),
-                    None => tracer.eye_hit(&self.eye_ray(self.origins[v], dir), views[l]),
-                };
+                let (prim, hit) = (hits.prim[l], hits.hit[l]);
                 scratch.hits[v][i] = (prim, hit);
                 scratch.points[v][i] =
                     (prim != PacketHits::<K>::NO_HIT).then(|| self.origins[v] + dir * hit.t);
