@@ -97,16 +97,28 @@ const MAX_BINS: usize = 16;
 /// and eight-wide forms. Boxes are padded so that the slab test stays
 /// conservative under rounding.
 pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
-    if boxes.is_empty() {
+    build_by(boxes.len(), |i| boxes[i], || *opts)
+}
+
+/// `build` over `n` primitives, the bounds of primitive `i` given by
+/// `bounds(i)` (called once for each, on all threads, in no given order),
+/// and the options by `opts`, called once they all have been: so a caller
+/// that reads its primitives for their bounds decides the options in the
+/// same pass, and no array of boxes is made.
+pub fn build_by(
+    n: usize,
+    bounds: impl Fn(usize) -> Aabb + Sync,
+    opts: impl FnOnce() -> BuildOptions,
+) -> Bvh {
+    if n == 0 {
         return Bvh::default();
     }
     use rayon::prelude::*;
-    let refs: Vec<PrimRef> = boxes
-        .par_iter()
-        .enumerate()
-        .map(|(i, b)| PrimRef::new(&primitive_box(b), i as u32))
+    let mut refs: Vec<PrimRef> = (0..n)
+        .into_par_iter()
+        .map(|i| PrimRef::new(&primitive_box(&bounds(i)), i as u32))
         .collect();
-    let mut refs = refs;
+    let opts = &opts();
     let tree = build_subtree(&mut refs, opts);
     let (nodes, order) = flatten(&tree, &refs, opts.block.max(1));
     // The four- and the eight-wide collapses (each serial) on two threads,
