@@ -1065,6 +1065,69 @@ mod tests {
         assert!(ties > 100, "{ties} ties between axes");
     }
 
+    /// `best_split` (which sweeps the filled bins unless a centroid is NaN)
+    /// chooses what sweeping every boundary chooses, on small nodes of boxes
+    /// with small integer, infinite and NaN coordinates: with a NaN the
+    /// unions with empty bins are not the identity, which is why such a node
+    /// sweeps every boundary.
+    #[test]
+    fn best_split_is_every_bin_sweep_with_nan_and_infinite_boxes() {
+        let mut rng = fastrand::Rng::with_seed(23);
+        let mut nan_nodes = 0;
+        for round in 0..20_000 {
+            let len = rng.usize(3..60);
+            let boxes: Vec<Aabb> = (0..len)
+                .map(|_| {
+                    let mut c = [0; 6].map(|_| rng.u32(0..8) as f32);
+                    match rng.u32(0..10) {
+                        0 => c[rng.usize(0..6)] = f32::NAN,
+                        1 => c[rng.usize(0..3)] = f32::NEG_INFINITY,
+                        2 => c[3 + rng.usize(0..3)] = f32::INFINITY,
+                        _ => {}
+                    }
+                    Aabb {
+                        min: Vec3::new(c[0], c[1], c[2]),
+                        max: Vec3::new(c[0].max(c[3]), c[1].max(c[4]), c[2].max(c[5])),
+                    }
+                })
+                .collect();
+            let refs: Vec<PrimRef> = boxes
+                .iter()
+                .enumerate()
+                .map(|(i, b)| PrimRef::new(b, i as u32))
+                .collect();
+            let opts = if round % 2 == 0 {
+                BuildOptions::triangle_blocks()
+            } else {
+                BuildOptions::default()
+            };
+            let (b4, cb4) = bounds_of(&refs);
+            let (bounds, cb) = (b4.aabb(), cb4.aabb());
+            let got = best_split(&refs, &bounds, &cb4, &opts);
+            // Every boundary of every axis, as before the filled-bins sweep.
+            let n = opts.bins.clamp(2, MAX_BINS);
+            let binning = Binning::new(&cb, n);
+            let bins = Bins::of(&refs, &binning);
+            nan_nodes += bins.nan as usize;
+            let sweep = Sweep {
+                n,
+                parent_area: bounds.half_area().max(f32::MIN_POSITIVE),
+                opts: &opts,
+                binning,
+            };
+            let mut want = None;
+            for axis in 0..3 {
+                if cb.max[axis] <= cb.min[axis] || cb.max[axis].is_nan() {
+                    continue;
+                }
+                sweep.every_bin(&mut want, axis, &bins.bounds[axis], &bins.count[axis]);
+            }
+            let key = |s: &Option<Split>| s.as_ref().map(|s| (s.axis, s.bin, s.cost.to_bits()));
+            assert_eq!(key(&got), key(&want), "round {round}, {len} boxes");
+        }
+        assert!(nan_nodes > 1000, "{nan_nodes} nodes with a NaN");
+    }
+
     #[test]
     fn empty_input() {
         let bvh = build(&[], &BuildOptions::default());
