@@ -1,6 +1,7 @@
 //! The scene made ready to trace: the hierarchy built, and the shapes stored in
 //! the hierarchy's leaf order so that a leaf's primitives sit together in memory.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -82,13 +83,22 @@ pub(crate) fn build_options<'a>(shapes: impl Iterator<Item = &'a Shape>) -> Buil
     options_for(others, all)
 }
 
-/// `build_options` of all of `shapes`, counted on all threads.
-fn build_options_par(shapes: &[Shape]) -> BuildOptions {
-    let others = shapes
-        .par_iter()
-        .filter(|s| !matches!(s, Shape::Triangle(_)))
-        .count();
-    options_for(others, shapes.len())
+/// The hierarchy over all of `shapes` with `build_options`: their bounds and
+/// the count of shapes that are not triangles taken in one pass over them,
+/// on all threads (no array of boxes).
+fn build_all(shapes: &[Shape]) -> Bvh {
+    let others = AtomicUsize::new(0);
+    bvh::build_by(
+        shapes.len(),
+        |i| {
+            let s = &shapes[i];
+            if !matches!(s, Shape::Triangle(_)) {
+                others.fetch_add(1, Ordering::Relaxed);
+            }
+            s.bounds()
+        },
+        || options_for(others.load(Ordering::Relaxed), shapes.len()),
+    )
 }
 
 /// The choice of `build_options`, given how many of `all` shapes are not
@@ -153,7 +163,11 @@ impl World {
     pub fn with_cut(mut scene: Scene, cut: Option<Cut>) -> World {
         let start = Instant::now();
         scene.finish();
-        let boxes: Vec<Aabb> = scene.shapes.par_iter().map(|s| s.bounds()).collect();
+        // (Without a cut the build asks for the bounds itself.)
+        let boxes: Vec<Aabb> = match cut {
+            None => Vec::new(),
+            Some(_) => scene.shapes.par_iter().map(|s| s.bounds()).collect(),
+        };
         let far_groups: Vec<bool> = match cut {
             None => Vec::new(),
             Some(c) => {
@@ -170,9 +184,9 @@ impl World {
                 beyond
             }
         };
-        // Without a cut every shape is near: the build then takes the boxes
-        // and the shapes as they are (no index list, no copy of the boxes, no
-        // renumbering of the order).
+        // Without a cut every shape is near: the build then takes the shapes
+        // as they are (no index list, no array of boxes, no renumbering of
+        // the order).
         let (near, far): (Vec<u32>, Vec<u32>) = if far_groups.is_empty() {
             (Vec::new(), Vec::new())
         } else {
@@ -186,8 +200,7 @@ impl World {
         // `set`: the shapes to build over, or all of them.
         let build = |set: Option<&[u32]>| {
             let Some(set) = set else {
-                let opts = build_options_par(&scene.shapes);
-                return bvh::build(&boxes, &opts);
+                return build_all(&scene.shapes);
             };
             let set_boxes: Vec<Aabb> = set.par_iter().map(|&i| boxes[i as usize]).collect();
             let opts = build_options(set.iter().map(|&i| &scene.shapes[i as usize]));

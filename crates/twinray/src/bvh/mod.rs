@@ -105,6 +105,17 @@ pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     build::build(boxes, opts)
 }
 
+/// `build` over `n` primitives whose bounds `bounds(i)` gives (called once
+/// for each, on all threads), with the options `opts` returns once every
+/// bound has been asked for: the same tree as `build` over those boxes.
+pub fn build_by(
+    n: usize,
+    bounds: impl Fn(usize) -> Aabb + Sync,
+    opts: impl FnOnce() -> BuildOptions,
+) -> Bvh {
+    build::build_by(n, bounds, opts)
+}
+
 impl Bvh {
     pub fn bounds(&self) -> Aabb {
         self.nodes
