@@ -217,12 +217,10 @@ fn leaves_of_any_number_of_blocks_keep_brute_force_hits() {
     assert!(hits > 600 && single > 0 && two > 0, "{hits} {single} {two}");
 }
 
-/// Nearest child first, three or more children at a node: rays down a
-/// street of separate clusters (so that the root's children are entered
-/// together) stop in the first cluster after few primitive tests; visited
-/// farthest first they would test all of them.
-#[test]
-fn sorted_children_stop_a_ray_in_the_nearest_cluster() {
+/// A street of 64 separate clusters along x, 4 apart, each of 8 upright
+/// triangles (so that a ray along the street enters the root's children
+/// together).
+fn street_of_clusters() -> Vec<Shape> {
     let mut shapes = Vec::new();
     for c in 0..64 {
         let x = c as f32 * 4.0;
@@ -235,6 +233,16 @@ fn sorted_children_stop_a_ray_in_the_nearest_cluster() {
             ));
         }
     }
+    shapes
+}
+
+/// Nearest child first, three or more children at a node: rays down a
+/// street of separate clusters (so that the root's children are entered
+/// together) stop in the first cluster after few primitive tests; visited
+/// farthest first they would test all of them.
+#[test]
+fn sorted_children_stop_a_ray_in_the_nearest_cluster() {
+    let shapes = street_of_clusters();
     let bvh = hierarchy(&shapes, &BuildOptions::triangle_blocks());
     let (single, two) = (Cell::new(0), Cell::new(0));
     for (origin, dir, first) in [
@@ -344,13 +352,7 @@ fn alone_and_brute(
     l: usize,
     stats: &mut TraversalStats,
 ) -> [Option<(u32, [u32; 3])>; 2] {
-    let one = Packet {
-        origins: [p.origins[l]],
-        dirs: [p.dirs[l]],
-        t_min: p.t_min,
-        t_max: [p.t_max[l]],
-        mask: 1,
-    };
+    let one = p.lane(l);
     let (single, two) = (Cell::new(0), Cell::new(0));
     let test = Counting {
         shapes,
@@ -437,18 +439,7 @@ fn an_eye_packet_gives_each_ray_its_single_descents_hit() {
 /// blocks there), where farthest first would test them all.
 #[test]
 fn an_eye_packet_stops_in_the_nearest_cluster() {
-    let mut shapes = Vec::new();
-    for c in 0..64 {
-        let x = c as f32 * 4.0;
-        for k in 0..8 {
-            let y = k as f32 * 0.1;
-            shapes.push(tri(
-                Vec3::new(x, y - 1.0, -1.0),
-                Vec3::new(x, y + 1.0, -1.0),
-                Vec3::new(x, y, 1.0),
-            ));
-        }
-    }
+    let shapes = street_of_clusters();
     let bvh = hierarchy(&shapes, &BuildOptions::triangle_blocks());
     for (origin, towards, first) in [
         (Vec3::new(-5.0, 0.35, 0.0), 1.0f32, 0u32),

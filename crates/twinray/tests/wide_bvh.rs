@@ -168,13 +168,7 @@ fn check_closest<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) -> 
         }
         // Alone, as a packet of one, the lane gets the same answer.
         if p.mask & (1 << l) != 0 {
-            let one = Packet {
-                origins: [p.origins[l]],
-                dirs: [p.dirs[l]],
-                t_min: p.t_min,
-                t_max: [p.t_max[l]],
-                mask: 1,
-            };
+            let one = p.lane(l);
             let alone = bvh.closest_wide(&one, &mut st, |prim: u32, _: usize, t: f32| {
                 test(prim, l, t)
             });

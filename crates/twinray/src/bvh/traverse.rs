@@ -32,6 +32,19 @@ pub struct Packet<const K: usize> {
     pub mask: u32,
 }
 
+impl<const K: usize> Packet<K> {
+    /// Lane `l`'s ray as a packet of its own (active whatever `mask` says).
+    pub fn lane(&self, l: usize) -> Packet<1> {
+        Packet {
+            origins: [self.origins[l]],
+            dirs: [self.dirs[l]],
+            t_min: self.t_min,
+            t_max: [self.t_max[l]],
+            mask: 1,
+        }
+    }
+}
+
 /// Segments `origins[l] + t * dirs[l]`, `0 < t < t_max[l]`, one per active lane.
 #[derive(Clone, Copy, Debug)]
 pub struct SegmentPacket<const K: usize> {

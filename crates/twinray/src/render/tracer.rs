@@ -1159,13 +1159,7 @@ mod tests {
             let got = packed.eye_hits8(packet, &[view; 8]);
             refused += usize::from(got.is_none());
             for l in (0..8).filter(|&l| packet.mask & (1 << l) != 0) {
-                let one = Packet {
-                    origins: [packet.origins[l]],
-                    dirs: [packet.dirs[l]],
-                    t_min: packet.t_min,
-                    t_max: [packet.t_max[l]],
-                    mask: 1,
-                };
+                let one = packet.lane(l);
                 let (prim, h) = alone.eye_hit(&one, view);
                 let Some(got) = got else {
                     packed.eye_hit(&one, view);
