@@ -22,6 +22,7 @@ mod wide;
 mod wide8;
 mod wide8_eye;
 mod wide8_pair;
+mod wide8_shadow;
 
 pub use build::{primitive_box, BuildOptions, PAD};
 pub use run::{ray_reaches, RunRegion, RunStats, FILL_REACH, RUN_REACH};

@@ -483,7 +483,10 @@ impl Bvh {
             self.occlusion_wide(packet, stats, test)
         } else if K == 2 && packet.mask == 0b11 {
             self.occlusion_pair_wide8(packet, stats, test)
-        } else {
+        } else if !(K > 2
+            && packet.mask.count_ones() > 1
+            && self.occlusion_packet8(packet, stats, test))
+        {
             self.occlusion_wide8(packet, stats, test)
         }
     }

@@ -36,7 +36,7 @@ pub const EYE_PACKET: usize = 8;
 /// The packet's rays prepared for the slab test, one ray per lane: each
 /// lane `SingleRay::new`'s numbers, the planes picked by the signs all
 /// lanes share.
-struct Rays8 {
+pub(super) struct Rays8 {
     near: [usize; 3],
     far: [usize; 3],
     inv: [f32x8; 3],
@@ -47,7 +47,7 @@ struct Rays8 {
 impl Rays8 {
     /// `None` where the active lanes' direction signs differ.
     #[inline(always)]
-    fn new(singles: &[SingleRay; EYE_PACKET], mask: u32) -> Option<Rays8> {
+    pub(super) fn new(singles: &[SingleRay; EYE_PACKET], mask: u32) -> Option<Rays8> {
         let lead = mask.trailing_zeros() as usize;
         let neg = singles[lead].neg;
         let mut lanes = mask;
@@ -77,7 +77,7 @@ impl Rays8 {
     /// nearest hits so far times `CULL_SLACK`), as a lane mask, and their
     /// entry distances: per lane `Ray8::enter`'s arithmetic for that child.
     #[inline(always)]
-    fn enter(&self, node: &Node8, c: usize, bound: f32x8) -> (u32, f32x8) {
+    pub(super) fn enter(&self, node: &Node8, c: usize, bound: f32x8) -> (u32, f32x8) {
         let plane =
             |i: usize, a: usize| f32x8::splat(node.bounds[i][c]) * self.inv[a] - self.org[a];
         let (nx, ny, nz) = (
