@@ -763,25 +763,47 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         let scene = &self.world.scene;
         let flat = &mut scratch.flat;
         flat.resize(scene.materials.len(), None);
-        for (&(dir, prim, hit), color) in mono.iter().zip(out[0].iter_mut()) {
-            if prim == PacketHits::<1>::NO_HIT {
-                *color = scene.background_toward(dir);
-                continue;
-            }
-            // A material whose hits all shade to one colour: the colour of
-            // its first hit (shading it counts nothing, caches nothing).
-            let material = scene.shape_material[prim as usize] as usize;
-            if let Some(Some(c)) = flat.get(material) {
-                *color = *c;
-                continue;
-            }
-            let hits = PacketHits {
-                prim: [prim],
-                hit: [hit],
+        // Eight neighbouring samples shaded as one packet: their shadow
+        // segments toward each light start a pixel apart and end together,
+        // so they go down in one descent (`Bvh::occlusion_packet8`); each
+        // lane's colour is what it gets alone.
+        for (chunk, colors) in mono.chunks(EYE_PACKET).zip(out[0].chunks_mut(EYE_PACKET)) {
+            let mut packet = Packet {
+                origins: [origin; EYE_PACKET],
+                dirs: [Vec3::Z; EYE_PACKET],
+                t_min: self.camera.hither,
+                t_max: [f32::INFINITY; EYE_PACKET],
+                mask: 0,
             };
-            *color = tracer.shade_eye(&self.eye_ray(origin, dir), &hits, self.secondary)[0];
-            if self.flat.get(material) == Some(&true) {
-                flat[material] = Some(*color);
+            let mut hits = PacketHits::<EYE_PACKET>::none();
+            for (l, (&(dir, prim, hit), color)) in chunk.iter().zip(colors.iter_mut()).enumerate() {
+                if prim == PacketHits::<1>::NO_HIT {
+                    *color = scene.background_toward(dir);
+                    continue;
+                }
+                // A material whose hits all shade to one colour: the colour
+                // of its first hit (shading it counts nothing, caches nothing).
+                let material = scene.shape_material[prim as usize] as usize;
+                if let Some(Some(c)) = flat.get(material) {
+                    *color = *c;
+                    continue;
+                }
+                packet.dirs[l] = dir;
+                (hits.prim[l], hits.hit[l]) = (prim, hit);
+                packet.mask |= 1 << l;
+            }
+            if packet.mask == 0 {
+                continue;
+            }
+            let shaded = tracer.shade_eye(&packet, &hits, self.secondary);
+            for (l, color) in colors.iter_mut().enumerate() {
+                if packet.mask & (1 << l) != 0 {
+                    *color = shaded[l];
+                    let material = scene.shape_material[hits.prim[l] as usize] as usize;
+                    if self.flat.get(material) == Some(&true) && flat[material].is_none() {
+                        flat[material] = Some(*color);
+                    }
+                }
             }
         }
         tracer.counts.eye_pass_ns += eye_pass.as_nanos() as u64;
@@ -1006,7 +1028,8 @@ mod tests {
     /// stay empty), and its colours and counts are, bit for bit, those of
     /// the staged path it replaces (eye pass, grouping, shading of groups of
     /// one), on rows of pixel centres, of corners and of Sobol samples
-    /// (both take the eye rays eight to a descent).
+    /// (both take the eye rays eight to a descent; the mono row shades
+    /// eight samples a packet, so its descents and shadow cache differ).
     #[test]
     fn a_mono_row_is_the_staged_row_bit_for_bit() {
         let (world, camera, rig, opts, cancel) = example_mono();
@@ -1062,8 +1085,7 @@ mod tests {
         ) = (0, 0, 0, 0);
         // Both trace their eye rays eight to a descent where their signs
         // agree (the staged path's batch of one view takes eight samples a
-        // packet, as the mono row does): the same packets, rays, hits and
-        // work counts.
+        // packet, as the mono row does): the same packets, rays and hits.
         assert!(
             a.eye_packet_rays * 10 > a.rays.eye * 9 && a.eye_packets * 8 >= a.eye_packet_rays,
             "{} of {} eye rays in {} packets",
@@ -1071,6 +1093,24 @@ mod tests {
             a.rays.eye,
             a.eye_packets
         );
+        // The mono row shades eight samples as one packet (the staged path
+        // one sample a group): the same rays, other descents, and a shadow
+        // cache per lane.
+        assert!(
+            a.grouped_samples > a.rays.eye_hit / 2,
+            "{}",
+            a.grouped_samples
+        );
+        assert_eq!(b.grouped_samples, 0);
+        for c in [&mut a, &mut b] {
+            c.grouped_samples = 0;
+            (c.nodes, c.box_tests, c.prim_tests) = (0, 0, 0);
+            (
+                c.closest_traversals,
+                c.shadow_cache_tests,
+                c.shadow_cache_hits,
+            ) = (0, 0, 0);
+        }
         assert_eq!(a, b);
     }
 
