@@ -319,7 +319,8 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    /// Shades eye rays whose hits are known (`eye_hits`), the lanes together.
+    /// Shades eye rays whose hits are known (`eye_hits`), the lanes together
+    /// (samples of several views: counted as grouped).
     pub fn shade_eye<const K: usize>(
         &mut self,
         packet: &Packet<K>,
@@ -330,6 +331,17 @@ impl<'a> Tracer<'a> {
         if lanes > 1 {
             self.counts.grouped_samples += lanes;
         }
+        self.shade_eye_lanes(packet, hits, secondary)
+    }
+
+    /// `shade_eye` for lanes of one view (a mono row's neighbouring
+    /// samples), not counted as grouped.
+    pub fn shade_eye_lanes<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        hits: &PacketHits<K>,
+        secondary: SecondaryRays,
+    ) -> [Color; K] {
         let mut tree = ShadingTree::new(secondary);
         self.shade(packet, hits, 1, [1.0; K], &mut tree)
     }

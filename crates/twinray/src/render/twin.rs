@@ -795,7 +795,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             if packet.mask == 0 {
                 continue;
             }
-            let shaded = tracer.shade_eye(&packet, &hits, self.secondary);
+            let shaded = tracer.shade_eye_lanes(&packet, &hits, self.secondary);
             for (l, color) in colors.iter_mut().enumerate() {
                 if packet.mask & (1 << l) != 0 {
                     *color = shaded[l];
@@ -1094,16 +1094,12 @@ mod tests {
             a.eye_packets
         );
         // The mono row shades eight samples as one packet (the staged path
-        // one sample a group): the same rays, other descents, and a shadow
-        // cache per lane.
-        assert!(
-            a.grouped_samples > a.rays.eye_hit / 2,
-            "{}",
-            a.grouped_samples
-        );
-        assert_eq!(b.grouped_samples, 0);
+        // one sample a group): the same rays, other descents, secondary
+        // packets of several lanes, and a shadow cache per lane.
+        assert!(a.shared_secondary_rays > a.rays.reflected / 2, "{a:?}");
+        assert_eq!((a.grouped_samples, b.shared_secondary_rays), (0, 0));
         for c in [&mut a, &mut b] {
-            c.grouped_samples = 0;
+            (c.shared_secondary, c.shared_secondary_rays) = (0, 0);
             (c.nodes, c.box_tests, c.prim_tests) = (0, 0, 0);
             (
                 c.closest_traversals,
