@@ -455,6 +455,18 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         self.eye_ray(self.camera.eye, dir)
     }
 
+    /// An empty packet of eight eye rays from `origin` (the mono row's
+    /// lanes: its directions and mask written in place).
+    fn mono_packet(&self, origin: Vec3) -> Packet<EYE_PACKET> {
+        Packet {
+            origins: [origin; EYE_PACKET],
+            dirs: [Vec3::Z; EYE_PACKET],
+            t_min: self.camera.hither,
+            t_max: [f32::INFINITY; EYE_PACKET],
+            mask: 0,
+        }
+    }
+
     fn eye_ray(&self, origin: Vec3, dir: Vec3) -> Packet<1> {
         Packet {
             origins: [origin],
@@ -729,13 +741,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             // written lane by lane in place (a packet made whole for each
             // eight, then moved, was reloaded wide from the narrow stores
             // that wrote it: a store-forwarding stall).
-            let mut packet = Packet {
-                origins: [origin; EYE_PACKET],
-                dirs: [Vec3::Z; EYE_PACKET],
-                t_min: self.camera.hither,
-                t_max: [f32::INFINITY; EYE_PACKET],
-                mask: 0,
-            };
+            let mut packet = self.mono_packet(origin);
             for chunk in mono.chunks_mut(EYE_PACKET) {
                 for (d, m) in packet.dirs.iter_mut().zip(chunk.iter()) {
                     *d = m.0;
@@ -768,13 +774,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         // so they go down in one descent (`Bvh::occlusion_packet8`); each
         // lane's colour is what it gets alone.
         for (chunk, colors) in mono.chunks(EYE_PACKET).zip(out[0].chunks_mut(EYE_PACKET)) {
-            let mut packet = Packet {
-                origins: [origin; EYE_PACKET],
-                dirs: [Vec3::Z; EYE_PACKET],
-                t_min: self.camera.hither,
-                t_max: [f32::INFINITY; EYE_PACKET],
-                mask: 0,
-            };
+            let mut packet = self.mono_packet(origin);
             let mut hits = PacketHits::<EYE_PACKET>::none();
             for (l, (&(dir, prim, hit), color)) in chunk.iter().zip(colors.iter_mut()).enumerate() {
                 if prim == PacketHits::<1>::NO_HIT {
