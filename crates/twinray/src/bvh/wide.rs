@@ -466,11 +466,14 @@ impl Bvh {
     }
 
     /// Any-hit per lane (see `occlusion_binary` for the contract): a
-    /// segment alone, and each segment of a packet of three or more, alone
-    /// on the eight-wide tree; a stereo pair's two segments in one descent
-    /// of the eight-wide tree (`occlusion_pair_wide8`: it measured faster
-    /// than both in one `f32x8` on the four-wide tree, docs/benchmarks.md
-    /// "Issue 17, sixth pass"). Without an eight-wide tree, the four-wide.
+    /// segment alone on the eight-wide tree; a stereo pair's two segments in
+    /// one descent of it (`occlusion_pair_wide8`: it measured faster than
+    /// both in one `f32x8` on the four-wide tree, docs/benchmarks.md "Issue
+    /// 17, sixth pass"); the live segments of a packet of three to eight
+    /// lanes (a mono row's neighbouring samples, a group's views) in one
+    /// descent with the segments in the lanes (`occlusion_packet8`), or,
+    /// where their direction signs differ or there are more lanes, each
+    /// alone. Without an eight-wide tree, the four-wide.
     pub fn occlusion<const K: usize>(
         &self,
         packet: &SegmentPacket<K>,

@@ -4,7 +4,9 @@
 //! load per plane). Rays traced alone take it: eye rays, secondary rays and
 //! shadow segments of one lane, and each ray of a stereo pair's nearest-hit
 //! packet, and each lane of wider packets (`Bvh::closest`). Shadow pairs go
-//! down it in one descent (`wide8_pair.rs`); docs/benchmarks.md ("Issue 17,
+//! down it in one descent (`wide8_pair.rs`), and so do eight eye rays
+//! (`wide8_eye.rs`) and up to eight shadow segments toward one light
+//! (`wide8_shadow.rs`) with the rays in the lanes; docs/benchmarks.md ("Issue 17,
 //! fourth pass", "Issues 16 and 17, fifth pass", "Issue 17, sixth pass") has
 //! the measurements.
 //!

@@ -1,8 +1,9 @@
-//! The shadow segments of a twin group toward one light in one any-hit
-//! descent of the eight-wide tree: the group's views see one surface point
-//! from eyes a little apart, so their segments toward a light start a little
-//! apart and end together, and they enter nearly the same nodes. As for eye
-//! packets (`wide8_eye.rs`), the segments sit in the lanes of one `f32x8`:
+//! Up to eight shadow segments toward one light in one any-hit descent of
+//! the eight-wide tree: a mono row's eight neighbouring samples, or a twin
+//! group's views of one surface point, start their segments a little apart
+//! and end them together, so they enter nearly the same nodes. As for eye
+//! packets (`wide8_eye.rs`, whose `Rays8` prepares the segments here too),
+//! the segments sit in the lanes of one `f32x8`:
 //! a node is fetched once and each child is tested against every segment at
 //! once; a child is stacked with the segments that entered it; a segment
 //! leaves the descent when its test says stop (an opaque object: full

@@ -776,6 +776,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         for (chunk, colors) in mono.chunks(EYE_PACKET).zip(out[0].chunks_mut(EYE_PACKET)) {
             let mut packet = self.mono_packet(origin);
             let mut hits = PacketHits::<EYE_PACKET>::none();
+            let mut materials = [0usize; EYE_PACKET];
             for (l, (&(dir, prim, hit), color)) in chunk.iter().zip(colors.iter_mut()).enumerate() {
                 if prim == PacketHits::<1>::NO_HIT {
                     *color = scene.background_toward(dir);
@@ -790,6 +791,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
                 }
                 packet.dirs[l] = dir;
                 (hits.prim[l], hits.hit[l]) = (prim, hit);
+                materials[l] = material;
                 packet.mask |= 1 << l;
             }
             if packet.mask == 0 {
@@ -799,7 +801,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             for (l, color) in colors.iter_mut().enumerate() {
                 if packet.mask & (1 << l) != 0 {
                     *color = shaded[l];
-                    let material = scene.shape_material[hits.prim[l] as usize] as usize;
+                    let material = materials[l];
                     if self.flat.get(material) == Some(&true) && flat[material].is_none() {
                         flat[material] = Some(*color);
                     }
