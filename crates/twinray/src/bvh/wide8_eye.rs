@@ -118,8 +118,19 @@ impl Bvh {
         &self,
         packet: &Packet<EYE_PACKET>,
         stats: &mut TraversalStats,
-        mut test: impl NearestTest,
+        test: impl NearestTest,
     ) -> Option<PacketHits<EYE_PACKET>> {
+        let (singles, rays) = self.eye_packet8(packet)?;
+        Some(self.closest_rays8(packet, &singles, &rays, stats, test))
+    }
+
+    /// The packet's rays prepared for `closest_rays8`, or `None` where
+    /// the packet descent does not apply (see `closest_eye_packet8`).
+    #[inline]
+    pub(super) fn eye_packet8(
+        &self,
+        packet: &Packet<EYE_PACKET>,
+    ) -> Option<([SingleRay; EYE_PACKET], Rays8)> {
         let mask = packet.mask & 0xff;
         if self.wide8.is_empty() || mask == 0 {
             return None;
@@ -128,6 +139,20 @@ impl Bvh {
             SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min)
         });
         let rays = Rays8::new(&singles, mask)?;
+        Some((singles, rays))
+    }
+
+    /// `closest_eye_packet8`'s descent, its rays prepared (`eye_packet8`).
+    #[inline]
+    pub(super) fn closest_rays8(
+        &self,
+        packet: &Packet<EYE_PACKET>,
+        singles: &[SingleRay; EYE_PACKET],
+        rays: &Rays8,
+        stats: &mut TraversalStats,
+        mut test: impl NearestTest,
+    ) -> PacketHits<EYE_PACKET> {
+        let mask = packet.mask & 0xff;
         let mut out = PacketHits::<EYE_PACKET>::none();
         let mut best = packet.t_max;
         let slack = f32x8::splat(CULL_SLACK);
@@ -212,6 +237,6 @@ impl Bvh {
         stats.nodes += nodes;
         stats.box_tests += boxes;
         stats.prim_tests += prims;
-        Some(out)
+        out
     }
 }

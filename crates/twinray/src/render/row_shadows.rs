@@ -241,19 +241,29 @@ impl RowShadows {
     /// Sets the lanes of the next eye shading: lane `v` is view
     /// `first_view + v`'s sample `group[v]`.
     pub(super) fn select(&mut self, first_view: usize, group: &[Option<usize>]) {
+        self.select_lanes(
+            group
+                .iter()
+                .enumerate()
+                .filter_map(|(v, sample)| sample.map(|i| (v, first_view + v, i))),
+        );
+    }
+
+    /// Sets the lanes of the next eye shading: `(lane, view, sample)`, each
+    /// lane that view's sample (views counted in the whole rig).
+    pub(super) fn select_lanes(&mut self, lanes: impl Iterator<Item = (usize, usize, usize)>) {
         self.lanes.clear();
         if self.len == 0 {
             return;
         }
         self.lanes.resize(self.lights, 0);
-        for (v, sample) in group.iter().enumerate() {
-            let Some(i) = *sample else { continue };
-            let at = ((first_view + v) * self.len + i) * self.lights;
+        for (lane, view, i) in lanes {
+            let at = (view * self.len + i) * self.lights;
             let Some(proved) = self.proved.get(at..at + self.lights) else {
                 continue;
             };
             for (mask, &p) in self.lanes.iter_mut().zip(proved) {
-                *mask |= u32::from(p) << v;
+                *mask |= u32::from(p) << lane;
             }
         }
     }

@@ -518,11 +518,102 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         }
     }
 
-    /// Stage 3: every group shaded as one packet (exact).
+    /// Stage 3: every group shaded as one packet (exact). Groups of up to
+    /// eight views go together, as many whole groups as fill eight lanes
+    /// (`shade_groups_packed`).
     fn shade_groups(&self, tracer: &mut Tracer, scratch: &RowScratch<K>, out: &mut [RowColors]) {
+        if K <= EYE_PACKET {
+            return self.shade_groups_packed(tracer, scratch, out);
+        }
         for group in &scratch.groups {
             self.shade_group(tracer, scratch, group, out);
         }
+    }
+
+    /// `shade_group` for consecutive groups at once: their hit lanes in
+    /// packets of eight (a pair's four groups, two of four views), so that
+    /// their shadow segments and secondary rays go down in the eight-lane
+    /// descents, as a mono row's do (a group of two lanes took the pair
+    /// descents). Each lane's colour is its own ray's whatever packet it is
+    /// in, so the colours are `shade_group`'s; a group's lanes are counted
+    /// as grouped as there.
+    fn shade_groups_packed(
+        &self,
+        tracer: &mut Tracer,
+        scratch: &RowScratch<K>,
+        out: &mut [RowColors],
+    ) {
+        let mut packet = Packet::<EYE_PACKET> {
+            origins: [Vec3::ZERO; EYE_PACKET],
+            dirs: [Vec3::Z; EYE_PACKET],
+            t_min: self.camera.hither,
+            t_max: [f32::INFINITY; EYE_PACKET],
+            mask: 0,
+        };
+        let mut hits = PacketHits::<EYE_PACKET>::none();
+        // Each lane's (view, sample).
+        let mut lanes = [(0usize, 0usize); EYE_PACKET];
+        let mut n = 0;
+        let cut = self.world.far.is_some();
+        for group in &scratch.groups {
+            // The group's samples shaded here: those beyond a cut are
+            // shaded already (`shade_cut`); those that missed take the
+            // background, as `surfaces` gives it.
+            let (mut shaded, mut any_hit) = (0u64, false);
+            for (v, sample) in group.iter().enumerate() {
+                let Some(i) = *sample else { continue };
+                if cut && scratch.far[v][i] {
+                    continue;
+                }
+                shaded += 1;
+                if !Self::has_hit(scratch, v, i) {
+                    out[v][i] = self.world.scene.background_toward(self.dir(scratch, v, i));
+                    continue;
+                }
+                any_hit = true;
+                if n == EYE_PACKET {
+                    self.shade_lanes(tracer, &mut packet, &hits, &lanes, out);
+                    n = 0;
+                }
+                packet.origins[n] = self.origins[v];
+                packet.dirs[n] = self.dir(scratch, v, i);
+                (hits.prim[n], hits.hit[n]) = scratch.hits[v][i];
+                packet.mask |= 1 << n;
+                lanes[n] = (v, i);
+                n += 1;
+            }
+            if any_hit && shaded > 1 {
+                tracer.counts.grouped_samples += shaded;
+            }
+        }
+        if n > 0 {
+            self.shade_lanes(tracer, &mut packet, &hits, &lanes, out);
+        }
+    }
+
+    /// Shades the lanes of `packet` (lane `l`: view `lanes[l].0`'s sample
+    /// `lanes[l].1`) into `out`, and empties the packet.
+    fn shade_lanes(
+        &self,
+        tracer: &mut Tracer,
+        packet: &mut Packet<EYE_PACKET>,
+        hits: &PacketHits<EYE_PACKET>,
+        lanes: &[(usize, usize); EYE_PACKET],
+        out: &mut [RowColors],
+    ) {
+        let mask = packet.mask;
+        tracer.row_shadows.select_lanes(
+            (0..EYE_PACKET)
+                .filter(|l| mask & (1 << l) != 0)
+                .map(|l| (l, self.first_view + lanes[l].0, lanes[l].1)),
+        );
+        let colors = tracer.shade_eye_lanes(packet, hits, self.secondary);
+        for (l, &(v, i)) in lanes.iter().enumerate() {
+            if mask & (1 << l) != 0 {
+                out[v][i] = colors[l];
+            }
+        }
+        packet.mask = 0;
     }
 
     /// Whether view `v`'s sample `k` sees the surface point that view 0's
