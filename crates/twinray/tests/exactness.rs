@@ -166,7 +166,8 @@ fn multi_view_twin_equals_independent() {
 fn views_samples_of_one_point_are_shaded_together() {
     // Nearly every sample that hits the scene is seen by both eyes here: the
     // samples of one point are grouped, and their reflected rays (floor, mirror
-    // wall, spheres) traced as one packet.
+    // wall, spheres) traced as one packet, four groups' rays to a packet of
+    // eight (`TwinBatch::shade_groups_packed`).
     let world = world("example.nff");
     let cam = camera(&world, 96, 72);
     let rig = Rig::stereo(&cam, 0.3, None).unwrap();
@@ -177,9 +178,11 @@ fn views_samples_of_one_point_are_shaded_together() {
         &options(Method::Twin, Sampling::Centers),
     );
     assert!(twin.counts.shared_secondary > 0);
-    assert_eq!(
+    assert!(
+        twin.counts.shared_secondary_rays > 4 * twin.counts.shared_secondary,
+        "{} secondary rays in {} packets",
         twin.counts.shared_secondary_rays,
-        2 * twin.counts.shared_secondary
+        twin.counts.shared_secondary
     );
     let hits = twin.counts.rays.eye_hit;
     assert!(

@@ -475,3 +475,84 @@ fn an_eye_packet_stops_in_the_nearest_cluster() {
         );
     }
 }
+
+/// Packets of eight secondary rays, as a shading packet of eight spawns
+/// them: each lane from its own point (points a little apart on a surface),
+/// directions near one another (coherent) or anywhere (their signs mixed),
+/// per-lane `t_max`, some lanes off.
+fn secondary_packets(count: usize, seed: u64) -> Vec<Packet<8>> {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    (0..count)
+        .map(|i| {
+            let mut v = || Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
+            let base = v() * 30.0;
+            let along = v() * 0.2;
+            let aim = v() * 16.0;
+            let spread = if i % 3 == 0 { 8.0 } else { 0.05 };
+            let jitter: [Vec3; 8] = std::array::from_fn(|_| v() * spread);
+            let origins = std::array::from_fn(|l| base + along * l as f32);
+            let dirs = std::array::from_fn(|l| (aim + jitter[l] - base).normalize());
+            let t_max = std::array::from_fn(|_| match rng.u8(..4) {
+                0 => rng.f32() * 40.0,
+                _ => f32::INFINITY,
+            });
+            Packet {
+                origins,
+                dirs,
+                t_min: 0.0,
+                t_max,
+                mask: if i % 5 == 0 { rng.u32(1..256) } else { 0xff },
+            }
+        })
+        .collect()
+}
+
+/// A packet of eight rays through `Bvh::closest` (the secondary rays of a
+/// mono row's or a pair's shading packet): one descent where the lanes'
+/// direction signs agree, each lane alone where they do not. Either way
+/// every active lane's hit is, bit for bit, its own descent's and brute
+/// force's. The coherent packets visit fewer nodes than their rays alone.
+#[test]
+fn secondary_packets_of_eight_give_each_ray_its_own_hit() {
+    let (mut packet_nodes, mut alone_nodes, mut hits) = (0u64, 0u64, 0);
+    for (n, seed) in [(60, 7), (700, 8), (3000, 9)] {
+        let shapes = scene_with_ties(n, seed);
+        let bvh = hierarchy(&shapes, &BuildOptions::triangle_blocks());
+        for (i, p) in secondary_packets(900, seed + 30).iter().enumerate() {
+            let (single, two) = (Cell::new(0), Cell::new(0));
+            let test = Counting {
+                shapes: &shapes,
+                packet: p,
+                single: &single,
+                two: &two,
+                two_off: false,
+            };
+            let mut stats = TraversalStats::default();
+            let got = bvh.closest(p, &mut stats, test);
+            let mut alone_stats = TraversalStats::default();
+            for l in 0..8 {
+                let found = got.has_hit(l).then(|| {
+                    let h = got.hit[l];
+                    (got.prim[l], [h.t, h.u, h.v].map(f32::to_bits))
+                });
+                if p.mask & (1 << l) == 0 {
+                    assert_eq!(found, None, "{n} triangles, packet {i}: lane {l} is off");
+                    continue;
+                }
+                let [alone, brute] = alone_and_brute(&shapes, &bvh, p, l, &mut alone_stats);
+                assert_eq!(found, alone, "{n} triangles, packet {i}, lane {l}: {p:?}");
+                assert_eq!(found, brute, "{n} triangles, packet {i}, lane {l}: {p:?}");
+                hits += u64::from(found.is_some());
+            }
+            if i % 3 != 0 && p.mask == 0xff {
+                packet_nodes += stats.nodes;
+                alone_nodes += alone_stats.nodes;
+            }
+        }
+    }
+    assert!(hits > 3000, "{hits} hits");
+    assert!(
+        packet_nodes * 10 < alone_nodes * 7,
+        "coherent packets visited {packet_nodes} nodes, their rays alone {alone_nodes}"
+    );
+}

@@ -16,7 +16,9 @@
 
 use super::leaf::{leaf_lane, occlusion_lane, occlusion_leaf, test_leaf};
 use super::traverse::{fmin, LaneHit, SingleRay, CULL_SLACK, NO_SURFACE, ROBUST, STACK};
-use super::{AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats, EYE_PACKET};
+use super::{
+    AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats, EYE_PACKET,
+};
 use crate::math::Vec3;
 use arrayvec::ArrayVec;
 use wide::{f32x4, f32x8};
@@ -429,9 +431,10 @@ impl Bvh {
             } else {
                 self.closest_binary(packet, stats, test)
             }
-        } else if K == EYE_PACKET && packet.mask.count_ones() > 1 && std::env::var_os("TR_NOSEC8").is_none() {
-            // Eight rays (a mono row's or a pair's secondary rays): in one
-            // descent where their direction signs agree, bit for bit alone.
+        } else if K == EYE_PACKET && packet.mask.count_ones() > 1 {
+            // Eight rays (the secondary rays of a shading packet of eight):
+            // in one descent where their direction signs agree, bit for bit
+            // alone.
             let mut eight = Packet::<EYE_PACKET> {
                 origins: [Vec3::ZERO; EYE_PACKET],
                 dirs: [Vec3::Z; EYE_PACKET],
@@ -444,18 +447,13 @@ impl Bvh {
                 eight.dirs[l] = packet.dirs[l];
                 eight.t_max[l] = packet.t_max[l];
             }
-            match self.eye_packet8(&eight) {
-                Some((singles, rays)) => {
-                    let hits = self.closest_rays8(&eight, &singles, &rays, stats, test);
-                    let mut out = PacketHits::<K>::none();
-                    for l in 0..K {
-                        out.prim[l] = hits.prim[l];
-                        out.hit[l] = hits.hit[l];
-                    }
-                    out
-                }
-                None => self.closest_each_wide8(packet, stats, test),
+            let hits = self.closest_packet8_or_each(&eight, stats, test);
+            let mut out = PacketHits::<K>::none();
+            for l in 0..K {
+                out.prim[l] = hits.prim[l];
+                out.hit[l] = hits.hit[l];
             }
+            out
         } else {
             self.closest_each_wide8(packet, stats, test)
         }

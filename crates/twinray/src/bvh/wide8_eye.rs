@@ -118,19 +118,26 @@ impl Bvh {
         &self,
         packet: &Packet<EYE_PACKET>,
         stats: &mut TraversalStats,
-        test: impl NearestTest,
+        mut test: impl NearestTest,
     ) -> Option<PacketHits<EYE_PACKET>> {
         let (singles, rays) = self.eye_packet8(packet)?;
-        Some(self.closest_rays8(packet, &singles, &rays, stats, test))
+        let mut out = PacketHits::<EYE_PACKET>::none();
+        self.closest_rays8(
+            &singles,
+            &rays,
+            packet,
+            packet.mask & 0xff,
+            &mut out,
+            stats,
+            &mut test,
+        );
+        Some(out)
     }
 
     /// The packet's rays prepared for `closest_rays8`, or `None` where
     /// the packet descent does not apply (see `closest_eye_packet8`).
     #[inline]
-    pub(super) fn eye_packet8(
-        &self,
-        packet: &Packet<EYE_PACKET>,
-    ) -> Option<([SingleRay; EYE_PACKET], Rays8)> {
+    fn eye_packet8(&self, packet: &Packet<EYE_PACKET>) -> Option<([SingleRay; EYE_PACKET], Rays8)> {
         let mask = packet.mask & 0xff;
         if self.wide8.is_empty() || mask == 0 {
             return None;
@@ -142,18 +149,50 @@ impl Bvh {
         Some((singles, rays))
     }
 
-    /// `closest_eye_packet8`'s descent, its rays prepared (`eye_packet8`).
+    /// Nearest hit per lane of up to eight rays from anywhere (a shading
+    /// packet's secondary rays): in one descent where their direction signs
+    /// agree (`closest_eye_packet8`), else each alone. Each lane's hit is
+    /// bit for bit its single descent's. The eight-wide tree must exist.
+    ///
+    /// Splitting a packet by its lanes' signs, each part in a descent of its
+    /// own, measured no faster (docs/benchmarks.md, "Issue 17, tenth pass").
     #[inline]
-    pub(super) fn closest_rays8(
+    pub fn closest_packet8_or_each(
         &self,
         packet: &Packet<EYE_PACKET>,
-        singles: &[SingleRay; EYE_PACKET],
-        rays: &Rays8,
         stats: &mut TraversalStats,
         mut test: impl NearestTest,
     ) -> PacketHits<EYE_PACKET> {
-        let mask = packet.mask & 0xff;
         let mut out = PacketHits::<EYE_PACKET>::none();
+        let Some((singles, rays)) = self.eye_packet8(packet) else {
+            return self.closest_each_wide8(packet, stats, test);
+        };
+        self.closest_rays8(
+            &singles,
+            &rays,
+            packet,
+            packet.mask & 0xff,
+            &mut out,
+            stats,
+            &mut test,
+        );
+        out
+    }
+
+    /// `closest_eye_packet8`'s descent for the lanes of `mask` (whose
+    /// direction signs agree: `rays`), into those lanes of `out`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn closest_rays8<T: NearestTest>(
+        &self,
+        singles: &[SingleRay; EYE_PACKET],
+        rays: &Rays8,
+        packet: &Packet<EYE_PACKET>,
+        mask: u32,
+        out: &mut PacketHits<EYE_PACKET>,
+        stats: &mut TraversalStats,
+        test: &mut T,
+    ) {
         let mut best = packet.t_max;
         let slack = f32x8::splat(CULL_SLACK);
         let mut bound = f32x8::from(best) * slack;
@@ -181,7 +220,7 @@ impl Bvh {
                     prim: out.prim[l],
                     hit: out.hit[l],
                 };
-                self.wide8_single(start, &singles[l], &mut state, stats, &mut test, l);
+                self.wide8_single(start, &singles[l], &mut state, stats, test, l);
                 (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
                 bound = f32x8::from(best) * slack;
             } else if lanes != 0 && e.count > 0 {
@@ -197,7 +236,7 @@ impl Bvh {
                         prim: out.prim[l],
                         hit: out.hit[l],
                     };
-                    leaf_lane(leaf, l, &mut state, &mut test);
+                    leaf_lane(leaf, l, &mut state, test);
                     (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
                 }
                 bound = f32x8::from(best) * slack;
@@ -237,6 +276,5 @@ impl Bvh {
         stats.nodes += nodes;
         stats.box_tests += boxes;
         stats.prim_tests += prims;
-        out
     }
 }

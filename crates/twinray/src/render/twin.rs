@@ -1186,11 +1186,12 @@ mod tests {
             a.rays.eye,
             a.eye_packets
         );
-        // The mono row shades eight samples as one packet (the staged path
-        // one sample a group): the same rays, other descents, secondary
-        // packets of several lanes, and a shadow cache per lane.
+        // Both shade eight samples as one packet (the staged path eight
+        // groups of one, `shade_groups_packed`, which leaves out the lanes
+        // without a hit): the same rays, other packets, so other descents
+        // and another shadow cache per lane.
         assert!(a.shared_secondary_rays > a.rays.reflected / 2, "{a:?}");
-        assert_eq!((a.grouped_samples, b.shared_secondary_rays), (0, 0));
+        assert_eq!(a.grouped_samples, 0);
         for c in [&mut a, &mut b] {
             (c.shared_secondary, c.shared_secondary_rays) = (0, 0);
             (c.nodes, c.box_tests, c.prim_tests) = (0, 0, 0);
@@ -1400,6 +1401,63 @@ mod tests {
         assert!(
             same * 100 >= pairs * 95,
             "{same} of {pairs} pairs see one point"
+        );
+    }
+
+    /// A pair's groups are shaded four to a packet of eight lanes
+    /// (`shade_groups_packed`): every sample's colour is, bit for bit, the
+    /// one its group gets shaded alone (`shade_group`), and the secondary
+    /// rays go down in packets of more lanes than a group has (two).
+    #[test]
+    fn a_pairs_groups_are_shaded_four_to_a_packet() {
+        let world = World::new(crate::render::example_scene());
+        let camera = Camera::new(&world.scene.viewpoint, 96, 72);
+        let rig = Rig::stereo(&camera, 0.2, None).expect("rig");
+        let opts = RenderOptions::default();
+        let cancel = CancelToken::new();
+        let job = quiet_inputs(&world, &camera, &rig, &opts, &cancel);
+        let batch = TwinBatch::<2>::new(&job, rig.clone(), 0);
+        let width = camera.width as usize;
+        let mut scratch = RowScratch::<2>::default();
+        let mut eye = Tracer::new(&world, opts.trace);
+        let mut packed = Tracer::new(&world, opts.trace);
+        let mut alone = Tracer::new(&world, opts.trace);
+        let mut shaded = 0;
+        for y in 0..camera.height {
+            let row = SampleRow::centres(width, y);
+            batch.eye_pass(&mut eye, &row, &mut scratch, None);
+            batch.group(&row, &mut scratch);
+            let mut a = vec![vec![Color::ZERO; width]; 2];
+            let mut b = vec![vec![Color::ZERO; width]; 2];
+            batch.shade_groups(&mut packed, &scratch, &mut a);
+            for group in &scratch.groups {
+                batch.shade_group(&mut alone, &scratch, group, &mut b);
+            }
+            for v in 0..2 {
+                for (i, (ca, cb)) in a[v].iter().zip(&b[v]).enumerate() {
+                    let bits = |c: &Color| c.to_array().map(f32::to_bits);
+                    assert_eq!(bits(ca), bits(cb), "row {y}, view {v}, sample {i}");
+                }
+            }
+            shaded += scratch.groups.len();
+        }
+        assert!(shaded > width * camera.height as usize, "{shaded} groups");
+        let (a, b) = (packed.finish(), alone.finish());
+        assert_eq!(
+            (a.rays, a.grouped_samples),
+            (b.rays, b.grouped_samples),
+            "the same rays, the same groups"
+        );
+        assert!(a.rays.reflected > 1000 && a.grouped_samples > 0, "{a:?}");
+        // Lanes per packet of secondary rays: at most two alone.
+        let lanes = |c: &crate::stats::TraceCounts| {
+            c.shared_secondary_rays as f64 / c.shared_secondary.max(1) as f64
+        };
+        assert!(lanes(&b) <= 2.0, "alone: {}", lanes(&b));
+        assert!(
+            lanes(&a) > 4.0,
+            "packed: {} lanes a secondary packet",
+            lanes(&a)
         );
     }
 }
