@@ -405,7 +405,11 @@ struct PacketEntry<const K: usize> {
 impl Bvh {
     /// Nearest hit per lane (see `closest_binary` for the contract). Every
     /// active lane of a packet (a ray alone, a stereo pair, the views of a
-    /// batch) descends the eight-wide tree alone when there is one; without
+    /// batch) descends the eight-wide tree alone when there is one, but a
+    /// packet of eight lanes (a shading packet's secondary rays), which goes
+    /// down in one descent where its signs agree (`closest_packet8_or_each`:
+    /// 4–11 % off mono gears, mount and teapot, "Issues 16 and 17, tenth
+    /// pass"); without
     /// it a pair descends the four-wide tree in one descent
     /// (`closest_pair_wide`), wider packets the binary tree. All give the
     /// same hits. Measured in docs/benchmarks.md ("Issue 17, fourth pass:

@@ -10,7 +10,9 @@
 //! dropped at a pop when its own nearest hit is nearer than its own entry
 //! (`CULL_SLACK`), and a subtree only one ray entered is finished by that
 //! ray's single descent (`wide8_single`). Leaves are tested ray by ray
-//! (`leaf_lane`, the single descent's leaf test).
+//! (`leaf_lane`, the single descent's leaf test). The same descent serves
+//! the secondary rays of a shading packet of eight (`Bvh::closest`, through
+//! `closest_packet8_or_each`), whose lanes start from eight points.
 //!
 //! Exactness: per lane, the slab test is the single ray's (`Ray8`): the
 //! same planes (all rays of a packet share their direction signs, or the
@@ -121,17 +123,7 @@ impl Bvh {
         mut test: impl NearestTest,
     ) -> Option<PacketHits<EYE_PACKET>> {
         let (singles, rays) = self.eye_packet8(packet)?;
-        let mut out = PacketHits::<EYE_PACKET>::none();
-        self.closest_rays8(
-            &singles,
-            &rays,
-            packet,
-            packet.mask & 0xff,
-            &mut out,
-            stats,
-            &mut test,
-        );
-        Some(out)
+        Some(self.closest_rays8(&singles, &rays, packet, stats, &mut test))
     }
 
     /// The packet's rays prepared for `closest_rays8`, or `None` where
@@ -155,7 +147,8 @@ impl Bvh {
     /// bit for bit its single descent's. The eight-wide tree must exist.
     ///
     /// Splitting a packet by its lanes' signs, each part in a descent of its
-    /// own, measured no faster (docs/benchmarks.md, "Issue 17, tenth pass").
+    /// own, measured no faster (docs/benchmarks.md, "Issues 16 and 17, tenth
+    /// pass").
     #[inline]
     pub fn closest_packet8_or_each(
         &self,
@@ -163,36 +156,25 @@ impl Bvh {
         stats: &mut TraversalStats,
         mut test: impl NearestTest,
     ) -> PacketHits<EYE_PACKET> {
-        let mut out = PacketHits::<EYE_PACKET>::none();
-        let Some((singles, rays)) = self.eye_packet8(packet) else {
-            return self.closest_each_wide8(packet, stats, test);
-        };
-        self.closest_rays8(
-            &singles,
-            &rays,
-            packet,
-            packet.mask & 0xff,
-            &mut out,
-            stats,
-            &mut test,
-        );
-        out
+        match self.eye_packet8(packet) {
+            Some((singles, rays)) => self.closest_rays8(&singles, &rays, packet, stats, &mut test),
+            None => self.closest_each_wide8(packet, stats, test),
+        }
     }
 
-    /// `closest_eye_packet8`'s descent for the lanes of `mask` (whose
-    /// direction signs agree: `rays`), into those lanes of `out`.
-    #[allow(clippy::too_many_arguments)]
+    /// `closest_eye_packet8`'s descent, the packet's rays prepared
+    /// (`eye_packet8`: their direction signs agree).
     #[inline]
     fn closest_rays8<T: NearestTest>(
         &self,
         singles: &[SingleRay; EYE_PACKET],
         rays: &Rays8,
         packet: &Packet<EYE_PACKET>,
-        mask: u32,
-        out: &mut PacketHits<EYE_PACKET>,
         stats: &mut TraversalStats,
         test: &mut T,
-    ) {
+    ) -> PacketHits<EYE_PACKET> {
+        let mask = packet.mask & 0xff;
+        let mut out = PacketHits::<EYE_PACKET>::none();
         let mut best = packet.t_max;
         let slack = f32x8::splat(CULL_SLACK);
         let mut bound = f32x8::from(best) * slack;
@@ -276,5 +258,6 @@ impl Bvh {
         stats.nodes += nodes;
         stats.box_tests += boxes;
         stats.prim_tests += prims;
+        out
     }
 }
