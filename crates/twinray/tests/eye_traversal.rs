@@ -12,7 +12,7 @@ mod common;
 
 use common::brute;
 use std::cell::Cell;
-use twinray::bvh::{build, BuildOptions, Bvh, NearestTest, Packet, TraversalStats};
+use twinray::bvh::{build, BuildOptions, Bvh, NearestTest, Packet, PacketHits, TraversalStats};
 use twinray::math::{Aabb, Ray, Vec3};
 use twinray::shapes::{BlockHits, Shape, SurfaceHit, Triangle, Triangle4, TriangleNormals};
 
@@ -377,6 +377,35 @@ fn alone_and_brute(
     ]
 }
 
+/// Asserts that every active lane of packet `p` got (`got`) the hit it gets
+/// alone and by brute force, bit for bit, and that lanes off got none;
+/// returns the lanes with a hit.
+fn each_lane_as_alone(
+    shapes: &[Shape],
+    bvh: &Bvh,
+    p: &Packet<8>,
+    got: &PacketHits<8>,
+    stats: &mut TraversalStats,
+    label: &str,
+) -> u64 {
+    let mut hits = 0;
+    for l in 0..8 {
+        let found = got.has_hit(l).then(|| {
+            let h = got.hit[l];
+            (got.prim[l], [h.t, h.u, h.v].map(f32::to_bits))
+        });
+        if p.mask & (1 << l) == 0 {
+            assert_eq!(found, None, "{label}: lane {l} is off");
+            continue;
+        }
+        let [alone, brute] = alone_and_brute(shapes, bvh, p, l, stats);
+        assert_eq!(found, alone, "{label}, lane {l}: {p:?}");
+        assert_eq!(found, brute, "{label}, lane {l}: {p:?}");
+        hits += u64::from(found.is_some());
+    }
+    hits
+}
+
 /// Eight neighbouring eye rays in one descent (`closest_eye_packet8`, the
 /// mono row's): every active lane's hit is, bit for bit, the one the ray
 /// gets alone and brute force's, on scenes of ties (copies of triangles,
@@ -411,20 +440,8 @@ fn an_eye_packet_gives_each_ray_its_single_descents_hit() {
                 continue;
             };
             packets += 1;
-            for l in 0..8 {
-                let found = got.has_hit(l).then(|| {
-                    let h = got.hit[l];
-                    (got.prim[l], [h.t, h.u, h.v].map(f32::to_bits))
-                });
-                if p.mask & (1 << l) == 0 {
-                    assert_eq!(found, None, "{n} triangles, packet {i}: lane {l} is off");
-                    continue;
-                }
-                let [alone, brute] = alone_and_brute(&shapes, &bvh, p, l, &mut stats);
-                assert_eq!(found, alone, "{n} triangles, packet {i}, lane {l}: {p:?}");
-                assert_eq!(found, brute, "{n} triangles, packet {i}, lane {l}: {p:?}");
-                hits += u64::from(found.is_some());
-            }
+            let label = format!("{n} triangles, packet {i}");
+            hits += each_lane_as_alone(&shapes, &bvh, p, &got, &mut stats, &label);
         }
     }
     assert!(
@@ -530,20 +547,8 @@ fn secondary_packets_of_eight_give_each_ray_its_own_hit() {
             let mut stats = TraversalStats::default();
             let got = bvh.closest(p, &mut stats, test);
             let mut alone_stats = TraversalStats::default();
-            for l in 0..8 {
-                let found = got.has_hit(l).then(|| {
-                    let h = got.hit[l];
-                    (got.prim[l], [h.t, h.u, h.v].map(f32::to_bits))
-                });
-                if p.mask & (1 << l) == 0 {
-                    assert_eq!(found, None, "{n} triangles, packet {i}: lane {l} is off");
-                    continue;
-                }
-                let [alone, brute] = alone_and_brute(&shapes, &bvh, p, l, &mut alone_stats);
-                assert_eq!(found, alone, "{n} triangles, packet {i}, lane {l}: {p:?}");
-                assert_eq!(found, brute, "{n} triangles, packet {i}, lane {l}: {p:?}");
-                hits += u64::from(found.is_some());
-            }
+            let label = format!("{n} triangles, packet {i}");
+            hits += each_lane_as_alone(&shapes, &bvh, p, &got, &mut alone_stats, &label);
             if i % 3 != 0 && p.mask == 0xff {
                 packet_nodes += stats.nodes;
                 alone_nodes += alone_stats.nodes;
