@@ -173,10 +173,23 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         scratch.hits[view][sample].0 != PacketHits::<K>::NO_HIT
     }
 
-    /// View `v`'s eye ray direction through sample `i` of `row`.
-    fn sample_dir(&self, row: &SampleRow, v: usize, i: usize) -> Vec3 {
-        let (column, y) = row.camera_point(i, self.shifts[v]);
-        self.camera.direction(column, y)
+    /// `f(i, direction)` for every sample `i` of `row`, in order, of the
+    /// view of image shift `shift`: eight at a time (`Camera::directions8`:
+    /// one vector square root and division for eight, each direction
+    /// `Camera::direction`'s bit for bit).
+    #[inline]
+    fn row_dirs(&self, row: &SampleRow, shift: i32, mut f: impl FnMut(usize, Vec3)) {
+        for first in (0..row.len()).step_by(8) {
+            let n = (row.len() - first).min(8);
+            let (mut columns, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
+            for k in 0..n {
+                (columns[k], ys[k]) = row.camera_point(first + k, shift);
+            }
+            let dirs = self.camera.directions8(columns, ys);
+            for (k, &dir) in dirs[..n].iter().enumerate() {
+                f(first + k, dir);
+            }
+        }
     }
 
     /// Stage 1: the nearest hit of every view's sample of `row`, one descent
@@ -195,9 +208,8 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         let n = self.views;
         scratch.reset(n, row.len());
         for v in 0..n {
-            for i in 0..row.len() {
-                scratch.dirs[v][i] = self.sample_dir(row, v, i);
-            }
+            let dirs = &mut scratch.dirs[v];
+            self.row_dirs(row, self.shifts[v], |i, dir| dirs[i] = dir);
         }
         let cut = self.world.far.is_some();
         if cut {
@@ -736,9 +748,8 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         fit(&mut scratch.received, n, row.len(), None);
         let mut donor = std::mem::take(&mut scratch.donor);
         for v in 0..n {
-            for i in 0..row.len() {
-                scratch.dirs[v][i] = self.sample_dir(row, v, i);
-            }
+            let dirs = &mut scratch.dirs[v];
+            self.row_dirs(row, self.shifts[v], |i, dir| dirs[i] = dir);
         }
         // View 0's eye rays, one at a time (a mono render of view 0).
         for (i, sample_out) in out[0].iter_mut().enumerate() {
@@ -809,22 +820,10 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         let (origin, shift) = (self.origins[0], self.shifts[0]);
         let mono = &mut scratch.mono;
         mono.clear();
-        // The directions first, in a loop of their own, eight at a time
-        // (`Camera::directions8`: one vector square root and division for
-        // eight, each direction `Camera::direction`'s bit for bit).
-        for first in (0..row.len()).step_by(8) {
-            let n = (row.len() - first).min(8);
-            let (mut columns, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
-            for k in 0..n {
-                (columns[k], ys[k]) = row.camera_point(first + k, shift);
-            }
-            let dirs = self.camera.directions8(columns, ys);
-            mono.extend(
-                dirs[..n]
-                    .iter()
-                    .map(|&dir| (dir, PacketHits::<1>::NO_HIT, NONE)),
-            );
-        }
+        // The directions first, in a loop of their own.
+        self.row_dirs(row, shift, |_, dir| {
+            mono.push((dir, PacketHits::<1>::NO_HIT, NONE))
+        });
         if tracer.eye_hit_applies() {
             // Eight neighbouring samples' rays in one descent where their
             // direction signs agree (each hit bit for bit `eye_hit`'s),
