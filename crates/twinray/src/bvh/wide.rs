@@ -16,7 +16,9 @@
 
 use super::leaf::{leaf_lane, occlusion_lane, occlusion_leaf, test_leaf};
 use super::traverse::{fmin, LaneHit, SingleRay, CULL_SLACK, NO_SURFACE, ROBUST, STACK};
-use super::{AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats, EYE_PACKET};
+use super::{
+    AnyHitTest, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats, EYE_PACKET,
+};
 use crate::math::Vec3;
 use arrayvec::ArrayVec;
 use wide::{f32x4, f32x8};
@@ -429,7 +431,10 @@ impl Bvh {
             } else {
                 self.closest_binary(packet, stats, test)
             }
-        } else if K == EYE_PACKET && packet.mask.count_ones() > 1 && std::env::var_os("TR_NOSEC8").is_none() {
+        } else if K == EYE_PACKET
+            && packet.mask.count_ones() > 1
+            && std::env::var_os("TR_NOSEC8").is_none()
+        {
             // Eight rays (a mono row's or a pair's secondary rays): in one
             // descent where their direction signs agree, bit for bit alone.
             let mut eight = Packet::<EYE_PACKET> {
