@@ -177,9 +177,13 @@ fn views_samples_of_one_point_are_shaded_together() {
         &options(Method::Twin, Sampling::Centers),
     );
     assert!(twin.counts.shared_secondary > 0);
-    assert_eq!(
+    // Secondary packets of at least two lanes: a group's, or (the groups
+    // shaded eight lanes to a packet) those of several groups.
+    assert!(
+        twin.counts.shared_secondary_rays > 2 * twin.counts.shared_secondary,
+        "{} rays in {} packets",
         twin.counts.shared_secondary_rays,
-        2 * twin.counts.shared_secondary
+        twin.counts.shared_secondary
     );
     let hits = twin.counts.rays.eye_hit;
     assert!(
