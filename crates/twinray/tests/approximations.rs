@@ -272,7 +272,10 @@ fn merged_secondary_rays_serve_both_views_of_a_mirror_floor() {
     let exact = run(&world, &cam, &rig, &approx(None, false));
     let merged = run(&world, &cam, &rig, &approx(None, true));
     assert!(merged.counts.merged_rays > 0);
-    assert!(merged.counts.nodes < exact.counts.nodes);
+    // No claim on node visits: the exact pair shades four groups in one
+    // eight-lane packet, while a merged ray is traced alone (a one-lane
+    // packet), so here the merged pair visits about 6 % more nodes than the
+    // exact one (docs/benchmarks.md, "Issue 16, tenth pass").
     for v in 0..2 {
         let d = compare(&exact.images[v], &merged.images[v]).expect("same size");
         assert!(d.psnr_db >= 30.0, "view {v}: {d:?}");

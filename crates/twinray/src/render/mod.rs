@@ -39,7 +39,7 @@ mod view_synthesis;
 pub use interpolated_views::{InterpStats, InterpolateViews};
 pub use sampler::{Filter, SampleRow, Sampling};
 pub(crate) use tracer::MAX_CUTOUT_LAYERS;
-pub use tracer::{Donor, SecondaryRays, TraceSettings, Tracer};
+pub use tracer::{Donor, Donors, SecondaryRays, TraceSettings, Tracer};
 pub use view_synthesis::{SynthesisStats, ViewSynthesis};
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

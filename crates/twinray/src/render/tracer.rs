@@ -97,6 +97,21 @@ struct ShadingTree {
     /// Key views (`key_views`): with a chain, what each secondary ray of a
     /// one-lane tree hit, in the order traced.
     chain: Option<key_views::Chain>,
+    /// Per lane of the top packet (of at most `EYE_PACKET` lanes), the
+    /// largest coefficient of its own rays' surfaces: each donor of a packet
+    /// of donors (`shade_donors`) is judged on its own tree, as alone.
+    lane_largest: [f32; EYE_PACKET],
+    /// The lanes of the top packet whose rays the current packet of one lane
+    /// carries: a packet of several lanes keeps its lanes in their places
+    /// (`trace_spawned`), one of one lane does not (one lane's ray alone, or
+    /// merged lanes' one ray). Lane 0 at the top.
+    single: u32,
+    /// Under `MergedOnPlanes`, per lane of the top packet (of eight lanes),
+    /// the group of views it belongs to: only lanes of one group merge their
+    /// rays (section 2.4 merges the views' rays of one point, not those of
+    /// neighbouring samples that a packet of several groups holds). `None`:
+    /// the packet is one group.
+    groups: Option<[u8; EYE_PACKET]>,
 }
 
 impl ShadingTree {
@@ -105,6 +120,40 @@ impl ShadingTree {
             secondary,
             largest_coefficient: 0.0,
             chain: None,
+            lane_largest: [0.0; EYE_PACKET],
+            single: 1,
+            groups: None,
+        }
+    }
+
+    /// The lanes of the top packet that `lanes` of a packet of `K` lanes are.
+    fn top_lanes<const K: usize>(&self, lanes: u32) -> u32 {
+        if K == 1 {
+            self.single
+        } else {
+            lanes
+        }
+    }
+
+    /// Lane `l` of a packet of `K` lanes shaded a surface of specular or
+    /// transmission coefficient (or uncovered share) `c`.
+    fn note<const K: usize>(&mut self, l: usize, c: f32) {
+        self.largest_coefficient = self.largest_coefficient.max(c);
+        let mut lanes = self.top_lanes::<K>(1 << l);
+        while lanes != 0 {
+            let top = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            if let Some(largest) = self.lane_largest.get_mut(top) {
+                *largest = largest.max(c);
+            }
+        }
+    }
+
+    /// Whether lanes `l` and `m` of a packet of `K` lanes belong to one group.
+    fn one_group<const K: usize>(&self, l: usize, m: usize) -> bool {
+        match self.groups {
+            Some(groups) if K > 1 => groups.get(l) == groups.get(m),
+            _ => true,
         }
     }
 }
@@ -143,6 +192,23 @@ pub struct Donor {
     pub secondary: Color,
     /// Largest specular or transmission coefficient over the shading tree.
     pub tree_coefficient: f32,
+}
+
+/// What `Donor` keeps, for each lane of a packet of donors (`shade_donors`).
+#[derive(Clone, Debug, Default)]
+pub struct Donors {
+    pub colors: [Color; EYE_PACKET],
+    /// Transmittance toward each light, lane `l`'s at `l * lights..`.
+    pub through: Vec<f32>,
+    pub secondary: [Color; EYE_PACKET],
+    pub tree_coefficients: [f32; EYE_PACKET],
+}
+
+impl Donors {
+    /// Lane `l`'s transmittance toward each of `lights` lights.
+    pub fn through(&self, l: usize, lights: usize) -> &[f32] {
+        &self.through[l * lights..(l + 1) * lights]
+    }
 }
 
 /// The colour of a reflected ray of weight `mirror`: the material's own
@@ -359,9 +425,55 @@ impl<'a> Tracer<'a> {
         donor.through.resize(self.world.scene.lights.len(), 0.0);
         donor.secondary = Color::ZERO;
         let mut tree = ShadingTree::new(secondary);
-        let record = Some((&mut donor.through[..], &mut donor.secondary));
+        let record = Some((
+            &mut donor.through[..],
+            std::slice::from_mut(&mut donor.secondary),
+        ));
         donor.color = self.shade_stages(packet, hits, 1, [1.0], &mut tree, record)[0];
         donor.tree_coefficient = tree.largest_coefficient;
+    }
+
+    /// `shade_donor` for the lanes of a packet of eye rays at once (the
+    /// donors of neighbouring samples: their shadow segments and secondary
+    /// rays go down in the eight-lane descents). Each lane's colour, light
+    /// and secondary colour are what it gets alone (its own rays; no two
+    /// lanes merge theirs, as a one-lane tree merges nothing), and so is its
+    /// tree's largest coefficient (its own surfaces'). Into `donors` (its
+    /// buffers are reused).
+    pub fn shade_donors(
+        &mut self,
+        packet: &Packet<EYE_PACKET>,
+        hits: &PacketHits<EYE_PACKET>,
+        secondary: SecondaryRays,
+        donors: &mut Donors,
+    ) {
+        donors.through.clear();
+        donors
+            .through
+            .resize(self.world.scene.lights.len() * EYE_PACKET, 0.0);
+        donors.secondary = [Color::ZERO; EYE_PACKET];
+        let mut tree = ShadingTree::new(secondary);
+        tree.groups = Some(std::array::from_fn(|l| l as u8));
+        let record = Some((&mut donors.through[..], &mut donors.secondary[..]));
+        let weights = [1.0; EYE_PACKET];
+        donors.colors = self.shade_stages(packet, hits, 1, weights, &mut tree, record);
+        donors.tree_coefficients = tree.lane_largest;
+    }
+
+    /// `shade_eye_lanes` for a packet of eight lanes from several groups of
+    /// views (lane `l` of group `groups[l]`): merged secondary rays
+    /// (`MergedOnPlanes`) join only lanes of one group, as when each group
+    /// is shaded as a packet of its own.
+    pub fn shade_eye_groups(
+        &mut self,
+        packet: &Packet<EYE_PACKET>,
+        hits: &PacketHits<EYE_PACKET>,
+        secondary: SecondaryRays,
+        groups: [u8; EYE_PACKET],
+    ) -> [Color; EYE_PACKET] {
+        let mut tree = ShadingTree::new(secondary);
+        tree.groups = Some(groups);
+        self.shade(packet, hits, 1, [1.0; EYE_PACKET], &mut tree)
     }
 
     /// The colour of an eye ray's own hit (lane 0), its lights' visibility and
@@ -374,25 +486,50 @@ impl<'a> Tracer<'a> {
         hits: &PacketHits<1>,
         donor: &Donor,
     ) -> Color {
+        self.shade_from_donors(packet, hits, &donor.through, &[donor.secondary])[0]
+    }
+
+    /// `shade_from_donor` for every lane of `packet`: lane `l` takes the
+    /// transmittances `through[l * lights..]` and the secondary colour
+    /// `secondary[l]` (each lane's colour is what it gets alone).
+    pub fn shade_from_donors<const K: usize>(
+        &mut self,
+        packet: &Packet<K>,
+        hits: &PacketHits<K>,
+        through: &[f32],
+        secondary: &[Color; K],
+    ) -> [Color; K] {
         // At the deepest level: no secondary ray is spawned (the donor's are taken).
         let mut tree = ShadingTree::new(SecondaryRays::Own);
-        let s = self.surfaces(packet, hits, self.settings.max_depth, [1.0], &mut tree);
-        let mut out = s.ambient[0];
-        let Some(sp) = &s.points[0] else { return out };
-        if s.lit & 1 == 0 {
-            return out + donor.secondary;
-        }
+        let s = self.surfaces(packet, hits, self.settings.max_depth, [1.0; K], &mut tree);
+        let mut out = s.ambient;
         let scene = &self.world.scene;
-        for (i, light) in scene.lights.iter().enumerate() {
-            let through = donor.through.get(i).copied().unwrap_or(0.0);
-            if through <= 0.0 {
-                continue;
+        let lights = scene.lights.len();
+        let mut lanes = packet.mask;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let Some(sp) = &s.points[l] else { continue };
+            if s.lit & (1 << l) != 0 {
+                for (i, light) in scene.lights.iter().enumerate() {
+                    let through = through.get(l * lights + i).copied().unwrap_or(0.0);
+                    if through <= 0.0 {
+                        continue;
+                    }
+                    if let Some((dir, _, color)) = toward_light(sp, light) {
+                        out[l] += light_contribution(
+                            sp,
+                            packet.dirs[l],
+                            dir,
+                            color,
+                            through * s.coverage[l],
+                        );
+                    }
+                }
             }
-            if let Some((dir, _, color)) = toward_light(sp, light) {
-                out += light_contribution(sp, packet.dirs[0], dir, color, through * s.coverage[0]);
-            }
+            out[l] += secondary[l];
         }
-        out + donor.secondary
+        out
     }
 
     /// The nearest hit of every lane, in the whole scene, past cut-outs.
@@ -523,8 +660,10 @@ impl<'a> Tracer<'a> {
         self.shade_stages(packet, hits, level, weights, tree, None)
     }
 
-    /// `shade`'s stages; with `record`, lane 0's transmittance toward each light
-    /// and its weighted secondary colour are written there (`shade_donor`).
+    /// `shade`'s stages; with `record`, each lane's transmittance toward each
+    /// light (lane `l`'s at `l * lights..`, zeroed by the caller) and its
+    /// weighted secondary colour are written there (`shade_donor`,
+    /// `shade_donors`).
     fn shade_stages<const K: usize>(
         &mut self,
         packet: &Packet<K>,
@@ -532,7 +671,7 @@ impl<'a> Tracer<'a> {
         level: u32,
         weights: [f32; K],
         tree: &mut ShadingTree,
-        record: Option<(&mut [f32], &mut Color)>,
+        record: Option<(&mut [f32], &mut [Color])>,
     ) -> [Color; K] {
         let (through, secondary) = record.unzip();
         let surfaces = self.surfaces(packet, hits, level, weights, tree);
@@ -591,10 +730,14 @@ impl<'a> Tracer<'a> {
             };
             let (material, normal) = (surface.material, surface.normal);
             let coverage = surface.coverage;
-            tree.largest_coefficient = tree
-                .largest_coefficient
-                .max(material.ks.max(material.mirror).max(material.t))
-                .max(1.0 - coverage);
+            tree.note::<K>(
+                l,
+                material
+                    .ks
+                    .max(material.mirror)
+                    .max(material.t)
+                    .max(1.0 - coverage),
+            );
             let facing = if normal.dot(d) < 0.0 { normal } else { -normal };
             // Rays leave along the normal before a normal map bent it.
             let unbent = surface.offset_normal;
@@ -672,9 +815,10 @@ impl<'a> Tracer<'a> {
     }
 
     /// Stage 2: diffuse and highlight from every light not in shadow. The lanes'
-    /// shadow rays toward a light go as one packet. With `record`, lane 0's
-    /// transmittance toward each light is written there (0 where no shadow ray
-    /// was cast), for the reprojection of its shading to other views. At the
+    /// shadow rays toward a light go as one packet. With `record`, each lane's
+    /// transmittance toward each light is written there (lane `l`'s light `i`
+    /// at `l * lights + i`; left 0 where no shadow ray was cast), for the
+    /// reprojection of its shading to other views. At the
     /// eye hits (`eye`), lanes `row_shadows` proved lit trace no shadow ray.
     fn direct_light<const K: usize>(
         &mut self,
@@ -722,7 +866,15 @@ impl<'a> Tracer<'a> {
             let proved = if eye { self.row_shadows.lanes(i) } else { 0 };
             let through = self.light_transmittance(i, level, &mut seg, proved);
             if let Some(r) = record.as_deref_mut() {
-                r[i] = if seg.mask & 1 != 0 { through[0] } else { 0.0 };
+                let lights = scene.lights.len();
+                let mut lanes = seg.mask;
+                while lanes != 0 {
+                    let l = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    if let Some(slot) = r.get_mut(l * lights + i) {
+                        *slot = through[l];
+                    }
+                }
             }
             let mut lanes = seg.mask;
             while lanes != 0 {
@@ -813,7 +965,7 @@ impl<'a> Tracer<'a> {
     }
 
     /// Stage 3: the reflected, then the refracted rays, each kind as one packet,
-    /// weighted into the lanes' colours. With `record`, lane 0's sum of
+    /// weighted into the lanes' colours. With `record`, each lane's sum of
     /// weighted secondary colours is written there.
     fn secondary<const K: usize>(
         &mut self,
@@ -822,7 +974,7 @@ impl<'a> Tracer<'a> {
         weights: &[f32; K],
         tree: &mut ShadingTree,
         out: &mut [Color; K],
-        mut record: Option<&mut Color>,
+        mut record: Option<&mut [Color]>,
     ) {
         // Rays passed straight through a BLEND surface count as refracted.
         for (spawns, reflected) in [
@@ -848,10 +1000,8 @@ impl<'a> Tracer<'a> {
                     }
                     let add = c[l] * sp.coefficient * sp.tint;
                     out[l] += add;
-                    if l == 0 {
-                        if let Some(r) = record.as_deref_mut() {
-                            *r += add;
-                        }
+                    if let Some(r) = record.as_deref_mut().and_then(|r| r.get_mut(l)) {
+                        *r += add;
                     }
                 }
             }
@@ -906,7 +1056,10 @@ impl<'a> Tracer<'a> {
                 mask: 1,
             };
             let mut out = [Color::ZERO; K];
+            let above = tree.single;
+            tree.single = tree.top_lanes::<K>(1 << l);
             out[l] = self.trace::<1>(&single, level, [child_weights[l]], tree)[0];
+            tree.single = above;
             return out;
         }
         self.trace(&packet, level, child_weights, tree)
@@ -940,7 +1093,7 @@ impl<'a> Tracer<'a> {
             while others != 0 {
                 let m = others.trailing_zeros() as usize;
                 others &= others - 1;
-                if self.world.coplanar(s.prims[l], s.prims[m]) {
+                if tree.one_group::<K>(l, m) && self.world.coplanar(s.prims[l], s.prims[m]) {
                     members |= 1 << m;
                 }
             }
@@ -971,7 +1124,10 @@ impl<'a> Tracer<'a> {
                 t_max: [f32::INFINITY],
                 mask: 1,
             };
+            let above = tree.single;
+            tree.single = tree.top_lanes::<K>(members);
             let c = self.trace::<1>(&single, level, [weight], tree)[0];
+            tree.single = above;
             self.counts.merged_rays += (count - 1) as u64;
             let mut each = members;
             while each != 0 {
@@ -1350,6 +1506,96 @@ mod tests {
             diffuse > 0 && mirrors > 0,
             "{diffuse} diffuse, {mirrors} deeper trees"
         );
+    }
+
+    /// `shade_donors` keeps, for each lane of a packet of eight, what
+    /// `shade_donor` keeps for that lane alone (colour, transmittance toward
+    /// each light, secondary colour, its tree's largest coefficient), bit for
+    /// bit, with the lanes' own or merged secondary rays (a packet of donors
+    /// merges no two lanes' rays, as a one-lane tree merges nothing); and
+    /// `shade_from_donors` gives each lane, taking another lane's donor,
+    /// what `shade_from_donor` gives it alone.
+    #[test]
+    fn a_packet_of_donors_keeps_what_each_donor_keeps_alone() {
+        let w = world(SCENE);
+        let camera = Camera::new(&w.scene.viewpoint, 64, 48);
+        let lights = w.scene.lights.len();
+        let mut rng = fastrand::Rng::with_seed(11);
+        for secondary in [SecondaryRays::Own, SecondaryRays::MergedOnPlanes] {
+            let mut packed = Tracer::new(&w, TraceSettings::default());
+            let mut single = Tracer::new(&w, TraceSettings::default());
+            let (mut donors, mut donor) = (Donors::default(), Donor::default());
+            let (mut shadowed, mut deeper, mut lanes) = (0, 0, 0);
+            for (n, packet) in eye_packets::<EYE_PACKET>(&camera, &mut rng, 200)
+                .iter()
+                .enumerate()
+            {
+                let hits = packed.eye_hits(packet, &[0; EYE_PACKET]);
+                packed.shade_donors(packet, &hits, secondary, &mut donors);
+                let alone = |l: usize| {
+                    let ray = Packet {
+                        origins: [packet.origins[l]],
+                        dirs: [packet.dirs[l]],
+                        t_min: packet.t_min,
+                        t_max: [f32::INFINITY],
+                        mask: 1,
+                    };
+                    let hit = PacketHits {
+                        prim: [hits.prim[l]],
+                        hit: [hits.hit[l]],
+                    };
+                    (ray, hit)
+                };
+                let used: Vec<usize> = (0..EYE_PACKET)
+                    .filter(|l| packet.mask & (1 << l) != 0)
+                    .collect();
+                for &l in &used {
+                    let (ray, hit) = alone(l);
+                    single.shade_donor(&ray, &hit, secondary, &mut donor);
+                    let what = format!("{secondary:?}, packet {n}, lane {l}");
+                    assert_eq!(bits(donors.colors[l]), bits(donor.color), "{what}");
+                    let through = |t: &[f32]| t.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(
+                        through(donors.through(l, lights)),
+                        through(&donor.through),
+                        "{what}"
+                    );
+                    assert_eq!(bits(donors.secondary[l]), bits(donor.secondary), "{what}");
+                    assert_eq!(
+                        donors.tree_coefficients[l].to_bits(),
+                        donor.tree_coefficient.to_bits(),
+                        "{what}"
+                    );
+                    lanes += 1;
+                    shadowed += usize::from(donor.through.contains(&0.0) && hit.has_hit(0));
+                    deeper += usize::from(donor.secondary != Color::ZERO);
+                }
+                // Each lane takes the next used lane's donor.
+                let from = |k: usize| used[(k + 1) % used.len()];
+                let mut through = vec![0.0; lights * EYE_PACKET];
+                let mut taken = [Color::ZERO; EYE_PACKET];
+                for (k, &l) in used.iter().enumerate() {
+                    through[l * lights..(l + 1) * lights]
+                        .copy_from_slice(donors.through(from(k), lights));
+                    taken[l] = donors.secondary[from(k)];
+                }
+                let colors = packed.shade_from_donors(packet, &hits, &through, &taken);
+                for (k, &l) in used.iter().enumerate() {
+                    let (ray, hit) = alone(l);
+                    let given = Donor {
+                        through: donors.through(from(k), lights).to_vec(),
+                        secondary: donors.secondary[from(k)],
+                        ..Donor::default()
+                    };
+                    let color = single.shade_from_donor(&ray, &hit, &given);
+                    assert_eq!(bits(colors[l]), bits(color), "{secondary:?}, {n}, {l}");
+                }
+            }
+            assert!(
+                shadowed > 20 && deeper > 20 && lanes > 800,
+                "{shadowed} shadowed, {deeper} with secondary rays, of {lanes}"
+            );
+        }
     }
 
     #[test]

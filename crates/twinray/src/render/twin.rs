@@ -25,6 +25,7 @@
 //!    tree is diffuse) or as the paper published it (`reproject_forward`).
 
 mod key_views;
+mod packed;
 mod shared_shading;
 
 use std::time::Instant;
@@ -32,7 +33,7 @@ use std::time::Instant;
 use super::grouping::{group_row, nearest_sample, Group};
 use super::sampler::{RowColors, SampleRow};
 use super::strip::StripRow;
-use super::tracer::{flat_materials, Donor, SecondaryRays};
+use super::tracer::{flat_materials, Donor, Donors, SecondaryRays};
 use super::{
     RenderInputs, ReprojectMode, Reprojection, RowWorker, SharedShading, Tracer, ViewBatch,
 };
@@ -72,6 +73,9 @@ pub(super) struct TwinBatch<'a, const K: usize> {
     /// Per material, whether every eye hit on it shades to one colour
     /// (`tracer::flat_materials`): the mono row shades one and copies it.
     flat: Vec<bool>,
+    /// Lanes per packet of donors, takers and exact groups (`packed`):
+    /// `EYE_PACKET`, or 1 in the tests' reference.
+    packet_lanes: usize,
 }
 
 /// Paper-mode reprojection: the depth of the nearest point of view 0 that
@@ -97,6 +101,10 @@ pub(super) struct RowScratch<const K: usize> {
     claimed: Vec<Vec<bool>>,
     groups: Vec<Group<K>>,
     donor: Donor,
+    /// Donors and the samples that take their light, eight to a packet
+    /// (`packed`).
+    donors: packed::DonorPacket,
+    takers: packed::TakerPacket,
     kept: KeptShading,
     /// Paper-mode reprojection: per view and sample, the depth of the nearest
     /// point of view 0 projected there so far, and its colour if it gives it.
@@ -162,6 +170,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             shared_shading: job.opts.approx.shared_shading,
             key_spacing: job.opts.approx.key_spacing,
             flat: flat_materials(&job.world.scene, &job.opts.trace),
+            packet_lanes: EYE_PACKET,
         }
     }
 
@@ -555,77 +564,11 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         scratch: &RowScratch<K>,
         out: &mut [RowColors],
     ) {
-        let mut packet = Packet::<EYE_PACKET> {
-            origins: [Vec3::ZERO; EYE_PACKET],
-            dirs: [Vec3::Z; EYE_PACKET],
-            t_min: self.camera.hither,
-            t_max: [f32::INFINITY; EYE_PACKET],
-            mask: 0,
-        };
-        let mut hits = PacketHits::<EYE_PACKET>::none();
-        // Each lane's (view, sample).
-        let mut lanes = [(0usize, 0usize); EYE_PACKET];
-        let mut n = 0;
-        let cut = self.world.far.is_some();
+        let mut lanes = self.lanes();
         for group in &scratch.groups {
-            // The group's samples shaded here: those beyond a cut are
-            // shaded already (`shade_cut`); those that missed take the
-            // background, as `surfaces` gives it.
-            let (mut shaded, mut any_hit) = (0u64, false);
-            for (v, sample) in group.iter().enumerate() {
-                let Some(i) = *sample else { continue };
-                if cut && scratch.far[v][i] {
-                    continue;
-                }
-                shaded += 1;
-                if !Self::has_hit(scratch, v, i) {
-                    out[v][i] = self.world.scene.background_toward(self.dir(scratch, v, i));
-                    continue;
-                }
-                any_hit = true;
-                if n == EYE_PACKET {
-                    self.shade_lanes(tracer, &mut packet, &hits, &lanes, out);
-                    n = 0;
-                }
-                packet.origins[n] = self.origins[v];
-                packet.dirs[n] = self.dir(scratch, v, i);
-                (hits.prim[n], hits.hit[n]) = scratch.hits[v][i];
-                packet.mask |= 1 << n;
-                lanes[n] = (v, i);
-                n += 1;
-            }
-            if any_hit && shaded > 1 {
-                tracer.counts.grouped_samples += shaded;
-            }
+            self.push_group(tracer, scratch, group, &mut lanes, out);
         }
-        if n > 0 {
-            self.shade_lanes(tracer, &mut packet, &hits, &lanes, out);
-        }
-    }
-
-    /// Shades the lanes of `packet` (lane `l`: view `lanes[l].0`'s sample
-    /// `lanes[l].1`) into `out`, and empties the packet.
-    fn shade_lanes(
-        &self,
-        tracer: &mut Tracer,
-        packet: &mut Packet<EYE_PACKET>,
-        hits: &PacketHits<EYE_PACKET>,
-        lanes: &[(usize, usize); EYE_PACKET],
-        out: &mut [RowColors],
-    ) {
-        let mask = packet.mask;
-        tracer.row_shadows.select_lanes(
-            (0..EYE_PACKET)
-                .filter(|l| mask & (1 << l) != 0)
-                .map(|l| (l, self.first_view + lanes[l].0, lanes[l].1)),
-        );
-        let colors = tracer.shade_eye_lanes(packet, hits, self.secondary);
-        for (l, &(v, i)) in lanes.iter().enumerate() {
-            if mask & (1 << l) != 0 {
-                out[v][i] = colors[l];
-            }
-        }
-        packet.mask = 0;
+        self.shade_lanes(tracer, &mut lanes, out);
     }
 
     /// Whether view `v`'s sample `k` sees the surface point that view 0's
@@ -658,14 +601,17 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
     /// the visibility test), in two steps over the row:
     ///
     /// 1. View 0's sample of each group whose hit is diffuse (`threshold`) and
-    ///    seen by another sample of the group is shaded alone, and its light
-    ///    visibility and secondary colour kept; the other groups are shaded as
-    ///    packets, exactly.
+    ///    seen by another sample of the group is shaded as a donor, and its
+    ///    light visibility and secondary colour kept; the other groups are
+    ///    shaded exactly.
     /// 2. Each other sample of such a group takes them — and computes its own
     ///    ambient, diffuse and highlight terms — if it sees the same surface
     ///    point, every surface of the donor's shading tree is diffuse, and the
     ///    donor's neighbours in the row saw the lights as it did (no shadow
     ///    edge within a pixel). The samples refused are shaded exactly.
+    ///
+    /// Donors, takers and exact groups each go eight lanes to a packet
+    /// (`packed`): each lane's colour is what it gets alone.
     fn share_groups(
         &self,
         tracer: &mut Tracer,
@@ -675,9 +621,19 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
     ) {
         let lights = self.world.scene.lights.len();
         let width = scratch.hits[0].len();
-        let mut donor = std::mem::take(&mut scratch.donor);
+        let mut donors = std::mem::take(&mut scratch.donors);
+        let mut takers = std::mem::take(&mut scratch.takers);
         let mut kept = std::mem::take(&mut scratch.kept);
         kept.reset(width, lights);
+        let mut exact = self.lanes();
+        let keep = |donors: &mut packed::DonorPacket, kept: &mut KeptShading| {
+            if let Some(lanes) = donors.lanes.as_mut() {
+                for (l, _, i) in lanes.filled() {
+                    kept.keep_lane(i, &donors.donors, l, threshold);
+                }
+                lanes.clear();
+            }
+        };
         for group in &scratch.groups {
             // A group none of whose other samples sees view 0's point keeps its
             // shared descents: it is shaded as one packet.
@@ -690,14 +646,17 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             };
             match group[0] {
                 Some(i) if self.diffuse_hit(scratch, 0, i, threshold) && takers(i) => {
-                    let (packet, hits) = self.sample_packet(scratch, 0, i);
-                    tracer.shade_donor(&packet, &hits, self.secondary, &mut donor);
-                    out[0][i] = donor.color;
-                    kept.keep(i, &donor, threshold);
+                    self.push_donor(scratch, &mut donors, i);
+                    if donors.lanes.as_ref().is_some_and(packed::Lanes::is_full) {
+                        self.shade_donor_packet(tracer, &mut donors, out);
+                        keep(&mut donors, &mut kept);
+                    }
                 }
-                _ => self.shade_group(tracer, scratch, group, out),
+                _ => self.push_group(tracer, scratch, group, &mut exact, out),
             }
         }
+        self.shade_donor_packet(tracer, &mut donors, out);
+        keep(&mut donors, &mut kept);
         for group in &scratch.groups {
             let Some(i) = group[0] else { continue };
             if !kept.donor[i] {
@@ -708,11 +667,8 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
             for (v, sample) in group.iter().enumerate().skip(1) {
                 let Some(k) = *sample else { continue };
                 if coherent && self.same_point(scratch, i, v, k) {
-                    let (packet, hits) = self.sample_packet(scratch, v, k);
-                    donor.through.clear();
-                    donor.through.extend_from_slice(kept.through(i));
-                    donor.secondary = kept.secondary[i];
-                    out[v][k] = tracer.shade_from_donor(&packet, &hits, &donor);
+                    let light = (kept.through(i), kept.secondary[i]);
+                    self.push_taker(tracer, scratch, &mut takers, (v, k), light, out);
                     tracer.counts.reprojected += 1;
                 } else {
                     rest[v] = Some(k);
@@ -720,10 +676,13 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
                 }
             }
             if rest.iter().any(Option::is_some) {
-                self.shade_group(tracer, scratch, &rest, out);
+                self.push_group(tracer, scratch, &rest, &mut exact, out);
             }
         }
-        scratch.donor = donor;
+        self.shade_takers(tracer, &mut takers, out);
+        self.shade_lanes(tracer, &mut exact, out);
+        scratch.donors = donors;
+        scratch.takers = takers;
         scratch.kept = kept;
     }
 
@@ -1055,11 +1014,13 @@ impl KeptShading {
         self.secondary.resize(width, Color::ZERO);
     }
 
-    fn keep(&mut self, i: usize, donor: &Donor, threshold: f32) {
+    /// Sample `i` was shaded as lane `l` of a packet of donors.
+    fn keep_lane(&mut self, i: usize, donors: &Donors, l: usize, threshold: f32) {
         self.donor[i] = true;
-        self.diffuse[i] = donor.tree_coefficient <= threshold;
-        self.through[i * self.lights..(i + 1) * self.lights].copy_from_slice(&donor.through);
-        self.secondary[i] = donor.secondary;
+        self.diffuse[i] = donors.tree_coefficients[l] <= threshold;
+        let lights = self.lights;
+        self.through[i * lights..(i + 1) * lights].copy_from_slice(donors.through(l, lights));
+        self.secondary[i] = donors.secondary[l];
     }
 
     fn through(&self, i: usize) -> &[f32] {
@@ -1185,12 +1146,13 @@ mod tests {
             a.rays.eye,
             a.eye_packets
         );
-        // Both shade eight samples as one packet (the staged path eight
-        // groups of one, `shade_groups_packed`, which leaves out the lanes
-        // without a hit): the same rays, other packets, so other descents
-        // and another shadow cache per lane.
+        // The mono row shades eight neighbouring samples as one packet, the
+        // staged path eight groups of one sample that hit something
+        // (`shade_groups_packed`): the same rays, other descents and
+        // secondary packets, and a shadow cache per lane.
         assert!(a.shared_secondary_rays > a.rays.reflected / 2, "{a:?}");
-        assert_eq!(a.grouped_samples, 0);
+        assert!(b.shared_secondary_rays > b.rays.reflected / 2, "{b:?}");
+        assert_eq!((a.grouped_samples, b.grouped_samples), (0, 0));
         for c in [&mut a, &mut b] {
             (c.shared_secondary, c.shared_secondary_rays) = (0, 0);
             (c.nodes, c.box_tests, c.prim_tests) = (0, 0, 0);
@@ -1355,6 +1317,108 @@ mod tests {
             ("corner colours", 0),
         ];
         assert_eq!(flat_in, expected);
+    }
+
+    /// The approximate pair paths shade their donors, the samples that take
+    /// a donor's light, and their exact groups eight lanes to a packet
+    /// (`packed`): their rows are, bit for bit, those of packets of one
+    /// lane (where each donor is lane 0 of its packet; each exact group is
+    /// shaded by `shade_group`, as a packet of its own), under the safe reprojection and the shared shading, each
+    /// with and without merged secondary rays, on a scene of shadows, faint
+    /// mirrors (their secondary colours differ from donor to donor; under
+    /// the shared shading with highlights, so that the colours are not taken
+    /// whole but shaded from the light), a mirror sphere and a mirror wall
+    /// (merged rays from exact groups, which a packet must not split).
+    #[test]
+    fn packed_approximations_are_the_one_lane_rows_bit_for_bit() {
+        let text = "b 0.1 0.1 0.2\nv\nfrom 0 -8 3\nat 0 0 1\nup 0 0 1\nangle 45\n\
+            hither 0.01\nresolution 64 48\nl -5 -5 6\nl 4 -3 5 0.6 0.5 0.4\n\
+            f 0.8 0.8 0.7 0.8 0.05 20 0 1\np 4\n-6 -6 0\n6 -6 0\n6 6 0\n-6 6 0\n\
+            f 0.9 0.2 0.2 0.9 0 1 0 1\ns -1.2 0 1 0.8\n\
+            f 0.2 0.8 0.3 0.8 0.08 10 0 1\ns 1.2 0.5 0.9 0.7\n\
+            f 0.9 0.9 0.9 0.1 0.8 100 0 1\ns 0 2 1.2 0.6\n\
+            f 0.9 0.9 0.9 0.1 0.6 100 0 1\np 4\n-6 5 0\n6 5 0\n6 5 5\n-6 5 5\n";
+        let base = crate::loaders::nff::parse_nff(
+            text,
+            std::path::Path::new("t.nff"),
+            &crate::loaders::LoadOptions::default(),
+        )
+        .expect("test scene");
+        let camera = Camera::new(&base.viewpoint, 96, 72);
+        let rig = Rig::stereo(&camera, 0.3, None).expect("rig");
+        let safe = Some(Reprojection {
+            mode: ReprojectMode::Safe,
+            threshold: Reprojection::DEFAULT_THRESHOLD,
+        });
+        let shared = Some(SharedShading { tolerance: 0.06 });
+        for (what, reproject, shared_shading, merge) in [
+            ("reprojection", safe, None, false),
+            ("reprojection, merged rays", safe, None, true),
+            ("shared shading", None, shared, false),
+            ("shared shading, merged rays", None, shared, true),
+        ] {
+            let mut scene = base.clone();
+            if shared_shading.is_some() {
+                for m in scene.materials.iter_mut().filter(|m| m.mirror == 0.05) {
+                    m.ks = 0.4;
+                }
+            }
+            let world = World::new(scene);
+            let mut opts = RenderOptions::default();
+            opts.approx.reproject = reproject;
+            opts.approx.shared_shading = shared_shading;
+            opts.approx.merge_secondary = merge;
+            let cancel = CancelToken::new();
+            let job = quiet_inputs(&world, &camera, &rig, &opts, &cancel);
+            let packed = TwinBatch::<2>::new(&job, rig.clone(), 0);
+            let mut one = TwinBatch::<2>::new(&job, rig.clone(), 0);
+            one.packet_lanes = 1;
+            let (mut a_scratch, mut b_scratch) = (RowScratch::default(), RowScratch::default());
+            let mut a_tracer = Tracer::new(&world, opts.trace);
+            let mut b_tracer = Tracer::new(&world, opts.trace);
+            let width = camera.width as usize;
+            for y in 0..camera.height {
+                let row = SampleRow::centres(width, y);
+                let mut a = vec![vec![Color::ZERO; width]; 2];
+                let mut b = vec![vec![Color::ZERO; width]; 2];
+                packed.trace_row(&mut a_tracer, &row, &mut a_scratch, None, &mut a);
+                one.trace_row(&mut b_tracer, &row, &mut b_scratch, None, &mut b);
+                for v in 0..2 {
+                    for (i, (ca, cb)) in a[v].iter().zip(&b[v]).enumerate() {
+                        let bits = |c: &Color| c.to_array().map(f32::to_bits);
+                        assert_eq!(bits(ca), bits(cb), "{what}: row {y}, view {v}, sample {i}");
+                    }
+                }
+            }
+            let (a, b) = (a_tracer.finish(), b_tracer.finish());
+            let taken = a.reprojected + a.cache_hits - a.cache_colour_hits;
+            assert!(taken > 1000, "{what}: {taken} samples took a donor's light");
+            assert_eq!(
+                (
+                    a.reprojected,
+                    a.cache_hits,
+                    a.cache_colour_hits,
+                    a.merged_rays
+                ),
+                (
+                    b.reprojected,
+                    b.cache_hits,
+                    b.cache_colour_hits,
+                    b.merged_rays
+                ),
+                "{what}"
+            );
+            assert_eq!(
+                a.merged_rays > 0,
+                merge,
+                "{what}: {} merged rays",
+                a.merged_rays
+            );
+            assert!(
+                a.closest_traversals < b.closest_traversals,
+                "{what}: descents shared"
+            );
+        }
     }
 
     /// Under a strongly converged rig (image shifts of many pixels), the

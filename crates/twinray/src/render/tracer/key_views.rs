@@ -64,7 +64,10 @@ impl Tracer<'_> {
         donor.through.clear();
         donor.through.resize(self.world.scene.lights.len(), 0.0);
         donor.secondary = Color::ZERO;
-        let record = Some((&mut donor.through[..], &mut donor.secondary));
+        let record = Some((
+            &mut donor.through[..],
+            std::slice::from_mut(&mut donor.secondary),
+        ));
         donor.color = self.shade_stages(packet, hits, 1, [1.0], &mut tree, record)[0];
         donor.tree_coefficient = tree.largest_coefficient;
         *chain = tree.chain.take().unwrap_or_default();
