@@ -27,7 +27,23 @@ struct Counting<'a, const K: usize> {
     two_off: bool,
 }
 
-impl<const K: usize> Counting<'_, K> {
+impl<'a, const K: usize> Counting<'a, K> {
+    /// The test for `packet`'s rays, two blocks at once allowed.
+    fn new(
+        shapes: &'a [Shape],
+        packet: &'a Packet<K>,
+        single: &'a Cell<u64>,
+        two: &'a Cell<u64>,
+    ) -> Self {
+        Counting {
+            shapes,
+            packet,
+            single,
+            two,
+            two_off: false,
+        }
+    }
+
     fn ray(&self, lane: usize) -> Ray {
         Ray::new(self.packet.origins[lane], self.packet.dirs[lane])
     }
@@ -257,13 +273,7 @@ fn sorted_children_stop_a_ray_in_the_nearest_cluster() {
             mask: 1,
         };
         let mut st = TraversalStats::default();
-        let test = Counting {
-            shapes: &shapes,
-            packet: &p,
-            single: &single,
-            two: &two,
-            two_off: false,
-        };
+        let test = Counting::new(&shapes, &p, &single, &two);
         let got = bvh.closest_each_wide8(&p, &mut st, test);
         // Eight triangles at one distance: the lowest index wins.
         assert!(
@@ -421,13 +431,7 @@ fn an_eye_packet_gives_each_ray_its_single_descents_hit() {
         let mut stats = TraversalStats::default();
         for (i, p) in eye_packets(1200, seed + 20).iter().enumerate() {
             let (single, two) = (Cell::new(0), Cell::new(0));
-            let test = Counting {
-                shapes: &shapes,
-                packet: p,
-                single: &single,
-                two: &two,
-                two_off: false,
-            };
+            let test = Counting::new(&shapes, p, &single, &two);
             let signs = |l: usize| p.dirs[l].to_array().map(f32::is_sign_negative);
             let lanes: Vec<usize> = (0..8).filter(|&l| p.mask & (1 << l) != 0).collect();
             let agree = lanes.iter().all(|&l| signs(l) == signs(lanes[0]));
@@ -472,13 +476,7 @@ fn an_eye_packet_stops_in_the_nearest_cluster() {
             mask: 0xff,
         };
         let (single, two) = (Cell::new(0), Cell::new(0));
-        let test = Counting {
-            shapes: &shapes,
-            packet: &p,
-            single: &single,
-            two: &two,
-            two_off: false,
-        };
+        let test = Counting::new(&shapes, &p, &single, &two);
         let mut st = TraversalStats::default();
         let got = bvh
             .closest_eye_packet8(&p, &mut st, test)
@@ -537,13 +535,7 @@ fn secondary_packets_of_eight_give_each_ray_its_own_hit() {
         let bvh = hierarchy(&shapes, &BuildOptions::triangle_blocks());
         for (i, p) in secondary_packets(900, seed + 30).iter().enumerate() {
             let (single, two) = (Cell::new(0), Cell::new(0));
-            let test = Counting {
-                shapes: &shapes,
-                packet: p,
-                single: &single,
-                two: &two,
-                two_off: false,
-            };
+            let test = Counting::new(&shapes, p, &single, &two);
             let mut stats = TraversalStats::default();
             let got = bvh.closest(p, &mut stats, test);
             let mut alone_stats = TraversalStats::default();
