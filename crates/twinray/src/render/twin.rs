@@ -12,12 +12,13 @@
 //!    something is grouped with the sample of every other view that sees the
 //!    same surface point (its hit projected into that view, rounded to the
 //!    nearest sample of the same row: the rig's views differ along rows only).
-//! 3. **Shading of groups** (`shade_groups`): a group is shaded as one packet.
-//!    Their shadow rays start from nearly one point toward one light and their
-//!    reflected rays from nearly one point, so the packet's lanes stay together
-//!    down the hierarchy. Every lane's rays are its own view's (the grouping
-//!    only decides which rays share a descent), so the images equal the
-//!    independent renders bit for bit.
+//! 3. **Shading of groups** (`shade_groups`): a group is shaded in one packet,
+//!    with its neighbours in the row up to eight lanes (`packed`: a pair's four
+//!    groups). Their shadow rays start from nearly one point toward one light
+//!    and their reflected rays from nearly one point, so the packet's lanes
+//!    stay together down the hierarchy. Every lane's rays are its own view's
+//!    (the grouping only decides which rays share a descent), so the images
+//!    equal the independent renders bit for bit.
 //! 4. **Sharing** (approximate, only when asked): `--merge-secondary` (section
 //!    2.4) inside the tracer; reprojection (section 2.5) here, in `safe` mode
 //!    (`share_groups`: a group's other samples take view 0's light visibility
@@ -552,12 +553,14 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
     }
 
     /// `shade_group` for consecutive groups at once: their hit lanes in
-    /// packets of eight (a pair's four groups, two of four views), so that
-    /// their shadow segments and secondary rays go down in the eight-lane
-    /// descents, as a mono row's do (a group of two lanes took the pair
-    /// descents). Each lane's colour is its own ray's whatever packet it is
-    /// in, so the colours are `shade_group`'s; a group's lanes are counted
-    /// as grouped as there.
+    /// packets of eight (a pair's four groups, two of four views), each group
+    /// whole in one packet, so that their shadow segments and secondary rays
+    /// go down in the eight-lane descents, as a mono row's do (a group of two
+    /// lanes took the pair descents: the pair cost 1.5 times two mono rows,
+    /// now about as much, docs/benchmarks.md, "Issues 16 and 17, tenth
+    /// pass"). Each lane's colour is its own ray's whatever packet it is in,
+    /// so the colours are `shade_group`'s; a group's lanes are counted as
+    /// grouped as there.
     fn shade_groups_packed(
         &self,
         tracer: &mut Tracer,
