@@ -556,7 +556,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
     /// packets of eight (a pair's four groups, two of four views), each group
     /// whole in one packet, so that their shadow segments and secondary rays
     /// go down in the eight-lane descents, as a mono row's do (a group of two
-    /// lanes took the pair descents: the pair cost 1.5 times two mono rows,
+    /// lanes took the pair descents: the pair cost 1.3 times two mono rows,
     /// now about as much, docs/benchmarks.md, "Issues 16 and 17, tenth
     /// pass"). Each lane's colour is its own ray's whatever packet it is in,
     /// so the colours are `shade_group`'s; a group's lanes are counted as
