@@ -13,8 +13,12 @@ stereo: each BIN renders the pair at 1024x1024, --interaxial 0.1, --samples 1,
 
 The clock is the CPU time of the child (user + system, getrusage), not wall time,
 so that a machine loaded by other work inflates it less. Scenes: $SCENES, default
-all seven (balls gears mount rings teapot tetra tree). Within a round every binary
-and method runs once, in turn.
+all seven (balls gears mount rings teapot tetra tree); an entry ending in .nff is
+a path (a scene of your own, e.g. an SPD scene without its lights:
+`grep -v '^l ' ../shared/scenes/spd/tetra.nff > /tmp/tetra-unlit.nff`). $SIZE
+overrides the mono size (512). Within a round every binary and method runs once,
+in turn. Mono also prints each binary's fastest run (`min`), the figure least
+moved by other work.
 """
 import os
 import resource
@@ -39,11 +43,18 @@ def cpu(cmd):
     return (b.ru_utime - a.ru_utime) + (b.ru_stime - a.ru_stime)
 
 
+size = os.environ.get("SIZE", "512")
+
+
+def path(scene):
+    return scene if scene.endswith(".nff") else spd % scene
+
+
 def command(b, scene, method):
     if method is None:
-        return [b, "render", spd % scene, "-o", out, "--size", "512x512",
+        return [b, "render", path(scene), "-o", out, "--size", "%sx%s" % (size, size),
                 "--samples", "1", "--threads", "1", "--quiet"]
-    return [b, "render", spd % scene, "-o", out, "--stereo", "--interaxial", "0.1",
+    return [b, "render", path(scene), "-o", out, "--stereo", "--interaxial", "0.1",
             "--size", "1024x1024", "--samples", "1", "--threads", "1",
             "--method", method, "--quiet"]
 
@@ -57,7 +68,8 @@ for s in scenes:
                 t[(b, m)].append(cpu(command(b, s, m)))
     med = {k: statistics.median(v) for k, v in t.items()}
     if mode == "mono":
-        row = " ".join("%s %.3f s" % (b, med[(b, None)]) for b in bins)
+        row = " ".join("%s %.3f s (min %.3f)" % (b, med[(b, None)], min(t[(b, None)]))
+                       for b in bins)
         print("%-8s %s  last/first %.3f" % (s, row, med[(bins[-1], None)] / med[(bins[0], None)]),
               flush=True)
     else:
