@@ -20,7 +20,8 @@
 # mode interp-E sets it to E, e.g. interp-0.02); its samples interpolated and
 # shaded are the CSV's interp_ columns. Mode synth: key-view synthesis
 # (--synthesize-views, key views every 8); synth-K: every K (--synthesis-spacing
-# K); its samples synthesized and traced are the CSV's synth_ columns. The
+# K); its samples synthesized and traced are the CSV's synth_ columns. Mode
+# epi: the epipolar rows (--epipolar-views). The
 # CSV's eye_pass_s is --stats eye_pass_cpu_s (thread time of the eye pass, twin
 # method only).
 # ROUNDS (default 1) repeats each scene's measurements, interleaved (mono,
@@ -95,6 +96,7 @@ for scene in "${scenes[@]}"; do
       [[ $mode == fast ]] && extra=(--fast)
       [[ $mode == synth* ]] && extra=(--synthesize-views)
       [[ $mode == synth-* ]] && extra+=(--synthesis-spacing "${mode#synth-}")
+      [[ $mode == epi ]] && extra=(--epipolar-views)
       s=$(cpu "$bin" render "$scene" -o "$tmp/$mode.pfm" "${common[@]}" "${rig[@]}" "${extra[@]}" \
         --stats "$tmp/$mode.json" 2>/dev/null)
       wall=$(cat "$tmp/wall")

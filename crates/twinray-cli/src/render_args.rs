@@ -348,6 +348,16 @@ pub struct ApproxArgs {
     /// Views from one key view to the next under --synthesize-views.
     #[arg(long, value_name = "K", default_value_t = twinray::render::ViewSynthesis::DEFAULT_SPACING)]
     pub synthesis_spacing: usize,
+    /// Find every view's eye hits of an image row at once, from the
+    /// primitives that cross the row's plane (each sample's hit is its own
+    /// ray's), and shade a diffuse surface point once: a view's sample takes
+    /// the colour between two samples of the same surface that earlier views
+    /// shaded, where they lie within 1.5 of its pixels and their colours
+    /// differ by at most --share-tolerance; mirrors, glass, highlights and
+    /// edges are traced. Needs --samples 1 or --spd (other samplings are
+    /// traced exactly).
+    #[arg(long)]
+    pub epipolar_views: bool,
 }
 
 /// Depth budget, floating window, depth outputs and quilts.
@@ -448,6 +458,7 @@ impl RenderArgs {
                 interpolate_views: approx.interpolate_views,
                 synthesize_views: approx.synthesize_views,
                 synthesis_spacing: approx.synthesis_spacing,
+                epipolar_views: approx.epipolar_views,
             },
             trace: TraceSpec {
                 max_depth: self.max_depth,

@@ -106,6 +106,8 @@ pub struct TraceCounts {
     /// `--synthesize-views`: key samples, synthesized and traced samples,
     /// and the region proofs (`render::SynthesisStats`).
     pub synthesis: crate::render::SynthesisStats,
+    /// `--epipolar-views`: what the rows' planes did.
+    pub epipolar: crate::render::EpipolarStats,
 }
 
 /// Eye rays that hit something, per view, for every view a render may have.
@@ -170,6 +172,7 @@ impl TraceCounts {
         self.shadow_cache_hits += o.shadow_cache_hits;
         self.interp.add(&o.interp);
         self.synthesis.add(&o.synthesis);
+        self.epipolar.add(&o.epipolar);
     }
 
     pub fn add_traversal(&mut self, t: &TraversalStats) {
@@ -305,6 +308,8 @@ pub struct Report {
     pub interpolated_views: crate::render::InterpStats,
     /// `--synthesize-views`: see `TraceCounts::synthesis`.
     pub view_synthesis: crate::render::SynthesisStats,
+    /// `--epipolar-views`: see `TraceCounts::epipolar`.
+    pub epipolar_views: crate::render::EpipolarStats,
 }
 
 impl Report {
@@ -349,6 +354,7 @@ impl Report {
         self.eye_runs = c.runs;
         self.interpolated_views = c.interp;
         self.view_synthesis = c.synthesis;
+        self.epipolar_views = c.epipolar;
         self.shadow_rays_proved = c.shadow_rays_proved;
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;

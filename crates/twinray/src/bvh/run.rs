@@ -263,6 +263,20 @@ impl Bvh {
         stats: &mut RunStats,
         mut may_meet: impl FnMut(u32) -> bool,
     ) -> bool {
+        self.visit_region(region, except, stats, |prim| !may_meet(prim))
+    }
+
+    /// Gives `visit` every primitive but `except` of the leaves whose boxes
+    /// the region may meet, until it returns `false`. Returns whether every
+    /// such primitive was visited (`false` too where the tree is deeper than
+    /// the descent's stack: then some were not).
+    pub fn visit_region(
+        &self,
+        region: &RunRegion,
+        except: u32,
+        stats: &mut RunStats,
+        mut visit: impl FnMut(u32) -> bool,
+    ) -> bool {
         let Some(root) = self.nodes.first() else {
             return true;
         };
@@ -278,11 +292,11 @@ impl Bvh {
             if node.is_leaf() {
                 let first = node.first as usize;
                 for &prim in &self.order[first..first + node.count() as usize] {
-                    if prim == except {
+                    if prim == except || prim == super::PAD {
                         continue;
                     }
                     stats.proof_prims += 1;
-                    if may_meet(prim) {
+                    if !visit(prim) {
                         return false;
                     }
                 }

@@ -55,6 +55,7 @@ impl JobSpec {
         a.flag("--share-shading", x.share_shading);
         a.flag("--interpolate-views", x.interpolate_views);
         a.flag("--synthesize-views", x.synthesize_views);
+        a.flag("--epipolar-views", x.epipolar_views);
         if x.synthesis_spacing != crate::render::ViewSynthesis::DEFAULT_SPACING {
             a.value("--synthesis-spacing", x.synthesis_spacing);
         }

@@ -748,6 +748,13 @@ impl Job {
                     y.key_samples, y.synthesized, y.traced, y.holes, y.refused_material, y.refused_edge, y.refused_surface, y.refused_region, y.proofs, y.proofs_failed, y.proof_nodes
                 )));
             }
+            if o.approx.epipolar_views.is_some() {
+                let e = &c.epipolar;
+                m.push(Message::info(format!(
+                    "epipolar rows: {} in their planes ({} traced exactly), primitives gathered {}, visibility tests {}; samples: colour taken {}, traced {} (no shade point {}, colours apart {}, too wide {}, mirror, glass or highlight {}, shape {}), background {}; shade points {}",
+                    e.rows, e.rows_exact, e.primitives, e.tests, e.taken, e.traced, e.no_bracket, e.refused_colour, e.refused_wide, e.refused_material, e.refused_shape, e.misses, e.shade_points
+                )));
+            }
             if o.approx.interpolate_views.is_some() {
                 let i = &c.interp;
                 m.push(Message::info(format!(
@@ -1333,6 +1340,9 @@ fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
             spacing: a.synthesis_spacing,
             tolerance,
         }),
+        epipolar_views: a
+            .epipolar_views
+            .then_some(crate::render::EpipolarViews { tolerance }),
     })
 }
 

@@ -230,6 +230,10 @@ pub struct ApproximationSpec {
     /// (`--synthesize-views`), within `share_tolerance`.
     pub synthesize_views: bool,
     pub synthesis_spacing: usize,
+    /// Issue 16: every view's eye hits of a row from the primitives that
+    /// cross its plane, and diffuse colours shaded once for the views that
+    /// see them (`--epipolar-views`), within `share_tolerance`.
+    pub epipolar_views: bool,
 }
 
 impl Default for ApproximationSpec {
@@ -248,6 +252,7 @@ impl Default for ApproximationSpec {
             interpolate_views: false,
             synthesize_views: false,
             synthesis_spacing: crate::render::ViewSynthesis::DEFAULT_SPACING,
+            epipolar_views: false,
         }
     }
 }

@@ -24,6 +24,7 @@
 //! its own.
 
 mod adaptive;
+mod epipolar;
 mod film;
 mod grouping;
 mod independent;
@@ -36,6 +37,7 @@ mod tracer;
 mod twin;
 mod view_synthesis;
 
+pub use epipolar::{EpipolarStats, EpipolarViews};
 pub use interpolated_views::{InterpStats, InterpolateViews};
 pub use sampler::{Filter, SampleRow, Sampling};
 pub(crate) use tracer::MAX_CUTOUT_LAYERS;
@@ -162,6 +164,11 @@ pub struct Approximations {
     /// along the row, where that is plain and proved free, and trace the rest
     /// (`view_synthesis`; twin method, three views or more).
     pub synthesize_views: Option<ViewSynthesis>,
+    /// Issue 16 (`--epipolar-views`): each row's eye hits found from the
+    /// primitives that cross its plane, for every view at once, and a
+    /// diffuse surface's colour shaded once and interpolated for the views
+    /// that see it (`epipolar`; twin method, three views or more).
+    pub epipolar_views: Option<EpipolarViews>,
 }
 
 /// The multi-view shading cache (`--share-shading`, see `shading_cache`).
@@ -188,6 +195,7 @@ impl Default for Approximations {
             key_spacing: 1,
             interpolate_views: None,
             synthesize_views: None,
+            epipolar_views: None,
         }
     }
 }
@@ -393,6 +401,14 @@ pub fn render_rows(
             )));
         }
     }
+    if let Some(e) = opts.approx.epipolar_views {
+        if !(e.tolerance >= 0.0 && e.tolerance.is_finite()) {
+            return Err(crate::Error::Invalid(format!(
+                "epipolar views: tolerance {}: a value >= 0 is needed",
+                e.tolerance
+            )));
+        }
+    }
     opts.sampling.validate()?;
     let start = Instant::now();
     let job = RenderInputs {
@@ -411,11 +427,17 @@ pub fn render_rows(
         .synthesize_views
         .filter(|_| opts.method == Method::Twin && !paper)
         .and_then(|sy| view_synthesis::SynthesisPass::new(world, camera, rig, sy));
+    // The epipolar rows trace a view's samples alone too.
+    let epipolar = opts
+        .approx
+        .epipolar_views
+        .filter(|_| opts.method == Method::Twin && !paper && synthesis.is_none())
+        .and_then(|e| epipolar::EpipolarPass::new(world, camera, rig, e));
     let batches = match opts.method {
         Method::Independent => {
             vec![Box::new(independent::Independent::new(&job)) as Box<dyn ViewBatch>]
         }
-        Method::Twin if synthesis.is_some() => twin_batches(&job, 1)?,
+        Method::Twin if synthesis.is_some() || epipolar.is_some() => twin_batches(&job, 1)?,
         Method::Twin => twin_batches(&job, views_per_batch(views, opts.views_per_batch))?,
     };
     let interpolate = opts
@@ -423,7 +445,7 @@ pub fn render_rows(
         .interpolate_views
         .filter(|_| opts.method == Method::Twin && !paper);
     let runs = opts.eye_runs || interpolate.is_some();
-    let single = synthesis.is_some();
+    let single = synthesis.is_some() || epipolar.is_some();
     let strip = ((opts.strip || runs) && opts.method == Method::Twin && !paper && !single)
         .then(|| strip::StripEyePass::new(world, camera, rig))
         .flatten()
@@ -441,6 +463,7 @@ pub fn render_rows(
         fans: fans.as_ref(),
         interpolation: interpolation.as_ref(),
         synthesis: synthesis.as_ref(),
+        epipolar: epipolar.as_ref(),
         views,
         width: camera.width as usize,
         height: camera.height as usize,
@@ -590,6 +613,9 @@ struct RowContext<'b> {
         &'b view_synthesis::SynthesisPass<'b>,
         view_synthesis::SynthScratch,
     )>,
+    /// `--epipolar-views`: the rows' planes (the workers are then one per
+    /// view, in rig order).
+    epipolar: Option<(&'b epipolar::EpipolarPass<'b>, epipolar::EpiScratch)>,
 }
 
 impl RowContext<'_> {
@@ -602,6 +628,12 @@ impl RowContext<'_> {
             o.resize(row.len(), Color::ZERO);
         }
         if let Some((pass, scratch)) = &mut self.synthesis {
+            let start = Instant::now();
+            pass.trace_row(&mut self.workers, tracer, row, scratch, out);
+            tracer.counts.shading_pass_ns += start.elapsed().as_nanos() as u64;
+            return;
+        }
+        if let Some((pass, scratch)) = &mut self.epipolar {
             let start = Instant::now();
             pass.trace_row(&mut self.workers, tracer, row, scratch, out);
             tracer.counts.shading_pass_ns += start.elapsed().as_nanos() as u64;
@@ -711,6 +743,8 @@ struct Run<'j, 'a> {
     interpolation: Option<&'j interpolated_views::ViewInterpolation<'a>>,
     /// `--synthesize-views`: the views between key views synthesized.
     synthesis: Option<&'j view_synthesis::SynthesisPass<'a>>,
+    /// `--epipolar-views`: the rows' planes.
+    epipolar: Option<&'j epipolar::EpipolarPass<'a>>,
     views: usize,
     width: usize,
     height: usize,
@@ -754,6 +788,7 @@ impl Run<'_, '_> {
             colors: Vec::new(),
             interpolation: self.interpolation.map(|p| (p, Default::default())),
             synthesis: self.synthesis.map(|p| (p, Default::default())),
+            epipolar: self.epipolar.map(|p| (p, Default::default())),
         };
         let cancel = self.job.cancel;
         let total = std::sync::Mutex::new(TraceCounts::default());

@@ -1,0 +1,961 @@
+//! Epipolar rows (issue 16, `--epipolar-views`): every view's eye hits of an
+//! image row found from the primitives that cross the row's plane, and a
+//! surface point's view-independent colour shaded once for all the views
+//! that see it. An approximation; off unless asked for.
+//!
+//! The rig's views lie on the camera's right axis `R` with parallel axes, so
+//! the rays of every view through one image row lie in one plane: the one
+//! through the camera line spanned by `R` and `W = F + U·y` (`y` the row's
+//! height on the image plane). In that plane a point has coordinates `(a,
+//! b)` (along `R` and `W`), and the view at offset `u` sees it in the column
+//! whose slope is `(a − u)/b`. So a row is one 2-D scene, the plane's
+//! section of each primitive, seen by N cameras on a line:
+//!
+//! 1. **Visibility, exactly.** The primitives whose boxes meet the row's
+//!    region (the quadrilateral every view's rays of the row sweep) are
+//!    gathered in one descent. Each one's section (a triangle's segment, a
+//!    sphere's circle, any other shape's box) gives, per view, the samples
+//!    whose rays may meet it, with a sample's margin each side; each of those
+//!    rays is tested against the primitive with the single-ray routine, and
+//!    the nearest hit is kept, ties to the lower primitive index, as the
+//!    hierarchy keeps them. A sample's hit is therefore the one its own ray
+//!    finds (the test suite compares every sample with the hierarchy's), and
+//!    no view misses a pole the others do not see.
+//! 2. **Shading, once per surface point.** Views are visited middle first,
+//!    then the outermost, then halfway between visited ones. A visited
+//!    view's sample that hits a diffuse surface (mirror, highlight and
+//!    transmission weights at most `E`) on a triangle or a sphere looks for
+//!    the two *shade points* of that primitive around its own hit on the
+//!    section (kept from earlier views' samples shaded exactly). It takes
+//!    their colour, interpolated along the section, if the two are within
+//!    one and a half of this view's pixels of each other, on either side of
+//!    the sample at its depth, their colours differ by at most `E` per
+//!    channel, and each lies within `E/2` of the line through its
+//!    neighbours' colours (a peak of the diffuse term between them, as at a
+//!    sphere's brightest point, bends it; a neighbour must be there). Every other sample (no shade point
+//!    on one side, colours apart, a mirror or glass, a cone) is traced and
+//!    shaded exactly by the view itself, and becomes a shade point; a sample
+//!    that hits nothing takes the background, as its ray would.
+//!
+//! **The bound.** A taken colour lies between two exact colours of the same
+//! surface at most a pixel and a half apart that differ by at most `E`: if
+//! the colour varies monotonically between them, it is off by at most `E`
+//! per channel. Where it does not (a smooth peak), the bend test bounds the
+//! curvature: for a parabolic profile the interpolation's error is a quarter
+//! of the half second difference, so at most `E/8`. Add the view-dependent
+//! terms the material threshold lets through (`E` of the highlight and
+//! mirror weights). The assumption is that no feature narrower than the
+//! shade points' spacing lies between them. A shadow or texture edge
+//! between the two shows as a step in their colours and is traced; a sliver
+//! narrower than the shade points' spacing that falls between two of them is
+//! not seen (as the middle view's own image misses it).
+//!
+//! Only rows of one fixed pattern in every pixel (`--samples 1`, the SPD's
+//! corners) lie in one plane; other rows are traced exactly in every view.
+
+use glam::DVec3;
+use serde::Serialize;
+
+use super::sampler::{Pattern, RowColors, SampleRow};
+use super::{RowWorker, Tracer};
+use crate::bvh::{RunRegion, RunStats};
+use crate::math::{Color, Ray, Vec3};
+use crate::rig::{Camera, Rig};
+use crate::shapes::Shape;
+use crate::world::World;
+
+/// The epipolar rows, as asked for (see the module's notes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EpipolarViews {
+    /// `E`: the largest mirror, highlight or transmission weight of a surface
+    /// whose colour is shared, and the largest step between the two colours a
+    /// sample takes its own from, in image values (1 = white).
+    pub tolerance: f32,
+}
+
+/// What the epipolar rows did (`--stats`, `-v`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct EpipolarStats {
+    /// Rows done in their plane, and rows traced exactly in every view
+    /// (other samplings, a tree deeper than the descent's stack).
+    pub rows: u64,
+    pub rows_exact: u64,
+    /// Primitives gathered for the rows (summed over rows), and the exact
+    /// ray tests the visibility made.
+    pub primitives: u64,
+    pub tests: u64,
+    /// Samples that took their colour from two shade points.
+    pub taken: u64,
+    /// Samples traced and shaded exactly, and those that hit nothing.
+    pub traced: u64,
+    pub misses: u64,
+    /// Why samples were traced: no shade point on one side, the two shade
+    /// points' colours apart or not straight with their neighbours' (or no
+    /// neighbour to tell), the two too far apart in the view, a mirror,
+    /// glass or highlight, a shape without shade points (cones, sections
+    /// through the eyes).
+    pub no_bracket: u64,
+    pub refused_colour: u64,
+    pub refused_wide: u64,
+    pub refused_material: u64,
+    pub refused_shape: u64,
+    /// Shade points kept.
+    pub shade_points: u64,
+}
+
+impl EpipolarStats {
+    pub fn add(&mut self, o: &EpipolarStats) {
+        self.rows += o.rows;
+        self.rows_exact += o.rows_exact;
+        self.primitives += o.primitives;
+        self.tests += o.tests;
+        self.taken += o.taken;
+        self.traced += o.traced;
+        self.misses += o.misses;
+        self.no_bracket += o.no_bracket;
+        self.refused_colour += o.refused_colour;
+        self.refused_wide += o.refused_wide;
+        self.refused_material += o.refused_material;
+        self.refused_shape += o.refused_shape;
+        self.shade_points += o.shade_points;
+    }
+}
+
+/// Largest distance between a sample's two shade points, in the view's
+/// pixels.
+const WIDEST: f64 = 1.5;
+
+/// How far outside its two shade points' columns a sample may lie (their
+/// rounding), in pixels.
+const SLACK: f64 = 1e-3;
+
+/// Largest difference between a sample's depth and its two shade points'
+/// (interpolated), relative to its own: beyond it they are not the surface it
+/// sees.
+const DEPTH_STEP: f64 = 0.01;
+
+/// What a render's epipolar rows share.
+pub(super) struct EpipolarPass<'a> {
+    world: &'a World,
+    camera: &'a Camera,
+    /// The views by offset: (rig index, offset, shift).
+    order: Vec<(usize, f32, i32)>,
+    /// Positions in `order`, in the order their rows are shaded.
+    visit: Vec<usize>,
+    tolerance: f32,
+    /// Per material: shading independent of the view within the tolerance.
+    plain: Vec<bool>,
+    /// Margin of the region and of the sections (the rounding of the
+    /// scene's coordinates).
+    margin: f64,
+    /// A distance past the whole scene from every eye.
+    beyond: f32,
+}
+
+/// A primitive's section by the row's plane, in plane coordinates `(a, b)`.
+#[derive(Clone, Copy, Debug)]
+enum Section {
+    /// The plane misses it.
+    None,
+    /// A triangle's: a segment, clipped to `b > 0`.
+    Segment { a0: f64, b0: f64, a1: f64, b1: f64 },
+    /// A sphere's: a circle.
+    Circle { a: f64, b: f64, r: f64 },
+    /// Any other shape's (or a triangle lying in the plane): within a box.
+    Bounds { a0: f64, b0: f64, a1: f64, b1: f64 },
+    /// One that reaches the camera line: any sample may meet it.
+    Whole,
+}
+
+/// A sample shaded exactly: where on its primitive's section, and its colour.
+#[derive(Clone, Copy, Debug)]
+struct ShadePoint {
+    /// Position along the section (a segment's fraction, a circle's angle).
+    param: f64,
+    a: f64,
+    b: f64,
+    color: Color,
+}
+
+/// One thread's scratch space, reused from row to row.
+#[derive(Default)]
+pub(super) struct EpiScratch {
+    prims: Vec<u32>,
+    sections: Vec<Section>,
+    /// Per position, per sample: the ray's direction, and the nearest hit
+    /// (distance, index into `prims`, `u32::MAX` for none).
+    dirs: Vec<Vec3>,
+    best: Vec<(f32, u32)>,
+    /// Per gathered primitive: its shade points by `param`.
+    points: Vec<Vec<ShadePoint>>,
+    /// Per pending sample: the shade point it becomes, if its surface keeps
+    /// them.
+    added: Vec<Option<(u32, ShadePoint)>>,
+    touched: Vec<u32>,
+    pending: Vec<usize>,
+    one: Vec<RowColors>,
+}
+
+/// The row's plane: origin (the rig's centre eye), axes, and the samples'
+/// columns.
+struct Plane {
+    eye: DVec3,
+    right: DVec3,
+    w: DVec3,
+    /// `W·W`, and the plane's unit normal.
+    ww: f64,
+    normal: DVec3,
+    /// Camera column of sample 0 without shift, the image's centre column,
+    /// and the pixel size: the slope of a column `c` is `(c − cx)·ps`.
+    c0: f64,
+    cx: f64,
+    ps: f64,
+    /// Plane points nearer the camera line than this are met by no ray.
+    b_min: f64,
+}
+
+impl Plane {
+    /// `(a, b, h)`: the point's plane coordinates and its distance from the plane.
+    fn coords(&self, p: DVec3) -> (f64, f64, f64) {
+        let d = p - self.eye;
+        (
+            d.dot(self.right),
+            d.dot(self.w) / self.ww,
+            d.dot(self.normal),
+        )
+    }
+
+    /// The (fractional) sample of the view at `offset` (shift `shift`)
+    /// whose ray meets plane point `(a, b)`, `b > 0`.
+    fn sample_of(&self, a: f64, b: f64, offset: f64, shift: i32) -> f64 {
+        (a - offset) / b / self.ps + self.cx - self.c0 - shift as f64
+    }
+
+    /// Samples `lo..hi` of `n` whose rays may meet the box `a0..a1 × b0..b1`
+    /// (`b0 ≥ b_min`).
+    fn samples_of_box(
+        &self,
+        (a0, b0, a1, b1): (f64, f64, f64, f64),
+        offset: f64,
+        shift: i32,
+        n: usize,
+    ) -> (usize, usize) {
+        let mut lo = f64::INFINITY;
+        let mut hi = f64::NEG_INFINITY;
+        for (a, b) in [(a0, b0), (a0, b1), (a1, b0), (a1, b1)] {
+            let s = self.sample_of(a, b, offset, shift);
+            lo = lo.min(s);
+            hi = hi.max(s);
+        }
+        clamp_samples(lo, hi, n)
+    }
+}
+
+/// Samples from `lo` to `hi` (fractional), and `EDGE` of a sample beyond
+/// (the rays' rounding off the plane is some millionths of a pixel), within
+/// `0..n`.
+fn clamp_samples(lo: f64, hi: f64, n: usize) -> (usize, usize) {
+    // NaN bounds (a degenerate section) give every sample.
+    if lo
+        .partial_cmp(&hi)
+        .is_none_or(|o| o == std::cmp::Ordering::Greater)
+    {
+        return (0, n);
+    }
+    let lo = (lo - EDGE).ceil().clamp(0.0, n as f64) as usize;
+    let hi = ((hi + EDGE).floor() + 1.0).clamp(0.0, n as f64) as usize;
+    (lo, hi.max(lo))
+}
+
+/// Margin of a section's samples, in samples.
+const EDGE: f64 = 1e-2;
+
+impl<'a> EpipolarPass<'a> {
+    /// The pass for `rig`, or `None` where it does not apply (fewer than
+    /// three views, a cut of the object tree, materials whose alpha matters,
+    /// instances).
+    pub(super) fn new(
+        world: &'a World,
+        camera: &'a Camera,
+        rig: &Rig,
+        epipolar: EpipolarViews,
+    ) -> Option<EpipolarPass<'a>> {
+        let n = rig.views.len();
+        if n < 3 || world.far.is_some() || world.has_alpha || world.instances.is_some() {
+            return None;
+        }
+        let order = rig.views_by_offset();
+        let bounds = world.bvh.bounds();
+        let scene_scale = bounds.min.abs().max(bounds.max.abs()).max_element();
+        let origins: Vec<Vec3> = order.iter().map(|v| camera.eye_at(v.1)).collect();
+        let origin_scale = origins
+            .iter()
+            .fold(0.0f32, |m, o| m.max(o.abs().max_element()));
+        let size = (bounds.max - bounds.min).length();
+        let beyond = origins
+            .iter()
+            .map(|o| (*o - bounds.center()).length())
+            .fold(0.0f32, f32::max);
+        let tol = epipolar.tolerance;
+        let plain = world
+            .scene
+            .materials
+            .iter()
+            .map(|m| m.ks.max(m.mirror) <= tol && m.t <= tol)
+            .collect();
+        Some(EpipolarPass {
+            world,
+            camera,
+            visit: visit_order(n),
+            order,
+            tolerance: tol,
+            plain,
+            margin: 1e-6 * scene_scale.max(origin_scale).max(1e-3) as f64,
+            beyond: (beyond + size) * 2.0,
+        })
+    }
+
+    /// The plane of `row`.
+    fn plane(&self, row: &SampleRow) -> Plane {
+        let cam = self.camera;
+        let (c0, y) = row.camera_point(0, 0);
+        let (cx, cy) = (
+            (cam.width as f64 - 1.0) * 0.5,
+            (cam.height as f64 - 1.0) * 0.5,
+        );
+        let ps = cam.pixel_size as f64;
+        let right = cam.right.as_dvec3();
+        let w = cam.forward.as_dvec3() + cam.up.as_dvec3() * ((cy - y as f64) * ps);
+        let ww = w.length_squared();
+        // No ray meets a point nearer than `hither` from its eye; every
+        // ray's direction (unnormalised `R·x + W`) is at most this long.
+        let widest = self
+            .order
+            .iter()
+            .flat_map(|&(_, _, shift)| {
+                [0.0, (row.len() as f64 - 1.0)].map(|i| c0 as f64 + i + shift as f64)
+            })
+            .map(|c| ((c - cx) * ps).powi(2))
+            .fold(0.0, f64::max);
+        let b_min = (self.camera.hither as f64 / (widest + ww).sqrt() * 0.5).max(self.margin);
+        Plane {
+            eye: cam.eye.as_dvec3(),
+            right,
+            w,
+            ww,
+            normal: right.cross(w).normalize(),
+            c0: c0 as f64,
+            cx,
+            ps,
+            b_min,
+        }
+    }
+
+    /// The section of primitive `prim` by `plane`.
+    fn section(&self, plane: &Plane, prim: u32) -> Section {
+        let tol = self.margin * 16.0;
+        match &self.world.scene.shapes[prim as usize] {
+            Shape::Triangle(t) => {
+                let v = [t.v0, t.v0 + t.e1, t.v0 + t.e2].map(|p| plane.coords(p.as_dvec3()));
+                if v.iter().all(|p| p.2 > tol) || v.iter().all(|p| p.2 < -tol) {
+                    return Section::None;
+                }
+                if v.iter().any(|p| p.2.abs() <= tol) {
+                    // Near the plane: within the vertices' box.
+                    return bounds_section(plane, v.iter().map(|p| (p.0, p.1)));
+                }
+                // Exactly two edges change sign.
+                let mut ends = [(0.0, 0.0); 2];
+                let mut k = 0;
+                for (i, j) in [(0, 1), (1, 2), (2, 0)] {
+                    let (p, q) = (v[i], v[j]);
+                    if (p.2 > 0.0) != (q.2 > 0.0) && k < 2 {
+                        let f = p.2 / (p.2 - q.2);
+                        ends[k] = (p.0 + (q.0 - p.0) * f, p.1 + (q.1 - p.1) * f);
+                        k += 1;
+                    }
+                }
+                let [(a0, b0), (a1, b1)] = ends;
+                clip_segment(plane, a0, b0, a1, b1)
+            }
+            Shape::Sphere(s) => {
+                let (a, b, h) = plane.coords(s.center.as_dvec3());
+                let r = s.radius as f64 + tol;
+                if h.abs() > r {
+                    return Section::None;
+                }
+                let r = (r * r - h * h).sqrt();
+                if b - r < plane.b_min {
+                    return Section::Whole;
+                }
+                Section::Circle { a, b, r }
+            }
+            shape => {
+                let bx = shape.bounds();
+                let corners = (0..8).map(|i| {
+                    let pick = |bit: usize, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
+                    plane.coords(DVec3::new(
+                        pick(1, bx.min.x, bx.max.x) as f64,
+                        pick(2, bx.min.y, bx.max.y) as f64,
+                        pick(4, bx.min.z, bx.max.z) as f64,
+                    ))
+                });
+                let corners: Vec<(f64, f64, f64)> = corners.collect();
+                if corners.iter().all(|p| p.2 > tol) || corners.iter().all(|p| p.2 < -tol) {
+                    return Section::None;
+                }
+                bounds_section(plane, corners.iter().map(|p| (p.0, p.1)))
+            }
+        }
+    }
+
+    /// Samples `lo..hi` of the view at `offset` (shift `shift`) whose rays
+    /// may meet `section`.
+    fn samples_of(
+        &self,
+        plane: &Plane,
+        section: &Section,
+        offset: f64,
+        shift: i32,
+        n: usize,
+    ) -> (usize, usize) {
+        match *section {
+            Section::None => (0, 0),
+            Section::Whole => (0, n),
+            Section::Segment { a0, b0, a1, b1 } => {
+                let s0 = plane.sample_of(a0, b0, offset, shift);
+                let s1 = plane.sample_of(a1, b1, offset, shift);
+                clamp_samples(s0.min(s1), s0.max(s1), n)
+            }
+            Section::Circle { a, b, r } => {
+                plane.samples_of_box((a - r, b - r, a + r, b + r), offset, shift, n)
+            }
+            Section::Bounds { a0, b0, a1, b1 } => {
+                plane.samples_of_box((a0, b0, a1, b1), offset, shift, n)
+            }
+        }
+    }
+
+    /// Every view's colours through the samples of `row` into `out` (rig
+    /// order), `workers[v]` tracing view `v` alone.
+    pub(super) fn trace_row(
+        &self,
+        workers: &mut [(usize, Box<dyn RowWorker + '_>)],
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        s: &mut EpiScratch,
+        out: &mut [RowColors],
+    ) {
+        let n = row.len();
+        let contiguous = n > 0 && (row.pixels[n - 1] - row.pixels[0]) as usize + 1 == n;
+        if !matches!(row.pattern, Pattern::Fixed { .. }) || !contiguous {
+            tracer.counts.epipolar.rows_exact += 1;
+            return trace_all(workers, tracer, row, out);
+        }
+        let plane = self.plane(row);
+        if !self.gather(tracer, row, &plane, s) {
+            tracer.counts.epipolar.rows_exact += 1;
+            return trace_all(workers, tracer, row, out);
+        }
+        tracer.counts.epipolar.rows += 1;
+        self.visibility(tracer, row, &plane, s);
+        s.points.iter_mut().for_each(Vec::clear);
+        s.points.resize_with(s.prims.len(), Vec::new);
+        for &p in &self.visit {
+            self.shade_view(workers, tracer, row, &plane, p, s, out);
+        }
+    }
+
+    /// The primitives that may meet the row's rays, ascending, with their
+    /// sections; `false` where the descent could not visit them all.
+    fn gather(
+        &self,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        plane: &Plane,
+        s: &mut EpiScratch,
+    ) -> bool {
+        let n = row.len();
+        let (first, last) = (self.order[0], self.order[self.order.len() - 1]);
+        let shifts = self.order.iter().map(|o| o.2);
+        let (lo_shift, hi_shift) =
+            shifts.fold((i32::MAX, i32::MIN), |(l, h), s| (l.min(s), h.max(s)));
+        let (c_lo, y) = row.camera_point(0, lo_shift);
+        let (c_hi, _) = row.camera_point(n - 1, hi_shift);
+        let (left, right) = (self.camera.eye_at(first.1), self.camera.eye_at(last.1));
+        let corners = [
+            left,
+            right,
+            right + self.camera.direction(c_hi, y) * self.beyond,
+            left + self.camera.direction(c_lo, y) * self.beyond,
+        ];
+        let Some(region) = RunRegion::quad(corners, self.margin) else {
+            return false;
+        };
+        s.prims.clear();
+        let mut stats = RunStats::default();
+        let prims = &mut s.prims;
+        if !self
+            .world
+            .bvh
+            .visit_region(&region, u32::MAX, &mut stats, |p| {
+                prims.push(p);
+                true
+            })
+        {
+            return false;
+        }
+        s.prims.sort_unstable();
+        s.sections.clear();
+        s.sections
+            .extend(s.prims.iter().map(|&p| self.section(plane, p)));
+        tracer.counts.epipolar.primitives += s.prims.len() as u64;
+        true
+    }
+
+    /// Every view's nearest hit through every sample of the row.
+    fn visibility(&self, tracer: &mut Tracer, row: &SampleRow, plane: &Plane, s: &mut EpiScratch) {
+        let n = row.len();
+        let views = self.order.len();
+        s.dirs.clear();
+        for &(_, _, shift) in &self.order {
+            // Eight at a time, bit for bit `direction`'s.
+            for first in (0..n).step_by(8) {
+                let point = |l: usize| row.camera_point((first + l).min(n - 1), shift);
+                let columns = std::array::from_fn(|l| point(l).0);
+                let rows = std::array::from_fn(|l| point(l).1);
+                let dirs = self.camera.directions8(columns, rows);
+                s.dirs.extend_from_slice(&dirs[..(n - first).min(8)]);
+            }
+        }
+        s.best.clear();
+        s.best.resize(views * n, (f32::INFINITY, u32::MAX));
+        let hither = self.camera.hither;
+        let shapes = &self.world.scene.shapes;
+        let mut tests = 0u64;
+        for (local, (&prim, section)) in s.prims.iter().zip(&s.sections).enumerate() {
+            if matches!(section, Section::None) {
+                continue;
+            }
+            let shape = &shapes[prim as usize];
+            for (p, &(_, offset, shift)) in self.order.iter().enumerate() {
+                let (lo, hi) = self.samples_of(plane, section, offset as f64, shift, n);
+                let origin = self.camera.eye_at(offset);
+                let base = p * n;
+                for i in lo..hi {
+                    let k = base + i;
+                    tests += 1;
+                    let ray = Ray::new(origin, s.dirs[k]);
+                    // Ascending primitives and a strict `t < best`: a tie
+                    // keeps the lower index, as the hierarchy does.
+                    if let Some(h) = shape.intersect(&ray, hither, s.best[k].0) {
+                        s.best[k] = (h.t, local as u32);
+                    }
+                }
+            }
+        }
+        tracer.counts.epipolar.tests += tests;
+    }
+
+    /// Where on its section a hit at `(a, b)` lies: a segment's fraction, a
+    /// circle's angle, and for other sections the angle around their box's
+    /// centre (a cone's section is convex, so the box's centre sees each of
+    /// its points at its own angle); `None` for sections through the eyes.
+    fn param(section: &Section, a: f64, b: f64) -> Option<f64> {
+        match *section {
+            Section::Segment { a0, b0, a1, b1 } => {
+                let (da, db) = (a1 - a0, b1 - b0);
+                let len2 = da * da + db * db;
+                (len2 > 0.0).then(|| ((a - a0) * da + (b - b0) * db) / len2)
+            }
+            Section::Circle { a: ca, b: cb, .. } => Some((b - cb).atan2(a - ca)),
+            Section::Bounds { a0, b0, a1, b1 } => {
+                Some((b - (b0 + b1) * 0.5).atan2(a - (a0 + a1) * 0.5))
+            }
+            Section::None | Section::Whole => None,
+        }
+    }
+
+    /// View at position `p`: its samples' colours taken from shade points
+    /// where they may be, the rest traced; the traced ones kept as shade
+    /// points for the views after it.
+    #[allow(clippy::too_many_arguments)]
+    fn shade_view(
+        &self,
+        workers: &mut [(usize, Box<dyn RowWorker + '_>)],
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        plane: &Plane,
+        p: usize,
+        s: &mut EpiScratch,
+        out: &mut [RowColors],
+    ) {
+        let n = row.len();
+        let (v, offset, shift) = self.order[p];
+        let origin = self.camera.eye_at(offset);
+        let offset = offset as f64;
+        let mut stats = EpipolarStats::default();
+        s.pending.clear();
+        s.added.clear();
+        let mut cursor: Option<(u32, usize)> = None;
+        #[allow(clippy::needless_range_loop)] // `i` also indexes `best` and `dirs`
+        for i in 0..n {
+            let k = p * n + i;
+            let (t, local) = s.best[k];
+            if local == u32::MAX {
+                out[v][i] = self.world.scene.background_toward(s.dirs[k]);
+                stats.misses += 1;
+                continue;
+            }
+            let prim = s.prims[local as usize];
+            let m = self.world.scene.shape_material[prim as usize] as usize;
+            if !self.plain[m] {
+                stats.refused_material += 1;
+                s.pending.push(i);
+                s.added.push(None);
+                continue;
+            }
+            let hit = (origin + s.dirs[k] * t).as_dvec3();
+            let (a, b, _) = plane.coords(hit);
+            let section = &s.sections[local as usize];
+            let Some(param) = Self::param(section, a, b) else {
+                stats.refused_shape += 1;
+                s.pending.push(i);
+                s.added.push(None);
+                continue;
+            };
+            let points = &s.points[local as usize];
+            // A view's neighbouring samples on one primitive move along its
+            // section: start from the last sample's place, else search.
+            let at = match cursor {
+                Some((l, at)) if l == local => seek(points, at, param),
+                _ => points.partition_point(|q| q.param < param),
+            };
+            cursor = Some((local, at));
+            if at == 0 || at == points.len() {
+                stats.no_bracket += 1;
+                s.pending.push(i);
+                s.added.push(Some((
+                    local,
+                    ShadePoint {
+                        param,
+                        a,
+                        b,
+                        color: Color::ZERO,
+                    },
+                )));
+                continue;
+            }
+            let (e0, e1) = (points[at - 1], points[at]);
+            // The colour must be close between the two and straight through
+            // them: a peak of the diffuse term between (a sphere's brightest
+            // point) bends the line at their neighbours, which must be there.
+            if largest(e1.color - e0.color) > self.tolerance
+                || at < 2
+                || at + 1 >= points.len()
+                || bend(&points[at - 2], &e0, &e1) > self.tolerance * 0.5
+                || bend(&e0, &e1, &points[at + 1]) > self.tolerance * 0.5
+            {
+                stats.refused_colour += 1;
+                s.pending.push(i);
+                s.added.push(Some((
+                    local,
+                    ShadePoint {
+                        param,
+                        a,
+                        b,
+                        color: Color::ZERO,
+                    },
+                )));
+                continue;
+            }
+            // The two must lie within WIDEST of this view's pixels, on either
+            // side of the sample, at its depth (not one on the surface's far
+            // side, seen by another view).
+            let column = |q: &ShadePoint| plane.sample_of(q.a, q.b, offset, shift);
+            let (c0, c1) = (column(&e0), column(&e1));
+            let w = if e1.param > e0.param {
+                (param - e0.param) / (e1.param - e0.param)
+            } else {
+                0.0
+            };
+            let here = i as f64;
+            let between = here >= c0.min(c1) - SLACK && here <= c0.max(c1) + SLACK;
+            let depth = e0.b + (e1.b - e0.b) * w;
+            if (c1 - c0).abs() > WIDEST || !between || (depth - b).abs() > DEPTH_STEP * b {
+                stats.refused_wide += 1;
+                s.pending.push(i);
+                s.added.push(Some((
+                    local,
+                    ShadePoint {
+                        param,
+                        a,
+                        b,
+                        color: Color::ZERO,
+                    },
+                )));
+                continue;
+            }
+            out[v][i] = e0.color + (e1.color - e0.color) * w as f32;
+            stats.taken += 1;
+        }
+        if s.pending.is_empty() {
+            tracer.counts.epipolar.add(&stats);
+            return;
+        }
+        stats.traced += s.pending.len() as u64;
+        let pixels = s.pending.iter().map(|&i| row.pixels[i]).collect();
+        let sub = SampleRow::new(pixels, row.pattern);
+        s.one.resize_with(1, Vec::new);
+        s.one[0].clear();
+        s.one[0].resize(sub.len(), Color::ZERO);
+        workers[v].1.trace(tracer, &sub, &mut s.one[..1]);
+        for (m, &i) in s.pending.iter().enumerate() {
+            out[v][i] = s.one[0][m];
+        }
+        // The traced samples on surfaces that keep shade points become
+        // shade points for the views after this one.
+        s.touched.clear();
+        for (m, added) in s.added.iter().enumerate() {
+            if let Some((local, mut point)) = *added {
+                point.color = s.one[0][m];
+                let points = &mut s.points[local as usize];
+                if points.last().is_none_or(|q| q.param <= point.param) {
+                    // (In sample order a segment's points come ascending.)
+                } else {
+                    s.touched.push(local);
+                }
+                points.push(point);
+                stats.shade_points += 1;
+            }
+        }
+        s.touched.sort_unstable();
+        s.touched.dedup();
+        for &local in &s.touched {
+            s.points[local as usize].sort_by(|a, b| a.param.total_cmp(&b.param));
+        }
+        tracer.counts.epipolar.add(&stats);
+    }
+}
+
+/// How far `m`'s colour lies off the line between its neighbours' (along
+/// the section), largest channel.
+fn bend(before: &ShadePoint, m: &ShadePoint, after: &ShadePoint) -> f32 {
+    let span = after.param - before.param;
+    let f = if span > 0.0 {
+        ((m.param - before.param) / span) as f32
+    } else {
+        0.5
+    };
+    largest(m.color - (before.color + (after.color - before.color) * f))
+}
+
+/// The first of `points` (ascending) at or past `param`, searched from `at`:
+/// a few steps either way, else by bisection.
+fn seek(points: &[ShadePoint], at: usize, param: f64) -> usize {
+    let mut at = at.min(points.len());
+    for _ in 0..4 {
+        if at > 0 && points[at - 1].param >= param {
+            at -= 1;
+        } else if at < points.len() && points[at].param < param {
+            at += 1;
+        } else {
+            return at;
+        }
+    }
+    points.partition_point(|q| q.param < param)
+}
+
+/// Box section of points `(a, b)`, or the whole row where it reaches the
+/// camera line.
+fn bounds_section(plane: &Plane, points: impl Iterator<Item = (f64, f64)>) -> Section {
+    let (mut a0, mut b0, mut a1, mut b1) = (
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for (a, b) in points {
+        a0 = a0.min(a);
+        a1 = a1.max(a);
+        b0 = b0.min(b);
+        b1 = b1.max(b);
+    }
+    if b1 < plane.b_min {
+        Section::None
+    } else if b0 < plane.b_min || !(a0.is_finite() && a1.is_finite()) {
+        Section::Whole
+    } else {
+        Section::Bounds { a0, b0, a1, b1 }
+    }
+}
+
+/// A triangle's segment clipped to `b ≥ b_min`.
+fn clip_segment(plane: &Plane, a0: f64, b0: f64, a1: f64, b1: f64) -> Section {
+    let m = plane.b_min;
+    match (b0 >= m, b1 >= m) {
+        (false, false) => Section::None,
+        (true, true) => Section::Segment { a0, b0, a1, b1 },
+        (near0, _) => {
+            let f = (m - b0) / (b1 - b0);
+            let (a, b) = (a0 + (a1 - a0) * f, m);
+            if near0 {
+                Section::Segment {
+                    a0,
+                    b0,
+                    a1: a,
+                    b1: b,
+                }
+            } else {
+                Section::Segment {
+                    a0: a,
+                    b0: b,
+                    a1,
+                    b1,
+                }
+            }
+        }
+    }
+}
+
+/// Positions `0..n` in the order their rows are shaded: the middle, the two
+/// ends, then halfway between shaded ones, level by level.
+fn visit_order(n: usize) -> Vec<usize> {
+    let mut order = Vec::with_capacity(n);
+    let mut seen = vec![false; n];
+    let mut push = |p: usize, order: &mut Vec<usize>| {
+        if !seen[p] {
+            seen[p] = true;
+            order.push(p);
+        }
+    };
+    if n == 0 {
+        return order;
+    }
+    push(n / 2, &mut order);
+    push(0, &mut order);
+    push(n - 1, &mut order);
+    while order.len() < n {
+        let mut done: Vec<usize> = order.clone();
+        done.sort_unstable();
+        for w in done.windows(2) {
+            if w[1] - w[0] > 1 {
+                push((w[0] + w[1]) / 2, &mut order);
+            }
+        }
+    }
+    order
+}
+
+/// Every view traced exactly.
+fn trace_all(
+    workers: &mut [(usize, Box<dyn RowWorker + '_>)],
+    tracer: &mut Tracer,
+    row: &SampleRow,
+    out: &mut [RowColors],
+) {
+    let mut first = 0;
+    for (n, worker) in workers.iter_mut() {
+        worker.trace(tracer, row, &mut out[first..first + *n]);
+        first += *n;
+    }
+}
+
+/// The largest channel's magnitude.
+fn largest(c: Color) -> f32 {
+    c.x.abs().max(c.y.abs()).max(c.z.abs())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::{Packet, PacketHits};
+    use crate::loaders::nff::parse_nff;
+    use crate::loaders::LoadOptions;
+    use crate::render::TraceSettings;
+
+    /// Every sample's nearest hit from the row's plane is the hierarchy's
+    /// (the same primitive, the same distance bit for bit, or both none), on
+    /// the bundled scenes (triangles, spheres, cones, a floor reaching behind
+    /// the camera), 9 converged views: a view's samples shifted by whole
+    /// pixels, offsets both sides of the centre.
+    #[test]
+    fn every_views_hits_are_the_hierarchys() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/");
+        for (name, width, height, interaxial) in [
+            ("shelf.nff", 80, 60, 0.05),
+            ("example.nff", 64, 48, 0.2),
+            ("deep.nff", 96, 54, 0.5),
+        ] {
+            let path = format!("{dir}{name}");
+            let text = std::fs::read_to_string(&path).expect("bundled scene");
+            let scene = parse_nff(&text, std::path::Path::new(&path), &LoadOptions::default())
+                .expect("bundled scene");
+            let world = World::new(scene);
+            let camera = Camera::new(&world.scene.viewpoint, width, height);
+            let rig = Rig::multi_view(&camera, 9, interaxial, Some(8.0)).expect("rig");
+            assert!(rig.views.iter().any(|v| v.shift != 0), "{name}: converged");
+            let epipolar = EpipolarViews { tolerance: 0.01 };
+            let pass = EpipolarPass::new(&world, &camera, &rig, epipolar).expect("pass");
+            let mut tracer = Tracer::new(&world, TraceSettings::default());
+            let mut s = EpiScratch::default();
+            let (mut hits, mut samples) = (0, 0);
+            for y in 0..height {
+                let row = SampleRow::centres(width as usize, y);
+                let plane = pass.plane(&row);
+                assert!(
+                    pass.gather(&mut tracer, &row, &plane, &mut s),
+                    "{name} row {y}"
+                );
+                pass.visibility(&mut tracer, &row, &plane, &mut s);
+                let n = row.len();
+                for (p, &(_, offset, _)) in pass.order.iter().enumerate() {
+                    for i in 0..n {
+                        let k = p * n + i;
+                        let packet = Packet::<1> {
+                            origins: [camera.eye_at(offset)],
+                            dirs: [s.dirs[k]],
+                            t_min: camera.hither,
+                            t_max: [f32::INFINITY],
+                            mask: 1,
+                        };
+                        let (prim, hit) = tracer.eye_hit(&packet, 0);
+                        let (t, local) = s.best[k];
+                        let mine = if local == u32::MAX {
+                            PacketHits::<1>::NO_HIT
+                        } else {
+                            s.prims[local as usize]
+                        };
+                        assert_eq!(mine, prim, "{name}: view {p}, row {y}, sample {i}");
+                        if prim != PacketHits::<1>::NO_HIT {
+                            assert_eq!(
+                                t.to_bits(),
+                                hit.t.to_bits(),
+                                "{name}: view {p}, row {y}, sample {i}"
+                            );
+                            hits += 1;
+                        }
+                        samples += 1;
+                    }
+                }
+            }
+            // Most rays hit something, and not all: both kinds were compared.
+            assert!(
+                hits * 4 > samples && hits < samples,
+                "{name}: {hits} of {samples}"
+            );
+        }
+    }
+
+    /// The middle view first, then the ends, then halfway between: each
+    /// position once.
+    #[test]
+    fn views_are_visited_middle_first_then_halfway() {
+        assert_eq!(visit_order(1), vec![0]);
+        assert_eq!(visit_order(3), vec![1, 0, 2]);
+        assert_eq!(visit_order(9), vec![4, 0, 8, 2, 6, 1, 3, 5, 7]);
+        let mut all = visit_order(48);
+        all.sort_unstable();
+        assert_eq!(all, (0..48).collect::<Vec<_>>());
+    }
+}
