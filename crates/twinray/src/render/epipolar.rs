@@ -15,26 +15,30 @@
 //!    region (the quadrilateral every view's rays of the row sweep) are
 //!    gathered in one descent. Each one's section (a triangle's segment, a
 //!    sphere's circle, any other shape's box) gives, per view, the samples
-//!    whose rays may meet it, with a sample's margin each side; each of those
-//!    rays is tested against the primitive with the single-ray routine, and
-//!    the nearest hit is kept, ties to the lower primitive index, as the
-//!    hierarchy keeps them. A sample's hit is therefore the one its own ray
-//!    finds (the test suite compares every sample with the hierarchy's), and
-//!    no view misses a pole the others do not see.
+//!    whose rays may meet it, a hundredth of a sample beyond its ends'
+//!    columns; each of those rays is tested against the primitive with the
+//!    single-ray routine, and the nearest hit is kept, ties to the lower
+//!    primitive index, as the hierarchy keeps them. A sample's hit is
+//!    therefore the one its own ray finds (the tests compare every sample
+//!    with the hierarchy's), no eye ray is traced, and no view misses a
+//!    pole the others do not see.
 //! 2. **Shading, once per surface point.** Views are visited middle first,
 //!    then the outermost, then halfway between visited ones. A visited
 //!    view's sample that hits a diffuse surface (mirror, highlight and
-//!    transmission weights at most `E`) on a triangle or a sphere looks for
-//!    the two *shade points* of that primitive around its own hit on the
-//!    section (kept from earlier views' samples shaded exactly). It takes
-//!    their colour, interpolated along the section, if the two are within
-//!    one and a half of this view's pixels of each other, on either side of
-//!    the sample at its depth, their colours differ by at most `E` per
-//!    channel, and each lies within `E/2` of the line through its
-//!    neighbours' colours (a peak of the diffuse term between them, as at a
-//!    sphere's brightest point, bends it; a neighbour must be there). Every other sample (no shade point
-//!    on one side, colours apart, a mirror or glass, a cone) is traced and
-//!    shaded exactly by the view itself, and becomes a shade point; a sample
+//!    transmission weights at most `E`) looks for the two *shade points* of
+//!    its primitive on either side of its own hit along the section (earlier
+//!    views' samples shaded exactly). They must lie within one and a half of
+//!    this view's pixels of each other, on either side of the sample, at its
+//!    depth. It takes their colour, interpolated along the section, if their
+//!    colours differ by at most `E` per channel and each lies within `E/2`
+//!    of the line through its neighbours' colours (a peak of the diffuse
+//!    term between them, as at a sphere's brightest point, bends it; a
+//!    neighbour must be there). Else, if the two and their outer neighbours
+//!    saw each light alike (the same transmittance), it takes that light and
+//!    its secondary colour between theirs, and computes its own ambient,
+//!    diffuse and highlight terms: no ray. Every other sample (no shade
+//!    point on one side, colour and light apart, a mirror or glass) is
+//!    shaded exactly, eight to a packet, and becomes a shade point; a sample
 //!    that hits nothing takes the background, as its ray would.
 //!
 //! **The bound.** A taken colour lies between two exact colours of the same
@@ -44,11 +48,14 @@
 //! curvature: for a parabolic profile the interpolation's error is a quarter
 //! of the half second difference, so at most `E/8`. Add the view-dependent
 //! terms the material threshold lets through (`E` of the highlight and
-//! mirror weights). The assumption is that no feature narrower than the
-//! shade points' spacing lies between them. A shadow or texture edge
-//! between the two shows as a step in their colours and is traced; a sliver
-//! narrower than the shade points' spacing that falls between two of them is
-//! not seen (as the middle view's own image misses it).
+//! mirror weights). A sample that takes the light is exact where the light
+//! is what its shade points saw, with its secondary light off by at most `E`
+//! times what its rays would bring. The assumption is that no feature
+//! narrower than the shade points' spacing lies between them. A shadow or
+//! texture edge between the two shows as a step in their colours or their
+//! light and is shaded exactly; a sliver narrower than the shade points'
+//! spacing that falls between two of them is not seen (as the middle view's
+//! own image misses it).
 //!
 //! Only rows of one fixed pattern in every pixel (`--samples 1`, the SPD's
 //! corners) lie in one plane; other rows are traced exactly in every view.
@@ -57,11 +64,11 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::sampler::{Pattern, RowColors, SampleRow};
-use super::{RowWorker, Tracer};
-use crate::bvh::{RunRegion, RunStats};
+use super::{Donors, RowWorker, SecondaryRays, Tracer};
+use crate::bvh::{Packet, PacketHits, RunRegion, RunStats, EYE_PACKET};
 use crate::math::{Color, Ray, Vec3};
 use crate::rig::{Camera, Rig};
-use crate::shapes::Shape;
+use crate::shapes::{Shape, SurfaceHit};
 use crate::world::World;
 
 /// The epipolar rows, as asked for (see the module's notes).
@@ -84,8 +91,10 @@ pub struct EpipolarStats {
     /// ray tests the visibility made.
     pub primitives: u64,
     pub tests: u64,
-    /// Samples that took their colour from two shade points.
+    /// Samples that took their colour from two shade points, and those that
+    /// took their light (shaded with it, no ray traced).
     pub taken: u64,
+    pub light_taken: u64,
     /// Samples traced and shaded exactly, and those that hit nothing.
     pub traced: u64,
     pub misses: u64,
@@ -110,6 +119,7 @@ impl EpipolarStats {
         self.primitives += o.primitives;
         self.tests += o.tests;
         self.taken += o.taken;
+        self.light_taken += o.light_taken;
         self.traced += o.traced;
         self.misses += o.misses;
         self.no_bracket += o.no_bracket;
@@ -167,7 +177,8 @@ enum Section {
     Whole,
 }
 
-/// A sample shaded exactly: where on its primitive's section, and its colour.
+/// A sample shaded exactly: where on its primitive's section, its colour,
+/// and what it took from the lights and its secondary rays.
 #[derive(Clone, Copy, Debug)]
 struct ShadePoint {
     /// Position along the section (a segment's fraction, a circle's angle).
@@ -175,7 +186,19 @@ struct ShadePoint {
     a: f64,
     b: f64,
     color: Color,
+    /// Weighted colour of its reflected and refracted rays.
+    secondary: Color,
+    /// Its transmittance toward each light: `EpiScratch::light[light..]`.
+    light: u32,
 }
+
+/// A sample to shade exactly, and where it lies on its section if its
+/// surface keeps shade points: (primitive, param, a, b).
+type Donation = (usize, Option<(u32, f64, f64, f64)>);
+
+/// A sample that takes its light from shade point `from` and its secondary
+/// colour between `from` and `to`, at `w`.
+type Taking = (usize, ShadePoint, ShadePoint, f32);
 
 /// One thread's scratch space, reused from row to row.
 #[derive(Default)]
@@ -183,17 +206,19 @@ pub(super) struct EpiScratch {
     prims: Vec<u32>,
     sections: Vec<Section>,
     /// Per position, per sample: the ray's direction, and the nearest hit
-    /// (distance, index into `prims`, `u32::MAX` for none).
+    /// (index into `prims`, `u32::MAX` for none).
     dirs: Vec<Vec3>,
-    best: Vec<(f32, u32)>,
+    best: Vec<(SurfaceHit, u32)>,
     /// Per gathered primitive: its shade points by `param`.
     points: Vec<Vec<ShadePoint>>,
-    /// Per pending sample: the shade point it becomes, if its surface keeps
-    /// them.
-    added: Vec<Option<(u32, ShadePoint)>>,
+    /// The shade points' transmittances toward each light.
+    light: Vec<f32>,
+    /// A view's samples shaded exactly, and those that take a light.
+    donations: Vec<Donation>,
+    takings: Vec<Taking>,
     touched: Vec<u32>,
-    pending: Vec<usize>,
-    one: Vec<RowColors>,
+    donors: Donors,
+    through: Vec<f32>,
 }
 
 /// The row's plane: origin (the rig's centre eye), axes, and the samples'
@@ -461,8 +486,9 @@ impl<'a> EpipolarPass<'a> {
         self.visibility(tracer, row, &plane, s);
         s.points.iter_mut().for_each(Vec::clear);
         s.points.resize_with(s.prims.len(), Vec::new);
+        s.light.clear();
         for &p in &self.visit {
-            self.shade_view(workers, tracer, row, &plane, p, s, out);
+            self.shade_view(tracer, row, &plane, p, s, out);
         }
     }
 
@@ -529,7 +555,8 @@ impl<'a> EpipolarPass<'a> {
             }
         }
         s.best.clear();
-        s.best.resize(views * n, (f32::INFINITY, u32::MAX));
+        s.best
+            .resize(views * n, (PacketHits::<1>::none().hit[0], u32::MAX));
         let hither = self.camera.hither;
         let shapes = &self.world.scene.shapes;
         let mut tests = 0u64;
@@ -548,8 +575,8 @@ impl<'a> EpipolarPass<'a> {
                     let ray = Ray::new(origin, s.dirs[k]);
                     // Ascending primitives and a strict `t < best`: a tie
                     // keeps the lower index, as the hierarchy does.
-                    if let Some(h) = shape.intersect(&ray, hither, s.best[k].0) {
-                        s.best[k] = (h.t, local as u32);
+                    if let Some(h) = shape.intersect(&ray, hither, s.best[k].0.t) {
+                        s.best[k] = (h, local as u32);
                     }
                 }
             }
@@ -577,12 +604,10 @@ impl<'a> EpipolarPass<'a> {
     }
 
     /// View at position `p`: its samples' colours taken from shade points
-    /// where they may be, the rest traced; the traced ones kept as shade
-    /// points for the views after it.
-    #[allow(clippy::too_many_arguments)]
+    /// where they may be, their light taken where it may be, the rest shaded
+    /// exactly and kept as shade points for the views after it.
     fn shade_view(
         &self,
-        workers: &mut [(usize, Box<dyn RowWorker + '_>)],
         tracer: &mut Tracer,
         row: &SampleRow,
         plane: &Plane,
@@ -594,14 +619,15 @@ impl<'a> EpipolarPass<'a> {
         let (v, offset, shift) = self.order[p];
         let origin = self.camera.eye_at(offset);
         let offset = offset as f64;
+        let lights = self.world.scene.lights.len();
         let mut stats = EpipolarStats::default();
-        s.pending.clear();
-        s.added.clear();
+        s.donations.clear();
+        s.takings.clear();
         let mut cursor: Option<(u32, usize)> = None;
         #[allow(clippy::needless_range_loop)] // `i` also indexes `best` and `dirs`
         for i in 0..n {
             let k = p * n + i;
-            let (t, local) = s.best[k];
+            let (hit, local) = s.best[k];
             if local == u32::MAX {
                 out[v][i] = self.world.scene.background_toward(s.dirs[k]);
                 stats.misses += 1;
@@ -611,19 +637,17 @@ impl<'a> EpipolarPass<'a> {
             let m = self.world.scene.shape_material[prim as usize] as usize;
             if !self.plain[m] {
                 stats.refused_material += 1;
-                s.pending.push(i);
-                s.added.push(None);
+                s.donations.push((i, None));
                 continue;
             }
-            let hit = (origin + s.dirs[k] * t).as_dvec3();
-            let (a, b, _) = plane.coords(hit);
+            let (a, b, _) = plane.coords((origin + s.dirs[k] * hit.t).as_dvec3());
             let section = &s.sections[local as usize];
             let Some(param) = Self::param(section, a, b) else {
                 stats.refused_shape += 1;
-                s.pending.push(i);
-                s.added.push(None);
+                s.donations.push((i, None));
                 continue;
             };
+            let keep = Some((local, param, a, b));
             let points = &s.points[local as usize];
             // A view's neighbouring samples on one primitive move along its
             // section: start from the last sample's place, else search.
@@ -634,41 +658,10 @@ impl<'a> EpipolarPass<'a> {
             cursor = Some((local, at));
             if at == 0 || at == points.len() {
                 stats.no_bracket += 1;
-                s.pending.push(i);
-                s.added.push(Some((
-                    local,
-                    ShadePoint {
-                        param,
-                        a,
-                        b,
-                        color: Color::ZERO,
-                    },
-                )));
+                s.donations.push((i, keep));
                 continue;
             }
             let (e0, e1) = (points[at - 1], points[at]);
-            // The colour must be close between the two and straight through
-            // them: a peak of the diffuse term between (a sphere's brightest
-            // point) bends the line at their neighbours, which must be there.
-            if largest(e1.color - e0.color) > self.tolerance
-                || at < 2
-                || at + 1 >= points.len()
-                || bend(&points[at - 2], &e0, &e1) > self.tolerance * 0.5
-                || bend(&e0, &e1, &points[at + 1]) > self.tolerance * 0.5
-            {
-                stats.refused_colour += 1;
-                s.pending.push(i);
-                s.added.push(Some((
-                    local,
-                    ShadePoint {
-                        param,
-                        a,
-                        b,
-                        color: Color::ZERO,
-                    },
-                )));
-                continue;
-            }
             // The two must lie within WIDEST of this view's pixels, on either
             // side of the sample, at its depth (not one on the surface's far
             // side, seen by another view).
@@ -684,49 +677,114 @@ impl<'a> EpipolarPass<'a> {
             let depth = e0.b + (e1.b - e0.b) * w;
             if (c1 - c0).abs() > WIDEST || !between || (depth - b).abs() > DEPTH_STEP * b {
                 stats.refused_wide += 1;
-                s.pending.push(i);
-                s.added.push(Some((
-                    local,
-                    ShadePoint {
-                        param,
-                        a,
-                        b,
-                        color: Color::ZERO,
-                    },
-                )));
+                s.donations.push((i, keep));
                 continue;
             }
-            out[v][i] = e0.color + (e1.color - e0.color) * w as f32;
-            stats.taken += 1;
+            // The colour must be close between the two and straight through
+            // them: a peak of the diffuse term between (a sphere's brightest
+            // point) bends the line at their neighbours, which must be there.
+            if largest(e1.color - e0.color) <= self.tolerance
+                && at >= 2
+                && at + 1 < points.len()
+                && bend(&points[at - 2], &e0, &e1) <= self.tolerance * 0.5
+                && bend(&e0, &e1, &points[at + 1]) <= self.tolerance * 0.5
+            {
+                out[v][i] = e0.color + (e1.color - e0.color) * w as f32;
+                stats.taken += 1;
+                continue;
+            }
+            // Else its own shading, with the light the two saw, where they and
+            // their neighbours saw each light alike: no shadow edge passes
+            // near. (With the two alone, slivers of the thin branches'
+            // shadows between them doubled the pixels off by more than 0.05
+            // on SPD tree.)
+            let light = |q: &ShadePoint| &s.light[q.light as usize..q.light as usize + lights];
+            let alike = |q: Option<&ShadePoint>| q.is_some_and(|q| light(q) == light(&e0));
+            if at >= 2 && alike(Some(&e1)) && alike(points.get(at - 2)) && alike(points.get(at + 1))
+            {
+                stats.light_taken += 1;
+                s.takings.push((i, e0, e1, w as f32));
+                continue;
+            }
+            stats.refused_colour += 1;
+            s.donations.push((i, keep));
         }
-        if s.pending.is_empty() {
-            tracer.counts.epipolar.add(&stats);
-            return;
+        stats.traced += s.donations.len() as u64;
+        tracer.counts.epipolar.add(&stats);
+        self.shade_donations(tracer, p, n, origin, s, &mut out[v]);
+        self.shade_takings(tracer, p, n, origin, s, &mut out[v]);
+    }
+
+    /// A packet of eight of view `p`'s samples (`sample(l)` for lane `l`,
+    /// `count` lanes), with their known hits.
+    fn packet(
+        &self,
+        s: &EpiScratch,
+        p: usize,
+        n: usize,
+        origin: Vec3,
+        count: usize,
+        sample: impl Fn(usize) -> usize,
+    ) -> (Packet<EYE_PACKET>, PacketHits<EYE_PACKET>) {
+        let mut packet = Packet {
+            origins: [origin; EYE_PACKET],
+            dirs: [Vec3::Z; EYE_PACKET],
+            t_min: self.camera.hither,
+            t_max: [f32::INFINITY; EYE_PACKET],
+            mask: (1u32 << count) - 1,
+        };
+        let mut hits = PacketHits::<EYE_PACKET>::none();
+        for l in 0..count {
+            let k = p * n + sample(l);
+            let (hit, local) = s.best[k];
+            packet.dirs[l] = s.dirs[k];
+            hits.prim[l] = s.prims[local as usize];
+            hits.hit[l] = hit;
         }
-        stats.traced += s.pending.len() as u64;
-        let pixels = s.pending.iter().map(|&i| row.pixels[i]).collect();
-        let sub = SampleRow::new(pixels, row.pattern);
-        s.one.resize_with(1, Vec::new);
-        s.one[0].clear();
-        s.one[0].resize(sub.len(), Color::ZERO);
-        workers[v].1.trace(tracer, &sub, &mut s.one[..1]);
-        for (m, &i) in s.pending.iter().enumerate() {
-            out[v][i] = s.one[0][m];
-        }
-        // The traced samples on surfaces that keep shade points become
-        // shade points for the views after this one.
+        (packet, hits)
+    }
+
+    /// The view's samples to shade exactly, eight to a packet (each lane's
+    /// colour is what it gets alone); those on surfaces that keep shade
+    /// points become shade points, with their light and secondary colour.
+    fn shade_donations(
+        &self,
+        tracer: &mut Tracer,
+        p: usize,
+        n: usize,
+        origin: Vec3,
+        s: &mut EpiScratch,
+        out: &mut RowColors,
+    ) {
+        let lights = self.world.scene.lights.len();
         s.touched.clear();
-        for (m, added) in s.added.iter().enumerate() {
-            if let Some((local, mut point)) = *added {
-                point.color = s.one[0][m];
+        let mut kept = 0u64;
+        for first in (0..s.donations.len()).step_by(EYE_PACKET) {
+            let count = (s.donations.len() - first).min(EYE_PACKET);
+            let (packet, hits) = self.packet(s, p, n, origin, count, |l| s.donations[first + l].0);
+            tracer.shade_donors(&packet, &hits, SecondaryRays::Own, &mut s.donors);
+            for l in 0..count {
+                let (i, keep) = s.donations[first + l];
+                out[i] = s.donors.colors[l];
+                let Some((local, param, a, b)) = keep else {
+                    continue;
+                };
+                let light = s.light.len() as u32;
+                s.light.extend_from_slice(s.donors.through(l, lights));
+                let point = ShadePoint {
+                    param,
+                    a,
+                    b,
+                    color: s.donors.colors[l],
+                    secondary: s.donors.secondary[l],
+                    light,
+                };
                 let points = &mut s.points[local as usize];
-                if points.last().is_none_or(|q| q.param <= point.param) {
-                    // (In sample order a segment's points come ascending.)
-                } else {
+                if points.last().is_some_and(|q| q.param > param) {
                     s.touched.push(local);
                 }
                 points.push(point);
-                stats.shade_points += 1;
+                kept += 1;
             }
         }
         s.touched.sort_unstable();
@@ -734,7 +792,39 @@ impl<'a> EpipolarPass<'a> {
         for &local in &s.touched {
             s.points[local as usize].sort_by(|a, b| a.param.total_cmp(&b.param));
         }
-        tracer.counts.epipolar.add(&stats);
+        tracer.counts.epipolar.shade_points += kept;
+    }
+
+    /// The view's samples that take their light from a shade point, eight
+    /// to a packet: their own ambient, diffuse and highlight terms, no ray.
+    fn shade_takings(
+        &self,
+        tracer: &mut Tracer,
+        p: usize,
+        n: usize,
+        origin: Vec3,
+        s: &mut EpiScratch,
+        out: &mut RowColors,
+    ) {
+        let lights = self.world.scene.lights.len();
+        for first in (0..s.takings.len()).step_by(EYE_PACKET) {
+            let count = (s.takings.len() - first).min(EYE_PACKET);
+            let (packet, hits) = self.packet(s, p, n, origin, count, |l| s.takings[first + l].0);
+            s.through.clear();
+            s.through.resize(lights * EYE_PACKET, 0.0);
+            let mut secondary = [Color::ZERO; EYE_PACKET];
+            for (l, secondary) in secondary.iter_mut().enumerate().take(count) {
+                let (_, e0, e1, w) = s.takings[first + l];
+                let from = e0.light as usize;
+                s.through[l * lights..(l + 1) * lights]
+                    .copy_from_slice(&s.light[from..from + lights]);
+                *secondary = e0.secondary + (e1.secondary - e0.secondary) * w;
+            }
+            let colors = tracer.shade_from_donors(&packet, &hits, &s.through, &secondary);
+            for l in 0..count {
+                out[s.takings[first + l].0] = colors[l];
+            }
+        }
     }
 }
 
@@ -875,7 +965,8 @@ mod tests {
     use crate::render::TraceSettings;
 
     /// Every sample's nearest hit from the row's plane is the hierarchy's
-    /// (the same primitive, the same distance bit for bit, or both none), on
+    /// (the same primitive, the same distance and surface coordinates bit
+    /// for bit, or both none), on
     /// the bundled scenes (triangles, spheres, cones, a floor reaching behind
     /// the camera), 9 converged views: a view's samples shifted by whole
     /// pixels, offsets both sides of the centre.
@@ -920,7 +1011,7 @@ mod tests {
                             mask: 1,
                         };
                         let (prim, hit) = tracer.eye_hit(&packet, 0);
-                        let (t, local) = s.best[k];
+                        let (mine_hit, local) = s.best[k];
                         let mine = if local == u32::MAX {
                             PacketHits::<1>::NO_HIT
                         } else {
@@ -928,9 +1019,10 @@ mod tests {
                         };
                         assert_eq!(mine, prim, "{name}: view {p}, row {y}, sample {i}");
                         if prim != PacketHits::<1>::NO_HIT {
+                            let bits = |h: SurfaceHit| [h.t, h.u, h.v].map(f32::to_bits);
                             assert_eq!(
-                                t.to_bits(),
-                                hit.t.to_bits(),
+                                bits(mine_hit),
+                                bits(hit),
                                 "{name}: view {p}, row {y}, sample {i}"
                             );
                             hits += 1;
