@@ -196,3 +196,16 @@ pub fn brute(
     }
     best
 }
+
+/// A render's views against the independent renders: the largest difference
+/// of any view and the number of pixels that differ at all.
+pub fn difference(exact: &RenderOutput, out: &RenderOutput) -> (f32, usize) {
+    let (mut worst, mut differ) = (0.0f32, 0);
+    for (a, b) in exact.images.iter().zip(&out.images) {
+        for (p, q) in a.pixels.iter().zip(&b.pixels) {
+            worst = worst.max((*p - *q).abs().max_element());
+            differ += usize::from(p != q);
+        }
+    }
+    (worst, differ)
+}

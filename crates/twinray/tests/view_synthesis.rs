@@ -32,19 +32,6 @@ fn synthesizing(spacing: usize, tolerance: f32, sampling: Sampling) -> RenderOpt
     }
 }
 
-/// A render's views against the independent renders: the largest difference
-/// of any view and the number of pixels that differ at all.
-fn difference(exact: &RenderOutput, out: &RenderOutput) -> (f32, usize) {
-    let (mut worst, mut differ) = (0.0f32, 0);
-    for (a, b) in exact.images.iter().zip(&out.images) {
-        for (p, q) in a.pixels.iter().zip(&b.pixels) {
-            worst = worst.max((*p - *q).abs().max_element());
-            differ += usize::from(p != q);
-        }
-    }
-    (worst, differ)
-}
-
 /// `world`'s `views` views independently and synthesized (key view every
 /// `spacing`, on `threads` threads): the largest difference, the pixels
 /// that differ, and the synthesized render.

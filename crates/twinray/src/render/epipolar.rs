@@ -64,6 +64,7 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::sampler::{Pattern, RowColors, SampleRow};
+use super::view_synthesis::{largest, trace_all};
 use super::{Donors, RowWorker, SecondaryRays, Tracer};
 use crate::bvh::{Packet, PacketHits, RunRegion, RunStats, EYE_PACKET};
 use crate::math::{Color, Ray, Vec3};
@@ -296,9 +297,8 @@ fn clamp_samples(lo: f64, hi: f64, n: usize) -> (usize, usize) {
 const EDGE: f64 = 1e-2;
 
 impl<'a> EpipolarPass<'a> {
-    /// The pass for `rig`, or `None` where it does not apply (fewer than
-    /// three views, a cut of the object tree, materials whose alpha matters,
-    /// instances).
+    /// The pass for `rig`, or `None` where it does not apply (one view, a
+    /// cut of the object tree, materials whose alpha matters, instances).
     pub(super) fn new(
         world: &'a World,
         camera: &'a Camera,
@@ -306,7 +306,7 @@ impl<'a> EpipolarPass<'a> {
         epipolar: EpipolarViews,
     ) -> Option<EpipolarPass<'a>> {
         let n = rig.views.len();
-        if n < 3 || world.far.is_some() || world.has_alpha || world.instances.is_some() {
+        if n < 2 || world.far.is_some() || world.has_alpha || world.instances.is_some() {
             return None;
         }
         let order = rig.views_by_offset();
@@ -710,6 +710,10 @@ impl<'a> EpipolarPass<'a> {
             s.donations.push((i, keep));
         }
         stats.traced += s.donations.len() as u64;
+        // The view's hits, found in the plane (`--stats` `hits_per_view`).
+        if let Some(h) = tracer.counts.per_view_hits.0.get_mut(v) {
+            *h += n as u64 - stats.misses;
+        }
         tracer.counts.epipolar.add(&stats);
         self.shade_donations(tracer, p, n, origin, s, &mut out[v]);
         self.shade_takings(tracer, p, n, origin, s, &mut out[v]);
@@ -935,25 +939,6 @@ fn visit_order(n: usize) -> Vec<usize> {
         }
     }
     order
-}
-
-/// Every view traced exactly.
-fn trace_all(
-    workers: &mut [(usize, Box<dyn RowWorker + '_>)],
-    tracer: &mut Tracer,
-    row: &SampleRow,
-    out: &mut [RowColors],
-) {
-    let mut first = 0;
-    for (n, worker) in workers.iter_mut() {
-        worker.trace(tracer, row, &mut out[first..first + *n]);
-        first += *n;
-    }
-}
-
-/// The largest channel's magnitude.
-fn largest(c: Color) -> f32 {
-    c.x.abs().max(c.y.abs()).max(c.z.abs())
 }
 
 #[cfg(test)]

@@ -167,7 +167,7 @@ pub struct Approximations {
     /// Issue 16 (`--epipolar-views`): each row's eye hits found from the
     /// primitives that cross its plane, for every view at once, and a
     /// diffuse surface's colour shaded once and interpolated for the views
-    /// that see it (`epipolar`; twin method, three views or more).
+    /// that see it (`epipolar`; twin method, two views or more).
     pub epipolar_views: Option<EpipolarViews>,
 }
 

@@ -695,7 +695,7 @@ fn nearest_key(keys: &[usize], p: usize) -> usize {
 }
 
 /// Every view traced exactly.
-fn trace_all(
+pub(super) fn trace_all(
     workers: &mut [(usize, Box<dyn RowWorker + '_>)],
     tracer: &mut Tracer,
     row: &SampleRow,
@@ -709,7 +709,7 @@ fn trace_all(
 }
 
 /// The largest channel's magnitude.
-fn largest(c: Color) -> f32 {
+pub(super) fn largest(c: Color) -> f32 {
     c.x.abs().max(c.y.abs()).max(c.z.abs())
 }
 
