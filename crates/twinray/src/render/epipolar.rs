@@ -17,8 +17,9 @@
 //!    sphere's circle, any other shape's box) gives, per view, the samples
 //!    whose rays may meet it, a hundredth of a sample beyond its ends'
 //!    columns; each of those rays is tested against the primitive with the
-//!    single-ray routine, and the nearest hit is kept, ties to the lower
-//!    primitive index, as the hierarchy keeps them. A sample's hit is
+//!    single-ray routine (nearest sections first; a ray whose hit so far
+//!    lies before a section skips it), and the nearest hit is kept, ties to
+//!    the lower primitive index, as the hierarchy keeps them. A sample's hit is
 //!    therefore the one its own ray finds (the tests compare every sample
 //!    with the hierarchy's), no eye ray is traced, and no view misses a
 //!    pole the others do not see.
@@ -178,6 +179,23 @@ enum Section {
     Whole,
 }
 
+impl Section {
+    /// The least `b` of its points (`None`: the plane misses it).
+    fn nearest_b(&self) -> Option<f64> {
+        match *self {
+            Section::None => None,
+            Section::Segment { b0, b1, .. } => Some(b0.min(b1)),
+            Section::Circle { b, r, .. } => Some(b - r),
+            Section::Bounds { b0, .. } => Some(b0),
+            Section::Whole => Some(0.0),
+        }
+    }
+}
+
+/// How far below a section's nearest `b` its rays' hits may lie, relative:
+/// the rays leave the plane by their rounding (some millionths).
+const NEAR_SLACK: f64 = 1e-4;
+
 /// A sample shaded exactly: where on its primitive's section, its colour,
 /// and what it took from the lights and its secondary rays.
 #[derive(Clone, Copy, Debug)]
@@ -210,6 +228,10 @@ pub(super) struct EpiScratch {
     /// (index into `prims`, `u32::MAX` for none).
     dirs: Vec<Vec3>,
     best: Vec<(SurfaceHit, u32)>,
+    /// Per position, per sample: the ray's length per unit of `b`; and the
+    /// sections by their nearest `b`.
+    lens: Vec<f64>,
+    near: Vec<(f64, u32)>,
     /// Per gathered primitive: its shade points by `param`.
     points: Vec<Vec<ShadePoint>>,
     /// The shade points' transmittances toward each light.
@@ -557,26 +579,53 @@ impl<'a> EpipolarPass<'a> {
         s.best.clear();
         s.best
             .resize(views * n, (PacketHits::<1>::none().hit[0], u32::MAX));
+        // Each ray's length per unit of `b`: a point at plane coordinate `b`
+        // lies at `t = b·L` along the ray of direction `(R·x + W)/L`.
+        s.lens.clear();
+        for &(_, _, shift) in &self.order {
+            s.lens.extend((0..n).map(|i| {
+                let x = (row.camera_point(i, shift).0 as f64 - plane.cx) * plane.ps;
+                (x * x + plane.ww).sqrt()
+            }));
+        }
+        // Nearest first, so that a primitive wholly behind a sample's hit
+        // is skipped without its test.
+        s.near.clear();
+        s.near.extend(
+            s.sections
+                .iter()
+                .enumerate()
+                .filter_map(|(l, sec)| sec.nearest_b().map(|b| (b, l as u32))),
+        );
+        s.near
+            .sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         let hither = self.camera.hither;
         let shapes = &self.world.scene.shapes;
         let mut tests = 0u64;
-        for (local, (&prim, section)) in s.prims.iter().zip(&s.sections).enumerate() {
-            if matches!(section, Section::None) {
-                continue;
-            }
-            let shape = &shapes[prim as usize];
+        for &(near, local) in &s.near {
+            let section = &s.sections[local as usize];
+            let shape = &shapes[s.prims[local as usize] as usize];
+            // Below the section's nearest `b` by a margin for the rays'
+            // rounding off the plane.
+            let near = near * (1.0 - NEAR_SLACK);
             for (p, &(_, offset, shift)) in self.order.iter().enumerate() {
                 let (lo, hi) = self.samples_of(plane, section, offset as f64, shift, n);
                 let origin = self.camera.eye_at(offset);
                 let base = p * n;
                 for i in lo..hi {
                     let k = base + i;
+                    let (best, best_local) = s.best[k];
+                    if near * s.lens[k] > best.t as f64 {
+                        continue;
+                    }
                     tests += 1;
                     let ray = Ray::new(origin, s.dirs[k]);
-                    // Ascending primitives and a strict `t < best`: a tie
-                    // keeps the lower index, as the hierarchy does.
-                    if let Some(h) = shape.intersect(&ray, hither, s.best[k].0.t) {
-                        s.best[k] = (h, local as u32);
+                    // A tie keeps the lower primitive index, as the hierarchy
+                    // does (locals ascend with the primitives).
+                    if let Some(h) = shape.intersect(&ray, hither, best.t.next_up()) {
+                        if h.t < best.t || local < best_local {
+                            s.best[k] = (h, local);
+                        }
                     }
                 }
             }
