@@ -350,11 +350,13 @@ pub struct ApproxArgs {
     pub synthesis_spacing: usize,
     /// Find every view's eye hits of an image row at once, from the
     /// primitives that cross the row's plane (each sample's hit is its own
-    /// ray's), and shade a diffuse surface point once: a view's sample takes
-    /// the colour between two samples of the same surface that earlier views
-    /// shaded, where they lie within 1.5 of its pixels and their colours
-    /// differ by at most --share-tolerance; mirrors, glass, highlights and
-    /// edges are traced. Needs --samples 1 or --spd (other samplings are
+    /// ray's; no eye ray is traced), and shade a diffuse surface point once:
+    /// a view's sample takes the colour between two samples of the same
+    /// surface that earlier views shaded, where they lie within 1.5 of its
+    /// pixels and their colours differ by at most --share-tolerance (and bend
+    /// by at most half of it), or else their light, where they and their
+    /// neighbours saw every light alike; mirrors, glass, highlights and edges
+    /// are shaded exactly. Needs --samples 1 or --spd (other samplings are
     /// traced exactly).
     #[arg(long)]
     pub epipolar_views: bool,
