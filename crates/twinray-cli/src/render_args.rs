@@ -356,8 +356,9 @@ pub struct ApproxArgs {
     /// pixels and their colours differ by at most --share-tolerance (and bend
     /// by at most half of it), or else their light, where they and their
     /// neighbours saw every light alike; mirrors, glass, highlights and edges
-    /// are shaded exactly. Needs --samples 1 or --spd (other samplings are
-    /// traced exactly).
+    /// are shaded exactly. Applies to rows of one sample a pixel at one
+    /// place (--samples 1, --spd, the adaptive sampling's corners); other
+    /// rows are traced exactly.
     #[arg(long)]
     pub epipolar_views: bool,
 }

@@ -59,7 +59,8 @@
 //! own image misses it).
 //!
 //! Only rows of one fixed pattern in every pixel (`--samples 1`, the SPD's
-//! corners) lie in one plane; other rows are traced exactly in every view.
+//! and the adaptive sampling's corners) lie in one plane; other rows are
+//! traced exactly in every view.
 
 use glam::DVec3;
 use serde::Serialize;
