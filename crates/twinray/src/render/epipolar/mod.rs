@@ -62,8 +62,11 @@
 //! and the adaptive sampling's corners) lie in one plane; other rows are
 //! traced exactly in every view.
 
-use glam::DVec3;
+mod plane;
+
 use serde::Serialize;
+
+use plane::{Plane, Section, NEAR_SLACK};
 
 use super::sampler::{Pattern, RowColors, SampleRow};
 use super::view_synthesis::{largest, trace_all};
@@ -71,7 +74,7 @@ use super::{Donors, RowWorker, SecondaryRays, Tracer};
 use crate::bvh::{Packet, PacketHits, RunRegion, RunStats, EYE_PACKET};
 use crate::math::{Color, Ray, Vec3};
 use crate::rig::{Camera, Rig};
-use crate::shapes::{Shape, SurfaceHit};
+use crate::shapes::SurfaceHit;
 use crate::world::World;
 
 /// The epipolar rows, as asked for (see the module's notes).
@@ -101,11 +104,11 @@ pub struct EpipolarStats {
     /// Samples traced and shaded exactly, and those that hit nothing.
     pub traced: u64,
     pub misses: u64,
-    /// Why samples were traced: no shade point on one side, the two shade
+    /// Why samples were traced: no shade point on one side; the two shade
     /// points' colours apart or not straight with their neighbours' (or no
-    /// neighbour to tell), the two too far apart in the view, a mirror,
-    /// glass or highlight, a shape without shade points (cones, sections
-    /// through the eyes).
+    /// neighbour to tell) and their light not alike; the two too far apart
+    /// in the view, not either side of the sample or not at its depth; a
+    /// mirror, glass or highlight; a section through the eyes.
     pub no_bracket: u64,
     pub refused_colour: u64,
     pub refused_wide: u64,
@@ -165,38 +168,6 @@ pub(super) struct EpipolarPass<'a> {
     beyond: f32,
 }
 
-/// A primitive's section by the row's plane, in plane coordinates `(a, b)`.
-#[derive(Clone, Copy, Debug)]
-enum Section {
-    /// The plane misses it.
-    None,
-    /// A triangle's: a segment, clipped to `b > 0`.
-    Segment { a0: f64, b0: f64, a1: f64, b1: f64 },
-    /// A sphere's: a circle.
-    Circle { a: f64, b: f64, r: f64 },
-    /// Any other shape's (or a triangle lying in the plane): within a box.
-    Bounds { a0: f64, b0: f64, a1: f64, b1: f64 },
-    /// One that reaches the camera line: any sample may meet it.
-    Whole,
-}
-
-impl Section {
-    /// The least `b` of its points (`None`: the plane misses it).
-    fn nearest_b(&self) -> Option<f64> {
-        match *self {
-            Section::None => None,
-            Section::Segment { b0, b1, .. } => Some(b0.min(b1)),
-            Section::Circle { b, r, .. } => Some(b - r),
-            Section::Bounds { b0, .. } => Some(b0),
-            Section::Whole => Some(0.0),
-        }
-    }
-}
-
-/// How far below a section's nearest `b` its rays' hits may lie, relative:
-/// the rays leave the plane by their rounding (some millionths).
-const NEAR_SLACK: f64 = 1e-4;
-
 /// A sample shaded exactly: where on its primitive's section, its colour,
 /// and what it took from the lights and its secondary rays.
 #[derive(Clone, Copy, Debug)]
@@ -212,13 +183,33 @@ struct ShadePoint {
     light: u32,
 }
 
-/// A sample to shade exactly, and where it lies on its section if its
-/// surface keeps shade points: (primitive, param, a, b).
-type Donation = (usize, Option<(u32, f64, f64, f64)>);
+/// Where a sample lies on its primitive's section: the primitive (an index
+/// into the gathered ones), the position along it, and the plane point.
+#[derive(Clone, Copy, Debug)]
+struct OnSection {
+    local: u32,
+    param: f64,
+    a: f64,
+    b: f64,
+}
 
-/// A sample that takes its light from shade point `from` and its secondary
-/// colour between `from` and `to`, at `w`.
-type Taking = (usize, ShadePoint, ShadePoint, f32);
+/// A sample to shade exactly; `keep`: where it lies, if its surface keeps
+/// shade points.
+#[derive(Clone, Copy, Debug)]
+struct Donation {
+    sample: usize,
+    keep: Option<OnSection>,
+}
+
+/// A sample that takes its light from shade point `from`, and its secondary
+/// colour between `from` and `to` at `w`.
+#[derive(Clone, Copy, Debug)]
+struct Taking {
+    sample: usize,
+    from: ShadePoint,
+    to: ShadePoint,
+    w: f32,
+}
 
 /// One thread's scratch space, reused from row to row.
 #[derive(Default)]
@@ -244,80 +235,6 @@ pub(super) struct EpiScratch {
     donors: Donors,
     through: Vec<f32>,
 }
-
-/// The row's plane: origin (the rig's centre eye), axes, and the samples'
-/// columns.
-struct Plane {
-    eye: DVec3,
-    right: DVec3,
-    w: DVec3,
-    /// `W·W`, and the plane's unit normal.
-    ww: f64,
-    normal: DVec3,
-    /// Camera column of sample 0 without shift, the image's centre column,
-    /// and the pixel size: the slope of a column `c` is `(c − cx)·ps`.
-    c0: f64,
-    cx: f64,
-    ps: f64,
-    /// Plane points nearer the camera line than this are met by no ray.
-    b_min: f64,
-}
-
-impl Plane {
-    /// `(a, b, h)`: the point's plane coordinates and its distance from the plane.
-    fn coords(&self, p: DVec3) -> (f64, f64, f64) {
-        let d = p - self.eye;
-        (
-            d.dot(self.right),
-            d.dot(self.w) / self.ww,
-            d.dot(self.normal),
-        )
-    }
-
-    /// The (fractional) sample of the view at `offset` (shift `shift`)
-    /// whose ray meets plane point `(a, b)`, `b > 0`.
-    fn sample_of(&self, a: f64, b: f64, offset: f64, shift: i32) -> f64 {
-        (a - offset) / b / self.ps + self.cx - self.c0 - shift as f64
-    }
-
-    /// Samples `lo..hi` of `n` whose rays may meet the box `a0..a1 × b0..b1`
-    /// (`b0 ≥ b_min`).
-    fn samples_of_box(
-        &self,
-        (a0, b0, a1, b1): (f64, f64, f64, f64),
-        offset: f64,
-        shift: i32,
-        n: usize,
-    ) -> (usize, usize) {
-        let mut lo = f64::INFINITY;
-        let mut hi = f64::NEG_INFINITY;
-        for (a, b) in [(a0, b0), (a0, b1), (a1, b0), (a1, b1)] {
-            let s = self.sample_of(a, b, offset, shift);
-            lo = lo.min(s);
-            hi = hi.max(s);
-        }
-        clamp_samples(lo, hi, n)
-    }
-}
-
-/// Samples from `lo` to `hi` (fractional), and `EDGE` of a sample beyond
-/// (the rays' rounding off the plane is some millionths of a pixel), within
-/// `0..n`.
-fn clamp_samples(lo: f64, hi: f64, n: usize) -> (usize, usize) {
-    // NaN bounds (a degenerate section) give every sample.
-    if lo
-        .partial_cmp(&hi)
-        .is_none_or(|o| o == std::cmp::Ordering::Greater)
-    {
-        return (0, n);
-    }
-    let lo = (lo - EDGE).ceil().clamp(0.0, n as f64) as usize;
-    let hi = ((hi + EDGE).floor() + 1.0).clamp(0.0, n as f64) as usize;
-    (lo, hi.max(lo))
-}
-
-/// Margin of a section's samples, in samples.
-const EDGE: f64 = 1e-2;
 
 impl<'a> EpipolarPass<'a> {
     /// The pass for `rig`, or `None` where it does not apply (one view, a
@@ -363,127 +280,6 @@ impl<'a> EpipolarPass<'a> {
         })
     }
 
-    /// The plane of `row`.
-    fn plane(&self, row: &SampleRow) -> Plane {
-        let cam = self.camera;
-        let (c0, y) = row.camera_point(0, 0);
-        let (cx, cy) = (
-            (cam.width as f64 - 1.0) * 0.5,
-            (cam.height as f64 - 1.0) * 0.5,
-        );
-        let ps = cam.pixel_size as f64;
-        let right = cam.right.as_dvec3();
-        let w = cam.forward.as_dvec3() + cam.up.as_dvec3() * ((cy - y as f64) * ps);
-        let ww = w.length_squared();
-        // No ray meets a point nearer than `hither` from its eye; every
-        // ray's direction (unnormalised `R·x + W`) is at most this long.
-        let widest = self
-            .order
-            .iter()
-            .flat_map(|&(_, _, shift)| {
-                [0.0, (row.len() as f64 - 1.0)].map(|i| c0 as f64 + i + shift as f64)
-            })
-            .map(|c| ((c - cx) * ps).powi(2))
-            .fold(0.0, f64::max);
-        let b_min = (self.camera.hither as f64 / (widest + ww).sqrt() * 0.5).max(self.margin);
-        Plane {
-            eye: cam.eye.as_dvec3(),
-            right,
-            w,
-            ww,
-            normal: right.cross(w).normalize(),
-            c0: c0 as f64,
-            cx,
-            ps,
-            b_min,
-        }
-    }
-
-    /// The section of primitive `prim` by `plane`.
-    fn section(&self, plane: &Plane, prim: u32) -> Section {
-        let tol = self.margin * 16.0;
-        match &self.world.scene.shapes[prim as usize] {
-            Shape::Triangle(t) => {
-                let v = [t.v0, t.v0 + t.e1, t.v0 + t.e2].map(|p| plane.coords(p.as_dvec3()));
-                if v.iter().all(|p| p.2 > tol) || v.iter().all(|p| p.2 < -tol) {
-                    return Section::None;
-                }
-                if v.iter().any(|p| p.2.abs() <= tol) {
-                    // Near the plane: within the vertices' box.
-                    return bounds_section(plane, v.iter().map(|p| (p.0, p.1)));
-                }
-                // Exactly two edges change sign.
-                let mut ends = [(0.0, 0.0); 2];
-                let mut k = 0;
-                for (i, j) in [(0, 1), (1, 2), (2, 0)] {
-                    let (p, q) = (v[i], v[j]);
-                    if (p.2 > 0.0) != (q.2 > 0.0) && k < 2 {
-                        let f = p.2 / (p.2 - q.2);
-                        ends[k] = (p.0 + (q.0 - p.0) * f, p.1 + (q.1 - p.1) * f);
-                        k += 1;
-                    }
-                }
-                let [(a0, b0), (a1, b1)] = ends;
-                clip_segment(plane, a0, b0, a1, b1)
-            }
-            Shape::Sphere(s) => {
-                let (a, b, h) = plane.coords(s.center.as_dvec3());
-                let r = s.radius as f64 + tol;
-                if h.abs() > r {
-                    return Section::None;
-                }
-                let r = (r * r - h * h).sqrt();
-                if b - r < plane.b_min {
-                    return Section::Whole;
-                }
-                Section::Circle { a, b, r }
-            }
-            shape => {
-                let bx = shape.bounds();
-                let corners = (0..8).map(|i| {
-                    let pick = |bit: usize, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
-                    plane.coords(DVec3::new(
-                        pick(1, bx.min.x, bx.max.x) as f64,
-                        pick(2, bx.min.y, bx.max.y) as f64,
-                        pick(4, bx.min.z, bx.max.z) as f64,
-                    ))
-                });
-                let corners: Vec<(f64, f64, f64)> = corners.collect();
-                if corners.iter().all(|p| p.2 > tol) || corners.iter().all(|p| p.2 < -tol) {
-                    return Section::None;
-                }
-                bounds_section(plane, corners.iter().map(|p| (p.0, p.1)))
-            }
-        }
-    }
-
-    /// Samples `lo..hi` of the view at `offset` (shift `shift`) whose rays
-    /// may meet `section`.
-    fn samples_of(
-        &self,
-        plane: &Plane,
-        section: &Section,
-        offset: f64,
-        shift: i32,
-        n: usize,
-    ) -> (usize, usize) {
-        match *section {
-            Section::None => (0, 0),
-            Section::Whole => (0, n),
-            Section::Segment { a0, b0, a1, b1 } => {
-                let s0 = plane.sample_of(a0, b0, offset, shift);
-                let s1 = plane.sample_of(a1, b1, offset, shift);
-                clamp_samples(s0.min(s1), s0.max(s1), n)
-            }
-            Section::Circle { a, b, r } => {
-                plane.samples_of_box((a - r, b - r, a + r, b + r), offset, shift, n)
-            }
-            Section::Bounds { a0, b0, a1, b1 } => {
-                plane.samples_of_box((a0, b0, a1, b1), offset, shift, n)
-            }
-        }
-    }
-
     /// Every view's colours through the samples of `row` into `out` (rig
     /// order), `workers[v]` tracing view `v` alone.
     pub(super) fn trace_row(
@@ -500,7 +296,12 @@ impl<'a> EpipolarPass<'a> {
             tracer.counts.epipolar.rows_exact += 1;
             return trace_all(workers, tracer, row, out);
         }
-        let plane = self.plane(row);
+        let plane = Plane::of_row(
+            self.camera,
+            row,
+            self.order.iter().map(|o| o.2),
+            self.margin,
+        );
         if !self.gather(tracer, row, &plane, s) {
             tracer.counts.epipolar.rows_exact += 1;
             return trace_all(workers, tracer, row, out);
@@ -555,9 +356,15 @@ impl<'a> EpipolarPass<'a> {
             return false;
         }
         s.prims.sort_unstable();
+        let shapes = &self.world.scene.shapes;
+        // How near the plane a vertex or box corner counts as on it.
+        let tol = self.margin * 16.0;
         s.sections.clear();
-        s.sections
-            .extend(s.prims.iter().map(|&p| self.section(plane, p)));
+        s.sections.extend(
+            s.prims
+                .iter()
+                .map(|&p| plane.section(&shapes[p as usize], tol)),
+        );
         tracer.counts.epipolar.primitives += s.prims.len() as u64;
         true
     }
@@ -566,29 +373,28 @@ impl<'a> EpipolarPass<'a> {
     fn visibility(&self, tracer: &mut Tracer, row: &SampleRow, plane: &Plane, s: &mut EpiScratch) {
         let n = row.len();
         let views = self.order.len();
+        // Each ray's direction, eight at a time (bit for bit `direction`'s),
+        // and its length per unit of `b`: a point at plane coordinate `b`
+        // lies at `t = b·L` along the ray of direction `(R·x + W)/L`.
         s.dirs.clear();
+        s.lens.clear();
         for &(_, _, shift) in &self.order {
-            // Eight at a time, bit for bit `direction`'s.
             for first in (0..n).step_by(8) {
                 let point = |l: usize| row.camera_point((first + l).min(n - 1), shift);
-                let columns = std::array::from_fn(|l| point(l).0);
+                let columns: [f32; 8] = std::array::from_fn(|l| point(l).0);
                 let rows = std::array::from_fn(|l| point(l).1);
                 let dirs = self.camera.directions8(columns, rows);
-                s.dirs.extend_from_slice(&dirs[..(n - first).min(8)]);
+                let count = (n - first).min(8);
+                s.dirs.extend_from_slice(&dirs[..count]);
+                s.lens.extend(columns[..count].iter().map(|&c| {
+                    let x = (c as f64 - plane.cx) * plane.ps;
+                    (x * x + plane.ww).sqrt()
+                }));
             }
         }
         s.best.clear();
         s.best
             .resize(views * n, (PacketHits::<1>::none().hit[0], u32::MAX));
-        // Each ray's length per unit of `b`: a point at plane coordinate `b`
-        // lies at `t = b·L` along the ray of direction `(R·x + W)/L`.
-        s.lens.clear();
-        for &(_, _, shift) in &self.order {
-            s.lens.extend((0..n).map(|i| {
-                let x = (row.camera_point(i, shift).0 as f64 - plane.cx) * plane.ps;
-                (x * x + plane.ww).sqrt()
-            }));
-        }
         // Nearest first, so that a primitive wholly behind a sample's hit
         // is skipped without its test.
         s.near.clear();
@@ -610,7 +416,7 @@ impl<'a> EpipolarPass<'a> {
             // rounding off the plane.
             let near = near * (1.0 - NEAR_SLACK);
             for (p, &(_, offset, shift)) in self.order.iter().enumerate() {
-                let (lo, hi) = self.samples_of(plane, section, offset as f64, shift, n);
+                let (lo, hi) = plane.samples_of(section, offset as f64, shift, n);
                 let origin = self.camera.eye_at(offset);
                 let base = p * n;
                 for i in lo..hi {
@@ -632,25 +438,6 @@ impl<'a> EpipolarPass<'a> {
             }
         }
         tracer.counts.epipolar.tests += tests;
-    }
-
-    /// Where on its section a hit at `(a, b)` lies: a segment's fraction, a
-    /// circle's angle, and for other sections the angle around their box's
-    /// centre (a cone's section is convex, so the box's centre sees each of
-    /// its points at its own angle); `None` for sections through the eyes.
-    fn param(section: &Section, a: f64, b: f64) -> Option<f64> {
-        match *section {
-            Section::Segment { a0, b0, a1, b1 } => {
-                let (da, db) = (a1 - a0, b1 - b0);
-                let len2 = da * da + db * db;
-                (len2 > 0.0).then(|| ((a - a0) * da + (b - b0) * db) / len2)
-            }
-            Section::Circle { a: ca, b: cb, .. } => Some((b - cb).atan2(a - ca)),
-            Section::Bounds { a0, b0, a1, b1 } => {
-                Some((b - (b0 + b1) * 0.5).atan2(a - (a0 + a1) * 0.5))
-            }
-            Section::None | Section::Whole => None,
-        }
     }
 
     /// View at position `p`: its samples' colours taken from shade points
@@ -687,17 +474,23 @@ impl<'a> EpipolarPass<'a> {
             let m = self.world.scene.shape_material[prim as usize] as usize;
             if !self.plain[m] {
                 stats.refused_material += 1;
-                s.donations.push((i, None));
+                s.donations.push(Donation {
+                    sample: i,
+                    keep: None,
+                });
                 continue;
             }
             let (a, b, _) = plane.coords((origin + s.dirs[k] * hit.t).as_dvec3());
             let section = &s.sections[local as usize];
-            let Some(param) = Self::param(section, a, b) else {
+            let Some(param) = section.param(a, b) else {
                 stats.refused_shape += 1;
-                s.donations.push((i, None));
+                s.donations.push(Donation {
+                    sample: i,
+                    keep: None,
+                });
                 continue;
             };
-            let keep = Some((local, param, a, b));
+            let keep = Some(OnSection { local, param, a, b });
             let points = &s.points[local as usize];
             // A view's neighbouring samples on one primitive move along its
             // section: start from the last sample's place, else search.
@@ -708,7 +501,7 @@ impl<'a> EpipolarPass<'a> {
             cursor = Some((local, at));
             if at == 0 || at == points.len() {
                 stats.no_bracket += 1;
-                s.donations.push((i, keep));
+                s.donations.push(Donation { sample: i, keep });
                 continue;
             }
             let (e0, e1) = (points[at - 1], points[at]);
@@ -727,7 +520,7 @@ impl<'a> EpipolarPass<'a> {
             let depth = e0.b + (e1.b - e0.b) * w;
             if (c1 - c0).abs() > WIDEST || !between || (depth - b).abs() > DEPTH_STEP * b {
                 stats.refused_wide += 1;
-                s.donations.push((i, keep));
+                s.donations.push(Donation { sample: i, keep });
                 continue;
             }
             // The colour must be close between the two and straight through
@@ -753,11 +546,16 @@ impl<'a> EpipolarPass<'a> {
             if at >= 2 && alike(Some(&e1)) && alike(points.get(at - 2)) && alike(points.get(at + 1))
             {
                 stats.light_taken += 1;
-                s.takings.push((i, e0, e1, w as f32));
+                s.takings.push(Taking {
+                    sample: i,
+                    from: e0,
+                    to: e1,
+                    w: w as f32,
+                });
                 continue;
             }
             stats.refused_colour += 1;
-            s.donations.push((i, keep));
+            s.donations.push(Donation { sample: i, keep });
         }
         stats.traced += s.donations.len() as u64;
         // The view's hits, found in the plane (`--stats` `hits_per_view`).
@@ -815,12 +613,13 @@ impl<'a> EpipolarPass<'a> {
         let mut kept = 0u64;
         for first in (0..s.donations.len()).step_by(EYE_PACKET) {
             let count = (s.donations.len() - first).min(EYE_PACKET);
-            let (packet, hits) = self.packet(s, p, n, origin, count, |l| s.donations[first + l].0);
+            let (packet, hits) =
+                self.packet(s, p, n, origin, count, |l| s.donations[first + l].sample);
             tracer.shade_donors(&packet, &hits, SecondaryRays::Own, &mut s.donors);
             for l in 0..count {
-                let (i, keep) = s.donations[first + l];
-                out[i] = s.donors.colors[l];
-                let Some((local, param, a, b)) = keep else {
+                let Donation { sample, keep } = s.donations[first + l];
+                out[sample] = s.donors.colors[l];
+                let Some(OnSection { local, param, a, b }) = keep else {
                     continue;
                 };
                 let light = s.light.len() as u32;
@@ -863,20 +662,21 @@ impl<'a> EpipolarPass<'a> {
         let lights = self.world.scene.lights.len();
         for first in (0..s.takings.len()).step_by(EYE_PACKET) {
             let count = (s.takings.len() - first).min(EYE_PACKET);
-            let (packet, hits) = self.packet(s, p, n, origin, count, |l| s.takings[first + l].0);
+            let (packet, hits) =
+                self.packet(s, p, n, origin, count, |l| s.takings[first + l].sample);
             s.through.clear();
             s.through.resize(lights * EYE_PACKET, 0.0);
             let mut secondary = [Color::ZERO; EYE_PACKET];
             for (l, secondary) in secondary.iter_mut().enumerate().take(count) {
-                let (_, e0, e1, w) = s.takings[first + l];
-                let from = e0.light as usize;
+                let Taking { from, to, w, .. } = s.takings[first + l];
+                let light = from.light as usize;
                 s.through[l * lights..(l + 1) * lights]
-                    .copy_from_slice(&s.light[from..from + lights]);
-                *secondary = e0.secondary + (e1.secondary - e0.secondary) * w;
+                    .copy_from_slice(&s.light[light..light + lights]);
+                *secondary = from.secondary + (to.secondary - from.secondary) * w;
             }
             let colors = tracer.shade_from_donors(&packet, &hits, &s.through, &secondary);
             for l in 0..count {
-                out[s.takings[first + l].0] = colors[l];
+                out[s.takings[first + l].sample] = colors[l];
             }
         }
     }
@@ -908,58 +708,6 @@ fn seek(points: &[ShadePoint], at: usize, param: f64) -> usize {
         }
     }
     points.partition_point(|q| q.param < param)
-}
-
-/// Box section of points `(a, b)`, or the whole row where it reaches the
-/// camera line.
-fn bounds_section(plane: &Plane, points: impl Iterator<Item = (f64, f64)>) -> Section {
-    let (mut a0, mut b0, mut a1, mut b1) = (
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    );
-    for (a, b) in points {
-        a0 = a0.min(a);
-        a1 = a1.max(a);
-        b0 = b0.min(b);
-        b1 = b1.max(b);
-    }
-    if b1 < plane.b_min {
-        Section::None
-    } else if b0 < plane.b_min || !(a0.is_finite() && a1.is_finite()) {
-        Section::Whole
-    } else {
-        Section::Bounds { a0, b0, a1, b1 }
-    }
-}
-
-/// A triangle's segment clipped to `b ≥ b_min`.
-fn clip_segment(plane: &Plane, a0: f64, b0: f64, a1: f64, b1: f64) -> Section {
-    let m = plane.b_min;
-    match (b0 >= m, b1 >= m) {
-        (false, false) => Section::None,
-        (true, true) => Section::Segment { a0, b0, a1, b1 },
-        (near0, _) => {
-            let f = (m - b0) / (b1 - b0);
-            let (a, b) = (a0 + (a1 - a0) * f, m);
-            if near0 {
-                Section::Segment {
-                    a0,
-                    b0,
-                    a1: a,
-                    b1: b,
-                }
-            } else {
-                Section::Segment {
-                    a0: a,
-                    b0: b,
-                    a1,
-                    b1,
-                }
-            }
-        }
-    }
 }
 
 /// Positions `0..n` in the order their rows are shaded: the middle, the two
@@ -1034,7 +782,8 @@ mod tests {
             let (mut hits, mut samples) = (0, 0);
             for y in 0..height {
                 let row = SampleRow::centres(width as usize, y);
-                let plane = pass.plane(&row);
+                let shifts = pass.order.iter().map(|o| o.2);
+                let plane = Plane::of_row(&camera, &row, shifts, pass.margin);
                 assert!(
                     pass.gather(&mut tracer, &row, &plane, &mut s),
                     "{name} row {y}"

@@ -1,0 +1,328 @@
+//! A row's plane and the primitives' sections by it (the epipolar rows'
+//! geometry, `--epipolar-views`).
+//!
+//! The rays of every view through one image row lie in one plane: through
+//! the camera line, spanned by the right axis `R` and `W = F + U·y`. A point
+//! of it has coordinates `(a, b)` (along `R` and `W`); the view at offset `u`
+//! sees it in the column whose slope is `(a − u)/b`, at distance `b·L` along
+//! a ray whose unnormalised direction `R·x + W` has length `L`.
+
+use glam::DVec3;
+
+use crate::rig::Camera;
+use crate::shapes::Shape;
+
+use super::super::sampler::SampleRow;
+
+/// A primitive's section by the row's plane, in plane coordinates `(a, b)`.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Section {
+    /// The plane misses it.
+    None,
+    /// A triangle's: a segment, clipped to `b ≥ b_min`.
+    Segment { a0: f64, b0: f64, a1: f64, b1: f64 },
+    /// A sphere's: a circle.
+    Circle { a: f64, b: f64, r: f64 },
+    /// Any other shape's (or a triangle lying in the plane): within a box.
+    Bounds { a0: f64, b0: f64, a1: f64, b1: f64 },
+    /// One that reaches the camera line: any sample may meet it.
+    Whole,
+}
+
+impl Section {
+    /// The least `b` of its points (`None`: the plane misses it).
+    pub(super) fn nearest_b(&self) -> Option<f64> {
+        match *self {
+            Section::None => None,
+            Section::Segment { b0, b1, .. } => Some(b0.min(b1)),
+            Section::Circle { b, r, .. } => Some(b - r),
+            Section::Bounds { b0, .. } => Some(b0),
+            Section::Whole => Some(0.0),
+        }
+    }
+
+    /// Where on the section a point `(a, b)` of it lies: a segment's
+    /// fraction, a circle's angle, and for other sections the angle around
+    /// their box's centre (a cone's section is convex, so the box's centre
+    /// sees each of its points at its own angle); `None` for sections
+    /// through the eyes.
+    pub(super) fn param(&self, a: f64, b: f64) -> Option<f64> {
+        match *self {
+            Section::Segment { a0, b0, a1, b1 } => {
+                let (da, db) = (a1 - a0, b1 - b0);
+                let len2 = da * da + db * db;
+                (len2 > 0.0).then(|| ((a - a0) * da + (b - b0) * db) / len2)
+            }
+            Section::Circle { a: ca, b: cb, .. } => Some((b - cb).atan2(a - ca)),
+            Section::Bounds { a0, b0, a1, b1 } => {
+                Some((b - (b0 + b1) * 0.5).atan2(a - (a0 + a1) * 0.5))
+            }
+            Section::None | Section::Whole => None,
+        }
+    }
+}
+
+/// How far below a section's nearest `b` its rays' hits may lie, relative:
+/// the rays leave the plane by their rounding (some millionths).
+pub(super) const NEAR_SLACK: f64 = 1e-4;
+
+/// Margin of a section's samples, in samples.
+const EDGE: f64 = 1e-2;
+
+/// The row's plane: origin (the rig's centre eye), axes, and the samples'
+/// columns.
+pub(super) struct Plane {
+    eye: DVec3,
+    right: DVec3,
+    w: DVec3,
+    /// `W·W`, and the plane's unit normal.
+    pub(super) ww: f64,
+    normal: DVec3,
+    /// Camera column of sample 0 without shift, the image's centre column,
+    /// and the pixel size: the slope of a column `c` is `(c − cx)·ps`.
+    c0: f64,
+    pub(super) cx: f64,
+    pub(super) ps: f64,
+    /// Plane points nearer the camera line than this are met by no ray.
+    b_min: f64,
+}
+
+impl Plane {
+    /// The plane of `row` seen by views shifted by `shifts`; `margin` is the
+    /// rounding of the scene's coordinates.
+    pub(super) fn of_row(
+        camera: &Camera,
+        row: &SampleRow,
+        shifts: impl Iterator<Item = i32>,
+        margin: f64,
+    ) -> Plane {
+        let (c0, y) = row.camera_point(0, 0);
+        let (cx, cy) = (
+            (camera.width as f64 - 1.0) * 0.5,
+            (camera.height as f64 - 1.0) * 0.5,
+        );
+        let ps = camera.pixel_size as f64;
+        let right = camera.right.as_dvec3();
+        let w = camera.forward.as_dvec3() + camera.up.as_dvec3() * ((cy - y as f64) * ps);
+        let ww = w.length_squared();
+        // No ray meets a point nearer than `hither` from its eye; every
+        // ray's direction (unnormalised `R·x + W`) is at most this long.
+        let widest = shifts
+            .flat_map(|shift| [0.0, (row.len() as f64 - 1.0)].map(|i| c0 as f64 + i + shift as f64))
+            .map(|c| ((c - cx) * ps).powi(2))
+            .fold(0.0, f64::max);
+        let b_min = (camera.hither as f64 / (widest + ww).sqrt() * 0.5).max(margin);
+        Plane {
+            eye: camera.eye.as_dvec3(),
+            right,
+            w,
+            ww,
+            normal: right.cross(w).normalize(),
+            c0: c0 as f64,
+            cx,
+            ps,
+            b_min,
+        }
+    }
+
+    /// `(a, b, h)`: the point's plane coordinates and its distance from the plane.
+    pub(super) fn coords(&self, p: DVec3) -> (f64, f64, f64) {
+        let d = p - self.eye;
+        (
+            d.dot(self.right),
+            d.dot(self.w) / self.ww,
+            d.dot(self.normal),
+        )
+    }
+
+    /// The (fractional) sample of the view at `offset` (shift `shift`)
+    /// whose ray meets plane point `(a, b)`, `b > 0`.
+    pub(super) fn sample_of(&self, a: f64, b: f64, offset: f64, shift: i32) -> f64 {
+        (a - offset) / b / self.ps + self.cx - self.c0 - shift as f64
+    }
+
+    /// The section of `shape` by the plane; `tol`: how near the plane a
+    /// vertex or box corner counts as on it.
+    pub(super) fn section(&self, shape: &Shape, tol: f64) -> Section {
+        match shape {
+            Shape::Triangle(t) => {
+                let v = [t.v0, t.v0 + t.e1, t.v0 + t.e2].map(|p| self.coords(p.as_dvec3()));
+                if v.iter().all(|p| p.2 > tol) || v.iter().all(|p| p.2 < -tol) {
+                    return Section::None;
+                }
+                if v.iter().any(|p| p.2.abs() <= tol) {
+                    // Near the plane: within the vertices' box.
+                    return self.bounds_section(v.iter().map(|p| (p.0, p.1)));
+                }
+                // Exactly two edges change sign.
+                let mut ends = [(0.0, 0.0); 2];
+                let mut k = 0;
+                for (i, j) in [(0, 1), (1, 2), (2, 0)] {
+                    let (p, q) = (v[i], v[j]);
+                    if (p.2 > 0.0) != (q.2 > 0.0) && k < 2 {
+                        let f = p.2 / (p.2 - q.2);
+                        ends[k] = (p.0 + (q.0 - p.0) * f, p.1 + (q.1 - p.1) * f);
+                        k += 1;
+                    }
+                }
+                let [(a0, b0), (a1, b1)] = ends;
+                self.clip_segment(a0, b0, a1, b1)
+            }
+            Shape::Sphere(s) => {
+                let (a, b, h) = self.coords(s.center.as_dvec3());
+                let r = s.radius as f64 + tol;
+                if h.abs() > r {
+                    return Section::None;
+                }
+                let r = (r * r - h * h).sqrt();
+                if b - r < self.b_min {
+                    return Section::Whole;
+                }
+                Section::Circle { a, b, r }
+            }
+            shape => {
+                let bx = shape.bounds();
+                let corners: [(f64, f64, f64); 8] = std::array::from_fn(|i| {
+                    let pick = |bit: usize, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
+                    self.coords(DVec3::new(
+                        pick(1, bx.min.x, bx.max.x) as f64,
+                        pick(2, bx.min.y, bx.max.y) as f64,
+                        pick(4, bx.min.z, bx.max.z) as f64,
+                    ))
+                });
+                if corners.iter().all(|p| p.2 > tol) || corners.iter().all(|p| p.2 < -tol) {
+                    return Section::None;
+                }
+                self.bounds_section(corners.iter().map(|p| (p.0, p.1)))
+            }
+        }
+    }
+
+    /// Samples `lo..hi` of `n` of the view at `offset` (shift `shift`) whose
+    /// rays may meet `section`.
+    pub(super) fn samples_of(
+        &self,
+        section: &Section,
+        offset: f64,
+        shift: i32,
+        n: usize,
+    ) -> (usize, usize) {
+        match *section {
+            Section::None => (0, 0),
+            Section::Whole => (0, n),
+            Section::Segment { a0, b0, a1, b1 } => {
+                let s0 = self.sample_of(a0, b0, offset, shift);
+                let s1 = self.sample_of(a1, b1, offset, shift);
+                clamp_samples(s0.min(s1), s0.max(s1), n)
+            }
+            Section::Circle { a, b, r } => {
+                self.samples_of_box((a - r, b - r, a + r, b + r), offset, shift, n)
+            }
+            Section::Bounds { a0, b0, a1, b1 } => {
+                self.samples_of_box((a0, b0, a1, b1), offset, shift, n)
+            }
+        }
+    }
+
+    /// Samples `lo..hi` of `n` whose rays may meet the box `a0..a1 × b0..b1`
+    /// (`b0 ≥ b_min`).
+    fn samples_of_box(
+        &self,
+        (a0, b0, a1, b1): (f64, f64, f64, f64),
+        offset: f64,
+        shift: i32,
+        n: usize,
+    ) -> (usize, usize) {
+        let mut lo = f64::INFINITY;
+        let mut hi = f64::NEG_INFINITY;
+        for (a, b) in [(a0, b0), (a0, b1), (a1, b0), (a1, b1)] {
+            let s = self.sample_of(a, b, offset, shift);
+            lo = lo.min(s);
+            hi = hi.max(s);
+        }
+        clamp_samples(lo, hi, n)
+    }
+
+    /// Box section of points `(a, b)`, or the whole row where it reaches the
+    /// camera line.
+    fn bounds_section(&self, points: impl Iterator<Item = (f64, f64)>) -> Section {
+        let (mut a0, mut b0, mut a1, mut b1) = (
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        );
+        for (a, b) in points {
+            a0 = a0.min(a);
+            a1 = a1.max(a);
+            b0 = b0.min(b);
+            b1 = b1.max(b);
+        }
+        if b1 < self.b_min {
+            Section::None
+        } else if b0 < self.b_min || !(a0.is_finite() && a1.is_finite()) {
+            Section::Whole
+        } else {
+            Section::Bounds { a0, b0, a1, b1 }
+        }
+    }
+
+    /// A triangle's segment clipped to `b ≥ b_min`.
+    fn clip_segment(&self, a0: f64, b0: f64, a1: f64, b1: f64) -> Section {
+        let m = self.b_min;
+        match (b0 >= m, b1 >= m) {
+            (false, false) => Section::None,
+            (true, true) => Section::Segment { a0, b0, a1, b1 },
+            (keeps_first, _) => {
+                let f = (m - b0) / (b1 - b0);
+                let (a, b) = (a0 + (a1 - a0) * f, m);
+                if keeps_first {
+                    Section::Segment {
+                        a0,
+                        b0,
+                        a1: a,
+                        b1: b,
+                    }
+                } else {
+                    Section::Segment {
+                        a0: a,
+                        b0: b,
+                        a1,
+                        b1,
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Samples from `lo` to `hi` (fractional), and `EDGE` of a sample beyond
+/// (the rays' rounding off the plane is some millionths of a pixel), within
+/// `0..n`.
+fn clamp_samples(lo: f64, hi: f64, n: usize) -> (usize, usize) {
+    // NaN bounds (a degenerate section) give every sample.
+    if lo
+        .partial_cmp(&hi)
+        .is_none_or(|o| o == std::cmp::Ordering::Greater)
+    {
+        return (0, n);
+    }
+    let lo = (lo - EDGE).ceil().clamp(0.0, n as f64) as usize;
+    let hi = ((hi + EDGE).floor() + 1.0).clamp(0.0, n as f64) as usize;
+    (lo, hi.max(lo))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A segment's samples are those whose columns lie within a hundredth
+    /// of a sample of its ends; a NaN end gives every sample.
+    #[test]
+    fn a_sections_samples_reach_a_hundredth_past_its_ends() {
+        assert_eq!(clamp_samples(2.005, 4.995, 10), (2, 6));
+        assert_eq!(clamp_samples(2.02, 4.98, 10), (3, 5));
+        assert_eq!(clamp_samples(-3.0, 20.0, 10), (0, 10));
+        assert_eq!(clamp_samples(f64::NAN, 1.0, 10), (0, 10));
+    }
+}
