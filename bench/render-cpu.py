@@ -15,7 +15,10 @@ The clock is the CPU time of the child (user + system, getrusage), not wall time
 so that a machine loaded by other work inflates it less. Scenes: $SCENES, default
 all seven (balls gears mount rings teapot tetra tree); an entry ending in .nff is
 a path (a scene of your own, e.g. an SPD scene without its lights:
-`grep -v '^l ' ../shared/scenes/spd/tetra.nff > /tmp/tetra-unlit.nff`). $SIZE
+`grep -v '^l ' ../shared/scenes/spd/tetra.nff > /tmp/tetra-unlit.nff`). A BIN
+may carry flags for its mono and twin renders after commas
+(`target/release/twinray,--epipolar-views`: the same binary with an
+approximation, side by side with it plain). $SIZE
 overrides the mono size (512). Within a round every binary and method runs once,
 in turn. Mono also prints each binary's fastest run (`min`), the figure least
 moved by other work.
@@ -51,12 +54,15 @@ def path(scene):
 
 
 def command(b, scene, method):
+    # "BIN,FLAG,FLAG...": the flags go to that binary's mono and twin renders
+    # (not to --method independent, which takes no approximation).
+    b, *flags = b.split(",")
     if method is None:
         return [b, "render", path(scene), "-o", out, "--size", "%sx%s" % (size, size),
-                "--samples", "1", "--threads", "1", "--quiet"]
+                "--samples", "1", "--threads", "1", "--quiet"] + flags
     return [b, "render", path(scene), "-o", out, "--stereo", "--interaxial", "0.1",
             "--size", "1024x1024", "--samples", "1", "--threads", "1",
-            "--method", method, "--quiet"]
+            "--method", method, "--quiet"] + (flags if method == "twin" else [])
 
 
 methods = ["independent", "twin"] if mode == "stereo" else [None]
