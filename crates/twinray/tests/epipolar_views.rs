@@ -80,7 +80,7 @@ fn a_diffuse_open_floor_is_shaded_once_within_the_tolerance() {
         assert!(worst <= E, "{views} views: {worst}, {e:?}");
         assert_eq!(e.rows, HEIGHT as u64, "{views} views: {e:?}");
         assert_eq!(
-            e.taken + e.light_taken + e.traced + e.misses,
+            e.taken + e.light_taken + e.light_partly_taken + e.traced + e.misses,
             views as u64 * per_view,
             "{views} views: {e:?}"
         );
@@ -138,6 +138,29 @@ fn a_shadow_edge_is_kept() {
         assert!(worst <= E, "{views} views: {worst}, {e:?}");
         assert!(e.refused_colour > 0, "{views} views: {e:?}");
         assert!(e.taken > 0, "{views} views: {e:?}");
+    }
+}
+
+/// Two lights, each casting the bar's shadow at its own place: next to one
+/// light's shadow edge the shade points saw the other light alike, so a
+/// sample there takes that light and traces its own shadow ray toward the
+/// first only; every view stays within E (a light taken where the edge
+/// passes would be off by its whole contribution).
+#[test]
+fn next_to_one_lights_shadow_edge_only_that_light_is_traced() {
+    let lights = OPEN_FLOOR.replace("l 3 2 10", "l 3 2 10\nl -4 1 9");
+    let bar = "f 0.5 0.5 0.5 0.9 0 0 0 1\nc\n2 -20 6 0.15\n2 20 6 0.15\n";
+    let world = nff_world(&format!("{lights}{bar}"));
+    for views in [8, 48] {
+        let (worst, _, out) = against_exact(&world, views, INTERAXIAL, 1);
+        let e = out.counts.epipolar;
+        assert!(worst <= E, "{views} views: {worst}, {e:?}");
+        assert!(e.light_partly_taken > 0, "{views} views: {e:?}");
+        // One of the two lights traced, never both.
+        assert_eq!(
+            e.lights_traced, e.light_partly_taken,
+            "{views} views: {e:?}"
+        );
     }
 }
 

@@ -751,8 +751,8 @@ impl Job {
             if o.approx.epipolar_views.is_some() {
                 let e = &c.epipolar;
                 m.push(Message::info(format!(
-                    "epipolar rows: {} in their planes ({} traced exactly), primitives gathered {}, visibility tests {}; samples: colour taken {}, light taken {}, shaded exactly {} (no shade point {}, colours and light apart {}, shade points apart {}, mirror, glass or highlight {}, shape {}), background {}; shade points {}",
-                    e.rows, e.rows_exact, e.primitives, e.tests, e.taken, e.light_taken, e.traced, e.no_bracket, e.refused_colour, e.refused_wide, e.refused_material, e.refused_shape, e.misses, e.shade_points
+                    "epipolar rows: {} in their planes ({} traced exactly), primitives gathered {}, visibility tests {}; samples: colour taken {}, light taken {}, light partly taken {} ({} shadow rays), shaded exactly {} (no shade point {}, colours and light apart {}, shade points apart {}, mirror, glass or highlight {}, shape {}), background {}; shade points {}",
+                    e.rows, e.rows_exact, e.primitives, e.tests, e.taken, e.light_taken, e.light_partly_taken, e.lights_traced, e.traced, e.no_bracket, e.refused_colour, e.refused_wide, e.refused_material, e.refused_shape, e.misses, e.shade_points
                 )));
             }
             if o.approx.interpolate_views.is_some() {

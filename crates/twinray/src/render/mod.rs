@@ -41,7 +41,7 @@ pub use epipolar::{EpipolarStats, EpipolarViews};
 pub use interpolated_views::{InterpStats, InterpolateViews};
 pub use sampler::{Filter, SampleRow, Sampling};
 pub(crate) use tracer::MAX_CUTOUT_LAYERS;
-pub use tracer::{Donor, Donors, SecondaryRays, TraceSettings, Tracer};
+pub use tracer::{Donor, Donors, SecondaryRays, TraceSettings, Tracer, TRACE_LIGHT};
 pub use view_synthesis::{SynthesisStats, ViewSynthesis};
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

@@ -180,6 +180,10 @@ const CACHED_LEVELS: usize = 8;
 /// A ray goes on past at most this many cut-away hits, then stops at the last.
 pub(crate) const MAX_CUTOUT_LAYERS: u32 = 64;
 
+/// A transmittance handed to [`Tracer::shade_from_donors`] that means: trace
+/// this lane's own shadow ray toward the light.
+pub const TRACE_LIGHT: f32 = -1.0;
+
 /// A surface point's shading, kept so that other views' samples that see the
 /// same point can take it (the paper's section 2.5): what reached it from each
 /// light, and the weighted colour of its reflected and refracted rays.
@@ -486,17 +490,21 @@ impl<'a> Tracer<'a> {
         hits: &PacketHits<1>,
         donor: &Donor,
     ) -> Color {
-        self.shade_from_donors(packet, hits, &donor.through, &[donor.secondary])[0]
+        let mut through = donor.through.clone();
+        self.shade_from_donors(packet, hits, &mut through, &[donor.secondary])[0]
     }
 
     /// `shade_from_donor` for every lane of `packet`: lane `l` takes the
     /// transmittances `through[l * lights..]` and the secondary colour
-    /// `secondary[l]` (each lane's colour is what it gets alone).
+    /// `secondary[l]` (each lane's colour is what it gets alone). A
+    /// transmittance below 0 ([`TRACE_LIGHT`]) is the lane's own: its shadow
+    /// ray is traced, as the exact shading traces it, and what it found is
+    /// written in its place (0 where the point faces away from the light).
     pub fn shade_from_donors<const K: usize>(
         &mut self,
         packet: &Packet<K>,
         hits: &PacketHits<K>,
-        through: &[f32],
+        through: &mut [f32],
         secondary: &[Color; K],
     ) -> [Color; K] {
         // At the deepest level: no secondary ray is spawned (the donor's are taken).
@@ -505,29 +513,66 @@ impl<'a> Tracer<'a> {
         let mut out = s.ambient;
         let scene = &self.world.scene;
         let lights = scene.lights.len();
+        for (i, light) in scene.lights.iter().enumerate() {
+            // The lanes that trace their own shadow ray toward this light go
+            // as one packet, from the point the exact shading starts it at.
+            let mut seg = SegmentPacket {
+                origins: [Vec3::ZERO; K],
+                dirs: [Vec3::Z; K],
+                t_max: [0.0; K],
+                mask: 0,
+            };
+            let mut toward = [None; K];
+            let mut lanes = packet.mask & s.lit;
+            while lanes != 0 {
+                let l = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let t = through.get(l * lights + i).copied().unwrap_or(0.0);
+                let Some(sp) = &s.points[l] else {
+                    continue;
+                };
+                if t == 0.0 {
+                    continue;
+                }
+                toward[l] = toward_light(sp, light);
+                if let (Some((dir, dist, _)), true) = (toward[l], t < 0.0) {
+                    seg.origins[l] = offset_point(sp.point, sp.offset_normal, sp.t);
+                    seg.dirs[l] = dir;
+                    seg.t_max[l] = dist;
+                    seg.mask |= 1 << l;
+                }
+            }
+            let own = if seg.mask != 0 {
+                self.light_transmittance(i, 1, &mut seg, 0)
+            } else {
+                [0.0; K]
+            };
+            for (l, toward) in toward.iter().enumerate() {
+                let slot = l * lights + i;
+                if through.get(slot).is_some_and(|&t| t < 0.0) {
+                    through[slot] = if seg.mask & (1 << l) != 0 {
+                        own[l]
+                    } else {
+                        0.0
+                    };
+                }
+                let (Some(sp), Some((dir, _, color))) = (&s.points[l], toward) else {
+                    continue;
+                };
+                let t = through.get(slot).copied().unwrap_or(0.0);
+                if t > 0.0 {
+                    out[l] +=
+                        light_contribution(sp, packet.dirs[l], *dir, *color, t * s.coverage[l]);
+                }
+            }
+        }
         let mut lanes = packet.mask;
         while lanes != 0 {
             let l = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;
-            let Some(sp) = &s.points[l] else { continue };
-            if s.lit & (1 << l) != 0 {
-                for (i, light) in scene.lights.iter().enumerate() {
-                    let through = through.get(l * lights + i).copied().unwrap_or(0.0);
-                    if through <= 0.0 {
-                        continue;
-                    }
-                    if let Some((dir, _, color)) = toward_light(sp, light) {
-                        out[l] += light_contribution(
-                            sp,
-                            packet.dirs[l],
-                            dir,
-                            color,
-                            through * s.coverage[l],
-                        );
-                    }
-                }
+            if s.points[l].is_some() {
+                out[l] += secondary[l];
             }
-            out[l] += secondary[l];
         }
         out
     }
@@ -1579,7 +1624,32 @@ mod tests {
                         .copy_from_slice(donors.through(from(k), lights));
                     taken[l] = donors.secondary[from(k)];
                 }
-                let colors = packed.shade_from_donors(packet, &hits, &through, &taken);
+                let colors = packed.shade_from_donors(packet, &hits, &mut through, &taken);
+                // Each lane with its own light, half of its lights marked to be
+                // traced, and its own secondary colour: the shadow rays traced
+                // find what the exact shading found, and the colour is the
+                // exact one (bit for bit where no secondary light is added).
+                let mut own = donors.through.clone();
+                for (slot, t) in own.iter_mut().enumerate() {
+                    if (slot + n) % 2 == 0 {
+                        *t = TRACE_LIGHT;
+                    }
+                }
+                let mine = packed.shade_from_donors(packet, &hits, &mut own, &donors.secondary);
+                for &l in &used {
+                    let what = format!("{secondary:?}, packet {n}, lane {l}, own light");
+                    let found = own[l * lights..(l + 1) * lights]
+                        .iter()
+                        .map(|t| t.to_bits());
+                    let exact = donors.through(l, lights).iter().map(|t| t.to_bits());
+                    assert!(found.eq(exact), "{what}");
+                    if donors.secondary[l] == Color::ZERO {
+                        assert_eq!(bits(mine[l]), bits(donors.colors[l]), "{what}");
+                    } else {
+                        let d = (mine[l] - donors.colors[l]).abs();
+                        assert!(d.max_element() < 1e-5, "{what}");
+                    }
+                }
                 for (k, &l) in used.iter().enumerate() {
                     let (ray, hit) = alone(l);
                     let given = Donor {

@@ -70,7 +70,7 @@ use plane::{Plane, Section, NEAR_SLACK};
 
 use super::sampler::{Pattern, RowColors, SampleRow};
 use super::view_synthesis::{largest, trace_all};
-use super::{Donors, RowWorker, SecondaryRays, Tracer};
+use super::{Donors, RowWorker, SecondaryRays, Tracer, TRACE_LIGHT};
 use crate::bvh::{Packet, PacketHits, RunRegion, RunStats, EYE_PACKET};
 use crate::math::{Color, Ray, Vec3};
 use crate::rig::{Camera, Rig};
@@ -97,10 +97,14 @@ pub struct EpipolarStats {
     /// ray tests the visibility made.
     pub primitives: u64,
     pub tests: u64,
-    /// Samples that took their colour from two shade points, and those that
-    /// took their light (shaded with it, no ray traced).
+    /// Samples that took their colour from two shade points; those that
+    /// took their light (shaded with it, no ray traced); and those that took
+    /// the light of the lights their shade points saw alike and traced their
+    /// own shadow rays toward the others, `lights_traced` rays in all.
     pub taken: u64,
     pub light_taken: u64,
+    pub light_partly_taken: u64,
+    pub lights_traced: u64,
     /// Samples traced and shaded exactly, and those that hit nothing.
     pub traced: u64,
     pub misses: u64,
@@ -126,6 +130,8 @@ impl EpipolarStats {
         self.tests += o.tests;
         self.taken += o.taken;
         self.light_taken += o.light_taken;
+        self.light_partly_taken += o.light_partly_taken;
+        self.lights_traced += o.lights_traced;
         self.traced += o.traced;
         self.misses += o.misses;
         self.no_bracket += o.no_bracket;
@@ -176,6 +182,8 @@ struct ShadePoint {
     param: f64,
     a: f64,
     b: f64,
+    /// `1/(b·ps)`: its column in a view is `(a − offset)` times this.
+    inv_bps: f64,
     color: Color,
     /// Weighted colour of its reflected and refracted rays.
     secondary: Color,
@@ -201,14 +209,19 @@ struct Donation {
     keep: Option<OnSection>,
 }
 
-/// A sample that takes its light from shade point `from`, and its secondary
-/// colour between `from` and `to` at `w`.
+/// A sample that takes its light from shade point `from`, but for the
+/// lights in `trace` (bit `i`: light `i`), whose shadow rays it traces, and
+/// its secondary colour between `from` and `to` at `w`. One that traces
+/// some becomes a shade point, at `on`: it lies next to a shadow edge, where
+/// the views after it need shade points close together.
 #[derive(Clone, Copy, Debug)]
 struct Taking {
     sample: usize,
     from: ShadePoint,
     to: ShadePoint,
     w: f32,
+    trace: u64,
+    on: OnSection,
 }
 
 /// One thread's scratch space, reused from row to row.
@@ -220,9 +233,11 @@ pub(super) struct EpiScratch {
     /// (index into `prims`, `u32::MAX` for none).
     dirs: Vec<Vec3>,
     best: Vec<(SurfaceHit, u32)>,
-    /// Per position, per sample: the ray's length per unit of `b`; and the
+    /// Per position, per sample: the ray's length per unit of `b`, and its
+    /// slope `x` (a point at `b` on it has `a = offset + x·b`); and the
     /// sections by their nearest `b`.
     lens: Vec<f64>,
+    slopes: Vec<f64>,
     near: Vec<(f64, u32)>,
     /// Per gathered primitive: its shade points by `param`.
     points: Vec<Vec<ShadePoint>>,
@@ -232,6 +247,8 @@ pub(super) struct EpiScratch {
     donations: Vec<Donation>,
     takings: Vec<Taking>,
     touched: Vec<u32>,
+    /// Shade points kept since they were last put in order.
+    kept: u64,
     donors: Donors,
     through: Vec<f32>,
 }
@@ -378,6 +395,7 @@ impl<'a> EpipolarPass<'a> {
         // lies at `t = b·L` along the ray of direction `(R·x + W)/L`.
         s.dirs.clear();
         s.lens.clear();
+        s.slopes.clear();
         for &(_, _, shift) in &self.order {
             for first in (0..n).step_by(8) {
                 let point = |l: usize| row.camera_point((first + l).min(n - 1), shift);
@@ -386,10 +404,11 @@ impl<'a> EpipolarPass<'a> {
                 let dirs = self.camera.directions8(columns, rows);
                 let count = (n - first).min(8);
                 s.dirs.extend_from_slice(&dirs[..count]);
-                s.lens.extend(columns[..count].iter().map(|&c| {
+                for &c in &columns[..count] {
                     let x = (c as f64 - plane.cx) * plane.ps;
-                    (x * x + plane.ww).sqrt()
-                }));
+                    s.slopes.push(x);
+                    s.lens.push((x * x + plane.ww).sqrt());
+                }
             }
         }
         s.best.clear();
@@ -480,7 +499,9 @@ impl<'a> EpipolarPass<'a> {
                 });
                 continue;
             }
-            let (a, b, _) = plane.coords((origin + s.dirs[k] * hit.t).as_dvec3());
+            // The hit's plane coordinates from its distance: `t = b·L`.
+            let b = hit.t as f64 / s.lens[k];
+            let a = offset + s.slopes[k] * b;
             let section = &s.sections[local as usize];
             let Some(param) = section.param(a, b) else {
                 stats.refused_shape += 1;
@@ -508,7 +529,7 @@ impl<'a> EpipolarPass<'a> {
             // The two must lie within WIDEST of this view's pixels, on either
             // side of the sample, at its depth (not one on the surface's far
             // side, seen by another view).
-            let column = |q: &ShadePoint| plane.sample_of(q.a, q.b, offset, shift);
+            let column = |q: &ShadePoint| plane.sample_of_scaled(q.a, q.inv_bps, offset, shift);
             let (c0, c1) = (column(&e0), column(&e1));
             let w = if e1.param > e0.param {
                 (param - e0.param) / (e1.param - e0.param)
@@ -536,21 +557,38 @@ impl<'a> EpipolarPass<'a> {
                 stats.taken += 1;
                 continue;
             }
-            // Else its own shading, with the light the two saw, where they and
-            // their neighbours saw each light alike: no shadow edge passes
-            // near. (With the two alone, slivers of the thin branches'
-            // shadows between them doubled the pixels off by more than 0.05
-            // on SPD tree.)
-            let light = |q: &ShadePoint| &s.light[q.light as usize..q.light as usize + lights];
-            let alike = |q: Option<&ShadePoint>| q.is_some_and(|q| light(q) == light(&e0));
-            if at >= 2 && alike(Some(&e1)) && alike(points.get(at - 2)) && alike(points.get(at + 1))
-            {
-                stats.light_taken += 1;
+            // Else its own shading, with the light the two saw, toward each
+            // light that they and their neighbours saw alike: no shadow edge
+            // of it passes near. (With the two alone, slivers of the thin
+            // branches' shadows between them doubled the pixels off by more
+            // than 0.05 on SPD tree.) Toward the others it traces its own
+            // shadow rays; where they are all of them, it is shaded exactly.
+            let light = |q: &ShadePoint, i: usize| s.light[q.light as usize + i];
+            let outer = [
+                Some(&e1),
+                at.checked_sub(2).map(|j| &points[j]),
+                points.get(at + 1),
+            ];
+            let trace = (0..lights.min(64)).fold(0u64, |trace, i| {
+                let alike = outer
+                    .iter()
+                    .all(|q| q.is_some_and(|q| light(q, i) == light(&e0, i)));
+                trace | u64::from(!alike) << i
+            });
+            if lights <= 64 && trace.count_ones() < lights as u32 {
+                if trace == 0 {
+                    stats.light_taken += 1;
+                } else {
+                    stats.light_partly_taken += 1;
+                    stats.lights_traced += u64::from(trace.count_ones());
+                }
                 s.takings.push(Taking {
                     sample: i,
                     from: e0,
                     to: e1,
                     w: w as f32,
+                    trace,
+                    on: OnSection { local, param, a, b },
                 });
                 continue;
             }
@@ -610,7 +648,6 @@ impl<'a> EpipolarPass<'a> {
     ) {
         let lights = self.world.scene.lights.len();
         s.touched.clear();
-        let mut kept = 0u64;
         for first in (0..s.donations.len()).step_by(EYE_PACKET) {
             let count = (s.donations.len() - first).min(EYE_PACKET);
             let (packet, hits) =
@@ -619,33 +656,47 @@ impl<'a> EpipolarPass<'a> {
             for l in 0..count {
                 let Donation { sample, keep } = s.donations[first + l];
                 out[sample] = s.donors.colors[l];
-                let Some(OnSection { local, param, a, b }) = keep else {
-                    continue;
-                };
-                let light = s.light.len() as u32;
-                s.light.extend_from_slice(s.donors.through(l, lights));
-                let point = ShadePoint {
-                    param,
-                    a,
-                    b,
-                    color: s.donors.colors[l],
-                    secondary: s.donors.secondary[l],
-                    light,
-                };
-                let points = &mut s.points[local as usize];
-                if points.last().is_some_and(|q| q.param > param) {
-                    s.touched.push(local);
+                if let Some(on) = keep {
+                    let light = s.light.len() as u32;
+                    s.light.extend_from_slice(s.donors.through(l, lights));
+                    self.keep(s, on, s.donors.colors[l], s.donors.secondary[l], light);
                 }
-                points.push(point);
-                kept += 1;
             }
         }
+        self.sort_points(tracer, s);
+    }
+
+    /// Keeps a shade point at `on` of `color`, `secondary` colour and
+    /// transmittances at `light` in `s.light`.
+    fn keep(&self, s: &mut EpiScratch, on: OnSection, color: Color, secondary: Color, light: u32) {
+        let OnSection { local, param, a, b } = on;
+        let point = ShadePoint {
+            param,
+            a,
+            b,
+            inv_bps: 1.0 / (b * self.camera.pixel_size as f64),
+            color,
+            secondary,
+            light,
+        };
+        let points = &mut s.points[local as usize];
+        if points.last().is_some_and(|q| q.param > param) {
+            s.touched.push(local);
+        }
+        points.push(point);
+        s.kept += 1;
+    }
+
+    /// Puts the shade points kept since the last call in order.
+    fn sort_points(&self, tracer: &mut Tracer, s: &mut EpiScratch) {
         s.touched.sort_unstable();
         s.touched.dedup();
         for &local in &s.touched {
             s.points[local as usize].sort_by(|a, b| a.param.total_cmp(&b.param));
         }
-        tracer.counts.epipolar.shade_points += kept;
+        s.touched.clear();
+        tracer.counts.epipolar.shade_points += s.kept;
+        s.kept = 0;
     }
 
     /// The view's samples that take their light from a shade point, eight
@@ -668,17 +719,32 @@ impl<'a> EpipolarPass<'a> {
             s.through.resize(lights * EYE_PACKET, 0.0);
             let mut secondary = [Color::ZERO; EYE_PACKET];
             for (l, secondary) in secondary.iter_mut().enumerate().take(count) {
-                let Taking { from, to, w, .. } = s.takings[first + l];
+                let Taking {
+                    from, to, w, trace, ..
+                } = s.takings[first + l];
                 let light = from.light as usize;
-                s.through[l * lights..(l + 1) * lights]
-                    .copy_from_slice(&s.light[light..light + lights]);
+                let through = &mut s.through[l * lights..(l + 1) * lights];
+                through.copy_from_slice(&s.light[light..light + lights]);
+                for (i, t) in through.iter_mut().enumerate() {
+                    if trace & (1 << i) != 0 {
+                        *t = TRACE_LIGHT;
+                    }
+                }
                 *secondary = from.secondary + (to.secondary - from.secondary) * w;
             }
-            let colors = tracer.shade_from_donors(&packet, &hits, &s.through, &secondary);
+            let colors = tracer.shade_from_donors(&packet, &hits, &mut s.through, &secondary);
             for l in 0..count {
-                out[s.takings[first + l].sample] = colors[l];
+                let taking = s.takings[first + l];
+                out[taking.sample] = colors[l];
+                if taking.trace != 0 {
+                    let light = s.light.len() as u32;
+                    s.light
+                        .extend_from_slice(&s.through[l * lights..(l + 1) * lights]);
+                    self.keep(s, taking.on, colors[l], secondary[l], light);
+                }
             }
         }
+        self.sort_points(tracer, s);
     }
 }
 

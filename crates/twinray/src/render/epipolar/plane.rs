@@ -20,7 +20,14 @@ pub(super) enum Section {
     /// The plane misses it.
     None,
     /// A triangle's: a segment, clipped to `b ≥ b_min`.
-    Segment { a0: f64, b0: f64, a1: f64, b1: f64 },
+    /// `inv`: one over the squared length (0 for a point).
+    Segment {
+        a0: f64,
+        b0: f64,
+        a1: f64,
+        b1: f64,
+        inv: f64,
+    },
     /// A sphere's: a circle.
     Circle { a: f64, b: f64, r: f64 },
     /// Any other shape's (or a triangle lying in the plane): within a box.
@@ -30,6 +37,19 @@ pub(super) enum Section {
 }
 
 impl Section {
+    /// The segment from `(a0, b0)` to `(a1, b1)`.
+    fn segment(a0: f64, b0: f64, a1: f64, b1: f64) -> Section {
+        let len2 = (a1 - a0).powi(2) + (b1 - b0).powi(2);
+        let inv = if len2 > 0.0 { 1.0 / len2 } else { 0.0 };
+        Section::Segment {
+            a0,
+            b0,
+            a1,
+            b1,
+            inv,
+        }
+    }
+
     /// The least `b` of its points (`None`: the plane misses it).
     pub(super) fn nearest_b(&self) -> Option<f64> {
         match *self {
@@ -48,11 +68,13 @@ impl Section {
     /// through the eyes.
     pub(super) fn param(&self, a: f64, b: f64) -> Option<f64> {
         match *self {
-            Section::Segment { a0, b0, a1, b1 } => {
-                let (da, db) = (a1 - a0, b1 - b0);
-                let len2 = da * da + db * db;
-                (len2 > 0.0).then(|| ((a - a0) * da + (b - b0) * db) / len2)
-            }
+            Section::Segment {
+                a0,
+                b0,
+                a1,
+                b1,
+                inv,
+            } => (inv > 0.0).then_some(((a - a0) * (a1 - a0) + (b - b0) * (b1 - b0)) * inv),
             Section::Circle { a: ca, b: cb, .. } => Some((b - cb).atan2(a - ca)),
             Section::Bounds { a0, b0, a1, b1 } => {
                 Some((b - (b0 + b1) * 0.5).atan2(a - (a0 + a1) * 0.5))
@@ -141,6 +163,12 @@ impl Plane {
         (a - offset) / b / self.ps + self.cx - self.c0 - shift as f64
     }
 
+    /// `sample_of` for a point given by `a` and `1/(b·ps)`, which shade
+    /// points keep: no division per look-up.
+    pub(super) fn sample_of_scaled(&self, a: f64, inv_bps: f64, offset: f64, shift: i32) -> f64 {
+        (a - offset) * inv_bps + self.cx - self.c0 - shift as f64
+    }
+
     /// The section of `shape` by the plane; `tol`: how near the plane a
     /// vertex or box corner counts as on it.
     pub(super) fn section(&self, shape: &Shape, tol: f64) -> Section {
@@ -210,7 +238,7 @@ impl Plane {
         match *section {
             Section::None => (0, 0),
             Section::Whole => (0, n),
-            Section::Segment { a0, b0, a1, b1 } => {
+            Section::Segment { a0, b0, a1, b1, .. } => {
                 let s0 = self.sample_of(a0, b0, offset, shift);
                 let s1 = self.sample_of(a1, b1, offset, shift);
                 clamp_samples(s0.min(s1), s0.max(s1), n)
@@ -272,24 +300,14 @@ impl Plane {
         let m = self.b_min;
         match (b0 >= m, b1 >= m) {
             (false, false) => Section::None,
-            (true, true) => Section::Segment { a0, b0, a1, b1 },
+            (true, true) => Section::segment(a0, b0, a1, b1),
             (keeps_first, _) => {
                 let f = (m - b0) / (b1 - b0);
                 let (a, b) = (a0 + (a1 - a0) * f, m);
                 if keeps_first {
-                    Section::Segment {
-                        a0,
-                        b0,
-                        a1: a,
-                        b1: b,
-                    }
+                    Section::segment(a0, b0, a, b)
                 } else {
-                    Section::Segment {
-                        a0: a,
-                        b0: b,
-                        a1,
-                        b1,
-                    }
+                    Section::segment(a, b, a1, b1)
                 }
             }
         }

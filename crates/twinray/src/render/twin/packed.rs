@@ -281,7 +281,7 @@ impl<const K: usize> TwinBatch<'_, K> {
         let colors = tracer.shade_from_donors(
             &lanes.packet,
             &lanes.hits,
-            &takers.through,
+            &mut takers.through,
             &takers.secondary,
         );
         for (l, v, k) in lanes.filled() {
