@@ -7,6 +7,7 @@ mod common;
 use std::sync::Arc;
 
 use twinray::job::{CancelToken, Job, JobSpec, Level, MethodSpec};
+use twinray::render::Sampling;
 
 fn pair(interaxial: &str) -> JobSpec {
     let mut spec = JobSpec::new(common::scene_path("example.nff"), "unused.png");
@@ -135,9 +136,10 @@ fn key_spacing_without_shared_shading_is_said_to_do_nothing() {
 }
 
 /// `--fast` takes the approximations that measured faster than the exact
-/// batches (the shared shading, merged secondary rays, the reprojection),
-/// not the interpolated views, which measured slower (benchmarks.md, "Issue
-/// 16, eighth pass"); `--interpolate-views` still asks for them.
+/// batches (the epipolar rows, and for the rows they do not take the shared
+/// shading, merged secondary rays, the reprojection), not the interpolated
+/// views, which measured slower (benchmarks.md, "Issue 16, eighth pass");
+/// `--interpolate-views` still asks for them.
 #[test]
 fn fast_at_many_views_shares_shading_but_does_not_interpolate_views() {
     let options = |fast: bool, interpolate: bool| {
@@ -149,12 +151,42 @@ fn fast_at_many_views_shares_shading_but_does_not_interpolate_views() {
         Job::check(spec).unwrap().render_options().approx
     };
     let fast = options(true, false);
+    assert!(fast.epipolar_views.is_some());
+    assert!(options(false, false).epipolar_views.is_none());
+    // With the adaptive sampling (the default) most rows are refined ones,
+    // traced view by view: `--fast` leaves the epipolar rows out.
+    let mut adaptive = pair("0.1");
+    adaptive.sampling.samples = None;
+    adaptive.approximations.fast = true;
+    let adaptive = *Job::check(adaptive).unwrap().render_options();
+    assert!(matches!(adaptive.sampling, Sampling::Adaptive { .. }));
+    assert!(adaptive.approx.epipolar_views.is_none());
+    assert!(adaptive.approx.shared_shading.is_some());
     assert!(fast.shared_shading.is_some());
     assert!(fast.merge_secondary);
     assert!(fast.reproject.is_some());
     assert!(fast.interpolate_views.is_none());
     assert!(options(false, true).interpolate_views.is_some());
     assert!(options(true, true).interpolate_views.is_some());
+}
+
+/// `--fast` cuts the object tree only where the epipolar rows cannot take
+/// the views (they need the whole tree); a cut asked for is made.
+#[test]
+fn fast_does_not_cut_the_tree_the_epipolar_rows_need() {
+    let cut = |fast: bool, parallax: Option<f64>| {
+        let mut spec = pair("0.1");
+        spec.approximations.fast = fast;
+        spec.approximations.cut_parallax = parallax;
+        let job = Job::check(spec).unwrap();
+        let loaded = job.load().unwrap();
+        job.plan(&loaded).unwrap().cut
+    };
+    // The rig has a depth beyond which the parallax is below `--fast`'s half
+    // pixel: asked for, the cut is made there.
+    assert!(cut(false, Some(0.5)).is_some());
+    assert!(cut(true, Some(0.5)).is_some());
+    assert!(cut(true, None).is_none());
 }
 
 /// `--eye-runs` and `--shadow-fans` share work between the twin method's

@@ -523,7 +523,13 @@ impl Job {
         self.check_memory(width, height)?;
 
         let mut build_seconds = 0.0;
-        let mut cut = self.cut(&camera, &rig)?;
+        // `--fast` cuts the object tree only where the epipolar rows cannot
+        // take the views (alpha, instances): they need the whole tree, and
+        // find the views' hits without eye rays anyway.
+        let epipolar = self.options.approx.epipolar_views.is_some()
+            && !loaded.scene.has_alpha()
+            && loaded.built_world().is_none_or(|w| w.instances.is_none());
+        let mut cut = self.cut(&camera, &rig, epipolar)?;
         let mut world = self.world_for(loaded, cut, &mut build_seconds);
         let settled =
             match &request {
@@ -540,7 +546,7 @@ impl Job {
             files = self
                 .targets(&rig, interaxial)
                 .plan(written, &self.spec.scene)?;
-            let fitted = self.cut(&camera, &rig)?;
+            let fitted = self.cut(&camera, &rig, epipolar)?;
             if fitted.is_some() {
                 cut = fitted;
                 world = self.world_for(loaded, cut, &mut build_seconds);
@@ -631,10 +637,12 @@ impl Job {
     }
 
     /// Where to cut the object tree, if asked (the parallax bound depends on
-    /// the interaxial).
-    fn cut(&self, camera: &Camera, rig: &Rig) -> Result<Option<Cut>> {
+    /// the interaxial); `--fast` cuts it unless the `epipolar` rows take the
+    /// views.
+    fn cut(&self, camera: &Camera, rig: &Rig, epipolar: bool) -> Result<Option<Cut>> {
         let a = &self.spec.approximations;
-        let parallax = a.cut_parallax.or(a.fast.then_some(FAST_CUT_PARALLAX));
+        let fast_cut = a.fast && !(epipolar && rig.views.len() >= 2);
+        let parallax = a.cut_parallax.or(fast_cut.then_some(FAST_CUT_PARALLAX));
         let depth = match (a.cut_distance, parallax) {
             (Some(d), _) => f64::from(d),
             (None, Some(px)) => match rig.cut_depth_for_parallax(camera, px) {
@@ -1055,7 +1063,7 @@ impl Checked {
             };
             rig_choice::rig_request(&flags, quilt_layout, views, 1.0)?;
         }
-        let approx = approximations(&spec.approximations)?;
+        let approx = approximations(&spec.approximations, sampling)?;
         check_cut(&spec.approximations)?;
         let method = match rig.method {
             MethodSpec::Independent => Method::Independent,
@@ -1296,8 +1304,9 @@ pub fn sampling(s: &SamplingSpec) -> Result<Sampling> {
     Ok(sampling)
 }
 
-/// The approximations asked for, checked.
-fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
+/// The approximations asked for, checked (`sampling`: what `--fast` takes
+/// depends on it).
+fn approximations(a: &ApproximationSpec, sampling: Sampling) -> Result<Approximations> {
     let threshold = a.reproject_threshold;
     if !(threshold.is_finite() && threshold >= 0.0) {
         return Err(invalid(format!(
@@ -1340,9 +1349,14 @@ fn approximations(a: &ApproximationSpec) -> Result<Approximations> {
             spacing: a.synthesis_spacing,
             tolerance,
         }),
-        epipolar_views: a
-            .epipolar_views
-            .then_some(crate::render::EpipolarViews { tolerance }),
+        // Under `fast` too where every row of samples lies in one plane
+        // (pixel centres, the SPD's corners): there they measured faster
+        // than its other approximations, and closer to the exact views; with
+        // the adaptive sampling's refined rows traced view by view, slower
+        // (benchmarks.md, "Issue 16, twelfth pass").
+        epipolar_views: (a.epipolar_views
+            || (a.fast && matches!(sampling, Sampling::Centers | Sampling::Corners)))
+        .then_some(crate::render::EpipolarViews { tolerance }),
     })
 }
 
