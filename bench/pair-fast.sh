@@ -2,7 +2,8 @@
 # The stereo pair's approximations against two independent renders, in CPU
 # seconds (user + sys of the whole command on THREADS threads, default 1, so
 # that other work on a shared machine does not count; views written as PFM):
-# exact twin, --share-shading, and --fast (cut, merge, shared shading), with
+# exact twin, --share-shading, and --fast (with --samples 1, as here: the epipolar
+# rows; with other samplings the cut, merge and shared shading), with
 # each approximate pair's worst PSNR and largest difference against the exact one.
 #
 # usage (from the project root, after cargo build --release):
