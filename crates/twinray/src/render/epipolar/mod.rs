@@ -1,7 +1,8 @@
 //! Epipolar rows (issue 16, `--epipolar-views`): every view's eye hits of an
 //! image row found from the primitives that cross the row's plane, and a
 //! surface point's view-independent colour shaded once for all the views
-//! that see it. An approximation; off unless asked for.
+//! that see it. An approximation: `--epipolar-views`, and `--fast` where
+//! every row lies in one plane.
 //!
 //! The rig's views lie on the camera's right axis `R` with parallel axes, so
 //! the rays of every view through one image row lie in one plane: the one
@@ -37,8 +38,10 @@
 //!    neighbour must be there). Else, if the two and their outer neighbours
 //!    saw each light alike (the same transmittance), it takes that light and
 //!    its secondary colour between theirs, and computes its own ambient,
-//!    diffuse and highlight terms: no ray. Every other sample (no shade
-//!    point on one side, colour and light apart, a mirror or glass) is
+//!    diffuse and highlight terms: no ray. Where they saw only some lights
+//!    alike, it takes those and traces its own shadow rays toward the
+//!    others, and becomes a shade point. Every other sample (no shade point
+//!    on one side, colour and every light apart, a mirror or glass) is
 //!    shaded exactly, eight to a packet, and becomes a shade point; a sample
 //!    that hits nothing takes the background, as its ray would.
 //!
@@ -209,6 +212,28 @@ struct Donation {
     keep: Option<OnSection>,
 }
 
+/// A mirror, glass or highlight sample (view position `position`), shaded
+/// once every view's are known, next to the samples of other views that see
+/// its surface near it: by its primitive and place on the section.
+#[derive(Clone, Copy, Debug)]
+struct Deferred {
+    local: u32,
+    param: f64,
+    position: u32,
+    sample: u32,
+}
+
+impl Deferred {
+    /// By primitive, then place on its section: the views' samples of one
+    /// point of a surface next to each other.
+    fn order(x: &Deferred, y: &Deferred) -> std::cmp::Ordering {
+        (x.local.cmp(&y.local))
+            .then(x.param.total_cmp(&y.param))
+            .then(x.position.cmp(&y.position))
+            .then(x.sample.cmp(&y.sample))
+    }
+}
+
 /// A sample that takes its light from shade point `from`, but for the
 /// lights in `trace` (bit `i`: light `i`), whose shadow rays it traces, and
 /// its secondary colour between `from` and `to` at `w`. One that traces
@@ -246,6 +271,7 @@ pub(super) struct EpiScratch {
     /// A view's samples shaded exactly, and those that take a light.
     donations: Vec<Donation>,
     takings: Vec<Taking>,
+    deferred: Vec<Deferred>,
     touched: Vec<u32>,
     /// Shade points kept since they were last put in order.
     kept: u64,
@@ -328,8 +354,50 @@ impl<'a> EpipolarPass<'a> {
         s.points.iter_mut().for_each(Vec::clear);
         s.points.resize_with(s.prims.len(), Vec::new);
         s.light.clear();
+        s.deferred.clear();
         for &p in &self.visit {
             self.shade_view(tracer, row, &plane, p, s, out);
+        }
+        self.shade_deferred(tracer, n, s, out);
+    }
+
+    /// The row's mirror, glass and highlight samples of every view, shaded
+    /// exactly, eight to a packet, ordered by primitive and place on it: the
+    /// views that see one point of a mirror send reflected and shadow rays
+    /// nearly alike, which go down the hierarchy together (eight neighbours
+    /// of one view on a curved mirror reflect apart). Each lane's colour is
+    /// what it gets alone, so the order changes no pixel.
+    fn shade_deferred(
+        &self,
+        tracer: &mut Tracer,
+        n: usize,
+        s: &mut EpiScratch,
+        out: &mut [RowColors],
+    ) {
+        s.deferred.sort_unstable_by(Deferred::order);
+        for lanes in s.deferred.chunks(EYE_PACKET) {
+            let mut packet = Packet {
+                origins: [Vec3::ZERO; EYE_PACKET],
+                dirs: [Vec3::Z; EYE_PACKET],
+                t_min: self.camera.hither,
+                t_max: [f32::INFINITY; EYE_PACKET],
+                mask: (1u32 << lanes.len()) - 1,
+            };
+            let mut hits = PacketHits::<EYE_PACKET>::none();
+            for (l, d) in lanes.iter().enumerate() {
+                let p = d.position as usize;
+                let k = p * n + d.sample as usize;
+                let (hit, local) = s.best[k];
+                packet.origins[l] = self.camera.eye_at(self.order[p].1);
+                packet.dirs[l] = s.dirs[k];
+                hits.prim[l] = s.prims[local as usize];
+                hits.hit[l] = hit;
+            }
+            let groups = std::array::from_fn(|l| l as u8);
+            let colors = tracer.shade_eye_groups(&packet, &hits, SecondaryRays::Own, groups);
+            for (l, d) in lanes.iter().enumerate() {
+                out[self.order[d.position as usize].0][d.sample as usize] = colors[l];
+            }
         }
     }
 
@@ -492,10 +560,17 @@ impl<'a> EpipolarPass<'a> {
             let prim = s.prims[local as usize];
             let m = self.world.scene.shape_material[prim as usize] as usize;
             if !self.plain[m] {
+                // Shaded after every view, with the other views' samples of
+                // the same surface (`shade_deferred`).
                 stats.refused_material += 1;
-                s.donations.push(Donation {
-                    sample: i,
-                    keep: None,
+                stats.traced += 1;
+                let b = hit.t as f64 / s.lens[k];
+                let param = s.sections[local as usize].param(offset + s.slopes[k] * b, b);
+                s.deferred.push(Deferred {
+                    local,
+                    param: param.unwrap_or(0.0),
+                    position: p as u32,
+                    sample: i as u32,
                 });
                 continue;
             }
@@ -898,6 +973,45 @@ mod tests {
 
     /// The middle view first, then the ends, then halfway between: each
     /// position once.
+    /// Three views' samples along one mirror primitive's section (each view
+    /// sees the surface shifted by a sample): sorted, the views' samples of
+    /// one place lie next to each other, so that a packet holds one point
+    /// seen by several views; another primitive's come apart.
+    #[test]
+    fn deferred_samples_of_one_place_go_together() {
+        let mut deferred: Vec<Deferred> = (0..3u32)
+            .flat_map(|position| {
+                (0..4u32).map(move |i| Deferred {
+                    local: 7,
+                    param: 0.1 * f64::from(i + position),
+                    position,
+                    sample: i + position,
+                })
+            })
+            .chain([Deferred {
+                local: 2,
+                param: 0.25,
+                position: 1,
+                sample: 0,
+            }])
+            .collect();
+        deferred.sort_unstable_by(Deferred::order);
+        assert_eq!(deferred[0].local, 2);
+        let places: Vec<f64> = deferred[1..].iter().map(|d| d.param).collect();
+        assert!(places.windows(2).all(|w| w[0] <= w[1]), "{places:?}");
+        // The place 0.2 is seen by all three views, in one run.
+        let run: Vec<u32> = deferred
+            .iter()
+            .filter(|d| (d.param - 0.2).abs() < 1e-9)
+            .map(|d| d.position)
+            .collect();
+        assert_eq!(run, [0, 1, 2]);
+        let first = deferred.iter().position(|d| (d.param - 0.2).abs() < 1e-9);
+        assert!(first.is_some_and(|f| deferred[f..f + 3]
+            .iter()
+            .all(|d| (d.param - 0.2).abs() < 1e-9)));
+    }
+
     #[test]
     fn views_are_visited_middle_first_then_halfway() {
         assert_eq!(visit_order(1), vec![0]);
