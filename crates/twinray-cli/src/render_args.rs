@@ -302,8 +302,11 @@ pub struct ApproxArgs {
     /// distance / PX).
     #[arg(long, value_name = "PX")]
     pub cut_parallax: Option<f64>,
-    /// Every approximation at its default: --merge-secondary --reproject
-    /// --cut-parallax 0.5 --share-shading.
+    /// Every approximation at its default: with --samples 1 or --spd the
+    /// epipolar rows (--epipolar-views, no cut), and --merge-secondary
+    /// --reproject --share-shading for rows they cannot take; with other
+    /// samplings --merge-secondary --reproject --cut-parallax 0.5
+    /// --share-shading.
     #[arg(long)]
     pub fast: bool,
     /// A surface point's shadow and secondary rays traced once for every view
@@ -354,8 +357,8 @@ pub struct ApproxArgs {
     /// a view's sample takes the colour between two samples of the same
     /// surface that earlier views shaded, where they lie within 1.5 of its
     /// pixels and their colours differ by at most --share-tolerance (and bend
-    /// by at most half of it), or else their light, where they and their
-    /// neighbours saw every light alike; mirrors, glass, highlights and edges
+    /// by at most half of it), or else their light toward each light they
+    /// and their neighbours saw alike; mirrors, glass, highlights and edges
     /// are shaded exactly. Applies to rows of one sample a pixel at one
     /// place (--samples 1, --spd, the adaptive sampling's corners); other
     /// rows are traced exactly.
