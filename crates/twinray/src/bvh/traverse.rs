@@ -54,6 +54,18 @@ pub struct SegmentPacket<const K: usize> {
     pub mask: u32,
 }
 
+impl<const K: usize> SegmentPacket<K> {
+    /// A packet with no lane in it yet.
+    pub fn empty() -> SegmentPacket<K> {
+        SegmentPacket {
+            origins: [Vec3::ZERO; K],
+            dirs: [Vec3::Z; K],
+            t_max: [0.0; K],
+            mask: 0,
+        }
+    }
+}
+
 /// The nearest hit of each lane (`prim == NO_HIT` where there is none).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PacketHits<const K: usize> {

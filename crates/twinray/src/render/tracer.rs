@@ -516,12 +516,7 @@ impl<'a> Tracer<'a> {
         for (i, light) in scene.lights.iter().enumerate() {
             // The lanes that trace their own shadow ray toward this light go
             // as one packet, from the point the exact shading starts it at.
-            let mut seg = SegmentPacket {
-                origins: [Vec3::ZERO; K],
-                dirs: [Vec3::Z; K],
-                t_max: [0.0; K],
-                mask: 0,
-            };
+            let mut seg = SegmentPacket::<K>::empty();
             let mut toward = [None; K];
             let mut lanes = packet.mask & s.lit;
             while lanes != 0 {
@@ -885,12 +880,7 @@ impl<'a> Tracer<'a> {
             _ => Vec3::ZERO,
         });
         for (i, light) in scene.lights.iter().enumerate() {
-            let mut seg = SegmentPacket {
-                origins: [Vec3::ZERO; K],
-                dirs: [Vec3::Z; K],
-                t_max: [0.0; K],
-                mask: 0,
-            };
+            let mut seg = SegmentPacket::<K>::empty();
             let mut light_color = [Color::ZERO; K];
             let mut lanes = s.lit;
             while lanes != 0 {
