@@ -14,7 +14,8 @@
 # A mode ending in -runs adds the eye runs (--eye-runs): exact-runs,
 # shared-runs. exact-bK (K = 1, 2, 4, 8, ...): the exact method in batches
 # of K views (--views-per-batch K; its views compared with the exact ones).
-# Mode fast: every approximation at its default (--fast).
+# Mode fast: every approximation at its default (--fast; with --samples 1, as
+# here, that is the epipolar rows since the twelfth pass, the same as epi).
 # Mode interp: the interpolated views (--interpolate-views, which
 # implies the eye runs; its tolerance is --share-tolerance, default 0.01; a
 # mode interp-E sets it to E, e.g. interp-0.02); its samples interpolated and
