@@ -271,6 +271,7 @@ pub(super) struct EpiScratch {
     /// A view's samples shaded exactly, and those that take a light.
     donations: Vec<Donation>,
     takings: Vec<Taking>,
+    /// The row's mirror, glass and highlight samples, every view's.
     deferred: Vec<Deferred>,
     touched: Vec<u32>,
     /// Shade points kept since they were last put in order.
