@@ -17,7 +17,7 @@ def psnr(v):
 
 
 def summary(rows):
-    configs = [c for c in ["none", "cut", "merge", "reproject", "paper", "fast"] if any(r["approx"] == c for r in rows)]
+    configs = [c for c in ["none", "cut", "merge", "reproject", "paper", "all", "fast"] if any(r["approx"] == c for r in rows)]
     print("| scene | " + " | ".join(configs) + " |")
     print("|---|" + "---:|" * len(configs))
     ratios = {c: [] for c in configs}

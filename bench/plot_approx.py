@@ -25,6 +25,7 @@ STYLE = {
     "reproject": ("D", "tab:blue"),
     "paper": ("x", "tab:red"),
     "fast": ("*", "tab:purple"),
+    "all": ("P", "tab:brown"),
 }
 
 
