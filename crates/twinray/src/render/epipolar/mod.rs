@@ -972,8 +972,6 @@ mod tests {
         }
     }
 
-    /// The middle view first, then the ends, then halfway between: each
-    /// position once.
     /// Three views' samples along one mirror primitive's section (each view
     /// sees the surface shifted by a sample): sorted, the views' samples of
     /// one place lie next to each other, so that a packet holds one point
@@ -1013,6 +1011,8 @@ mod tests {
             .all(|d| (d.param - 0.2).abs() < 1e-9)));
     }
 
+    /// The middle view first, then the ends, then halfway between: each
+    /// position once.
     #[test]
     fn views_are_visited_middle_first_then_halfway() {
         assert_eq!(visit_order(1), vec![0]);
