@@ -6,9 +6,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::bvh::{self, BuildOptions, Bvh, PAD};
+use crate::bvh::{self, primitive_box, BuildOptions, Bvh, PAD};
 use crate::math::{Aabb, Vec3};
-use crate::scene::{Material, Scene};
+use crate::scene::{AlphaMode, Material, Scene};
 use crate::shapes::{Shape, TriangleNormals};
 
 mod two_level;
@@ -32,6 +32,9 @@ pub struct World {
     /// A two-level hierarchy ([`World::two_level`]): its instances, and how
     /// many of them (and of their primitives) were built for it.
     pub instances: Option<InstanceCounts>,
+    /// How many pieces each primitive is filed under in `bvh` (`Cone::pieces`;
+    /// empty: one each). See `filed_boxes`.
+    pieces: Vec<u8>,
 }
 
 /// The paper's section 2.3: objects farther than `depth` along the camera's
@@ -83,12 +86,25 @@ pub(crate) fn build_options<'a>(shapes: impl Iterator<Item = &'a Shape>) -> Buil
     options_for(others, all)
 }
 
-/// The hierarchy over all of `shapes` with `build_options`: their bounds and
-/// the count of shapes that are not triangles taken in one pass over them,
-/// on all threads (no array of boxes).
-fn build_all(shapes: &[Shape]) -> Bvh {
+/// The hierarchy over all of the scene's shapes with `build_options`, and
+/// the pieces each is filed under (`Cone::pieces`; empty: one each). Without
+/// pieces, their bounds and the count of shapes that are not triangles are
+/// taken in one pass over them, on all threads (no array of boxes).
+fn build_all(scene: &Scene) -> (Bvh, Vec<u8>) {
+    let shapes = &scene.shapes;
+    let pieces = pieces_of(scene);
+    if !pieces.is_empty() {
+        let boxes: Vec<(u32, Aabb)> = shapes
+            .iter()
+            .zip(&pieces)
+            .enumerate()
+            .flat_map(|(i, (s, &k))| (0..k as u32).map(move |j| (i as u32, filed_bounds(s, j, k))))
+            .collect();
+        let bvh = bvh::build_pieces(&boxes, &build_options(shapes.iter()));
+        return (bvh, pieces);
+    }
     let others = AtomicUsize::new(0);
-    bvh::build_by(
+    let bvh = bvh::build_by(
         shapes.len(),
         |i| {
             let s = &shapes[i];
@@ -98,7 +114,46 @@ fn build_all(shapes: &[Shape]) -> Bvh {
             s.bounds()
         },
         || options_for(others.load(Ordering::Relaxed), shapes.len()),
-    )
+    );
+    (bvh, Vec::new())
+}
+
+/// The pieces each shape of `scene` is filed under in the hierarchy: more
+/// than one only for long tilted cones (`Cone::pieces`) of opaque materials,
+/// since a shadow segment through a glass or cut-out cone filed in two
+/// leaves would meet it, and count its transmittance, twice. Empty if every
+/// shape is filed whole.
+fn pieces_of(scene: &Scene) -> Vec<u8> {
+    if !scene.shapes.iter().any(|s| matches!(s, Shape::Cone(_))) {
+        return Vec::new();
+    }
+    let pieces: Vec<u8> = scene
+        .shapes
+        .par_iter()
+        .zip(&scene.shape_material)
+        .map(|(s, &m)| {
+            let m = &scene.materials[m as usize];
+            match s {
+                Shape::Cone(c) if m.t <= 0.0 && m.alpha_mode == AlphaMode::Opaque => {
+                    c.pieces() as u8
+                }
+                _ => 1,
+            }
+        })
+        .collect();
+    if pieces.iter().all(|&k| k == 1) {
+        Vec::new()
+    } else {
+        pieces
+    }
+}
+
+/// Bounds of piece `j` of the `k` that `shape` is filed under.
+fn filed_bounds(shape: &Shape, j: u32, k: u8) -> Aabb {
+    match shape {
+        Shape::Cone(c) if k > 1 => c.piece_bounds(j, k as u32),
+        _ => shape.bounds(),
+    }
 }
 
 /// The choice of `build_options`, given how many of `all` shapes are not
@@ -117,14 +172,25 @@ const MOSTLY_TRIANGLES: usize = 16;
 /// Puts the shapes (their materials and groups with them) in the leaf order
 /// of `trees`, one after the other, so that a leaf's primitives sit together
 /// in memory; the trees' orders then index them in order (past the padding
-/// between leaves), and each tree gets its blocks of triangles.
-pub(crate) fn into_leaf_order<'a>(scene: &mut Scene, trees: impl Iterator<Item = &'a mut Bvh>) {
+/// between leaves), and each tree gets its blocks of triangles. Returns each
+/// shape's index before.
+pub(crate) fn into_leaf_order<'a>(
+    scene: &mut Scene,
+    trees: impl Iterator<Item = &'a mut Bvh>,
+) -> Vec<u32> {
     let mut order = Vec::with_capacity(scene.shapes.len());
     let mut trees: Vec<&mut Bvh> = trees.collect();
+    // A primitive filed in several leaves (its pieces', `build_pieces`) has
+    // one place, its first leaf's.
+    let mut placed = vec![u32::MAX; scene.shapes.len()];
     for tree in trees.iter_mut() {
         for o in tree.order.iter_mut().filter(|o| **o != PAD) {
-            order.push(*o);
-            *o = order.len() as u32 - 1;
+            let at = &mut placed[*o as usize];
+            if *at == u32::MAX {
+                order.push(*o);
+                *at = order.len() as u32 - 1;
+            }
+            *o = *at;
         }
     }
     let shapes = order
@@ -149,6 +215,7 @@ pub(crate) fn into_leaf_order<'a>(scene: &mut Scene, trees: impl Iterator<Item =
             }
         },
     );
+    order
 }
 
 impl World {
@@ -198,9 +265,10 @@ impl World {
             })
         };
         // `set`: the shapes to build over, or all of them.
+        // (A cut's trees file every shape whole.)
         let build = |set: Option<&[u32]>| {
             let Some(set) = set else {
-                return build_all(&scene.shapes);
+                return build_all(&scene);
             };
             let set_boxes: Vec<Aabb> = set.par_iter().map(|&i| boxes[i as usize]).collect();
             let opts = build_options(set.iter().map(|&i| &scene.shapes[i as usize]));
@@ -208,16 +276,22 @@ impl World {
             for o in bvh.order.iter_mut().filter(|o| **o != PAD) {
                 *o = set[*o as usize];
             }
-            bvh
+            (bvh, Vec::new())
         };
-        let mut bvh = build((!far_groups.is_empty()).then_some(&near[..]));
-        let mut far_bvh = (!far.is_empty()).then(|| build(Some(&far)));
+        let (mut bvh, pieces) = build((!far_groups.is_empty()).then_some(&near[..]));
+        let mut far_bvh = (!far.is_empty()).then(|| build(Some(&far)).0);
         // Shapes into leaf order (near, then far).
-        into_leaf_order(
+        let before = into_leaf_order(
             &mut scene,
             std::iter::once(&mut bvh).chain(far_bvh.as_mut()),
         );
+        let pieces = if pieces.is_empty() {
+            pieces
+        } else {
+            before.iter().map(|&i| pieces[i as usize]).collect()
+        };
         World {
+            pieces,
             has_alpha: scene.has_alpha(),
             scene,
             bvh,
@@ -230,6 +304,15 @@ impl World {
     /// Primitives beyond the cut.
     pub fn cut_primitives(&self) -> usize {
         self.far.as_ref().map_or(0, Bvh::primitive_count)
+    }
+
+    /// The boxes the hierarchy files primitive `prim` under (padded as the
+    /// build pads them): a traversal tests `prim` only for a ray that enters
+    /// one of them.
+    pub fn filed_boxes(&self, prim: u32) -> impl Iterator<Item = Aabb> + '_ {
+        let shape = &self.scene.shapes[prim as usize];
+        let k = self.pieces.get(prim as usize).copied().unwrap_or(1);
+        (0..k as u32).map(move |j| primitive_box(&filed_bounds(shape, j, k)))
     }
 
     /// The transmission coefficient `T` of a primitive's material.

@@ -121,6 +121,48 @@ pub fn build_by(
     let opts = &opts();
     let tree = build_subtree(&mut refs, opts);
     let (nodes, order) = flatten(&tree, &refs, opts.block.max(1));
+    finish(nodes, order, (tree, refs))
+}
+
+/// `build` over pieces of primitives: piece `i` has the box `pieces[i].1` and
+/// belongs to primitive `pieces[i].0`. A long tilted shape filed under the
+/// boxes of its pieces is met by fewer rays that miss it than under its own
+/// box. A leaf names each of its primitives once (its first piece's slot);
+/// a primitive whose pieces fell in several leaves is in each of them.
+pub fn build_pieces(pieces: &[(u32, Aabb)], opts: &BuildOptions) -> Bvh {
+    if pieces.is_empty() {
+        return Bvh::default();
+    }
+    use rayon::prelude::*;
+    let mut refs: Vec<PrimRef> = pieces
+        .par_iter()
+        .enumerate()
+        .map(|(i, (_, b))| PrimRef::new(&primitive_box(b), i as u32))
+        .collect();
+    let tree = build_subtree(&mut refs, opts);
+    let (mut nodes, mut order) = flatten(&tree, &refs, opts.block.max(1));
+    for o in order.iter_mut().filter(|o| **o != PAD) {
+        *o = pieces[*o as usize].0;
+    }
+    for n in nodes.iter_mut().filter(|n| n.is_leaf()) {
+        let first = n.first as usize;
+        let slots = &mut order[first..first + n.count() as usize];
+        let mut kept = 0;
+        for i in 0..slots.len() {
+            if !slots[..kept].contains(&slots[i]) {
+                slots[kept] = slots[i];
+                kept += 1;
+            }
+        }
+        slots[kept..].fill(PAD);
+        n.meta = (n.meta & !0x3fff_ffff) | kept as u32;
+    }
+    finish(nodes, order, (tree, refs))
+}
+
+/// The hierarchy of `nodes` and `order` with its wide forms; `built` is the
+/// build's own tree, freed beside them.
+fn finish(nodes: Vec<Node>, order: Vec<u32>, built: (BuildNode, Vec<PrimRef>)) -> Bvh {
     // The four- and the eight-wide collapses (each serial) on two threads,
     // and the build's own tree freed on a third task, off their path. Each
     // wide tree is dropped in its own task if a descent could need more
@@ -132,7 +174,7 @@ pub fn build_by(
                 || fits(super::collapse8(&nodes)),
             )
         },
-        || drop((tree, refs)),
+        || drop(built),
     );
     Bvh {
         nodes,

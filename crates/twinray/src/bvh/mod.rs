@@ -24,7 +24,7 @@ mod wide8_eye;
 mod wide8_pair;
 mod wide8_shadow;
 
-pub use build::{primitive_box, BuildOptions, PAD};
+pub use build::{build_pieces, primitive_box, BuildOptions, PAD};
 pub use run::{ray_reaches, RunRegion, RunStats, FILL_REACH, RUN_REACH};
 pub use splice::{splice, Placed};
 pub use stack_bound::stack_need;

@@ -348,7 +348,7 @@ impl StripEyePass<'_> {
             (ta + (tb - ta) * w) * (1.0 + FILL_REACH) + self.margin * 0.5
         };
         let shapes = &self.world.scene.shapes;
-        let hit_box = shapes.get(pa as usize).map(|s| primitive_box(&s.bounds()));
+        let hit_prim = shapes.get(pa as usize).map(|_| pa);
         let runs = &mut tracer.counts.runs;
         runs.proofs += 1;
         let family = &out.family;
@@ -361,13 +361,15 @@ impl StripEyePass<'_> {
         }
         for k in a + 1..b {
             let (v, _) = out.members[k];
-            if let Some(hit_box) = &hit_box {
+            if let Some(pa) = hit_prim {
                 let (origin, s) = (out.member_origins[k], out.family.s[k]);
                 let hither = self.camera.hither;
                 let kept = shapes[pa as usize]
                     .intersect(&Ray::new(origin, dir), hither, f32::INFINITY)
                     .filter(|h| {
-                        (h.t as f64) <= bound(s) && ray_reaches(hit_box, origin, dir, hither, h.t)
+                        (h.t as f64) <= bound(s)
+                            && (self.world.filed_boxes(pa))
+                                .any(|b| ray_reaches(&b, origin, dir, hither, h.t))
                     });
                 let Some(hit) = kept else {
                     tracer.counts.runs.fill_refused += 1;

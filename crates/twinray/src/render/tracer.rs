@@ -18,8 +18,7 @@ pub(super) use lean_surfaces::flat_materials;
 pub(super) use lean_surfaces::tests::{scene as test_scene, unlit as unlit_test_scene};
 
 use crate::bvh::{
-    primitive_box, segment_enters, Bvh, NearestTest, Packet, PacketHits, SegmentPacket,
-    TraversalStats, EYE_PACKET,
+    segment_enters, Bvh, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats, EYE_PACKET,
 };
 use crate::math::{reflect, refract, Color, Ray, Vec3};
 use crate::shading::{
@@ -962,10 +961,9 @@ impl<'a> Tracer<'a> {
                 // breaks down (a cone seen from 1e8 away). The traversal's
                 // answer must not depend on what the cache holds.
                 let (o, d, t) = (seg.origins[l], seg.dirs[l], seg.t_max[l]);
-                let shape = &world.scene.shapes[prim as usize];
-                // The box first: cheaper than a sphere's or a cone's test, and
-                // most stale blockers' boxes are missed (both must hold).
-                if segment_enters(&primitive_box(&shape.bounds()), o, d, t)
+                // The boxes first: cheaper than a sphere's or a cone's test,
+                // and most stale blockers' boxes are missed (both must hold).
+                if world.filed_boxes(prim).any(|b| segment_enters(&b, o, d, t))
                     && blocks(world, prim, o, d, t)
                 {
                     through[l] = 0.0;

@@ -20,6 +20,10 @@ pub struct Cone {
     slope_squared: f32,
 }
 
+/// See `Cone::pieces`.
+pub const MAX_PIECES: u32 = 8;
+const PIECE_CHARGE: f32 = 0.2;
+
 impl Cone {
     /// `None` when the cone is degenerate (zero height, or both radii zero).
     pub fn new(
@@ -119,16 +123,76 @@ impl Cone {
     }
 
     pub fn bounds(&self) -> Aabb {
-        // Each end is a disc: its extent along world axis i is r * sqrt(1 - axis_i^2).
-        let disc = |c: Vec3, r: f32| {
-            let e = (Vec3::ONE - self.axis * self.axis).max(Vec3::ZERO);
-            let e = Vec3::new(e.x.sqrt(), e.y.sqrt(), e.z.sqrt()) * r;
+        self.bounds_between(self.disc_extent(), 0.0, 1.0)
+    }
+
+    /// How many pieces along its height the hierarchy files the cone under
+    /// (`piece_bounds`): a long tilted cylinder's box is mostly empty, and
+    /// rays through that emptiness test it for nothing. The count, up to
+    /// `MAX_PIECES`, whose boxes' summed surface area is least once each
+    /// piece past the first is charged `PIECE_CHARGE` more (a box test and
+    /// a place in a leaf).
+    pub fn pieces(&self) -> u32 {
+        let e = self.disc_extent();
+        let area = |b: Aabb| {
+            let d = b.max - b.min;
+            d.x * d.y + d.y * d.z + d.z * d.x
+        };
+        let cost = |k: u32| {
+            let sum: f32 = (0..k)
+                .map(|j| {
+                    area(self.bounds_between(e, j as f32 / k as f32, (j + 1) as f32 / k as f32))
+                })
+                .sum();
+            sum * (1.0 + PIECE_CHARGE * (k - 1) as f32)
+        };
+        let mut best = (cost(1), 1);
+        for k in 2..=MAX_PIECES {
+            let c = cost(k);
+            if c < best.0 {
+                best = (c, k);
+            }
+        }
+        best.1
+    }
+
+    /// The bounds of piece `j` of `k` equal pieces of the cone's height:
+    /// together the `k` cover the cone (neighbours meet at the same disc).
+    pub fn piece_bounds(&self, j: u32, k: u32) -> Aabb {
+        self.bounds_between(
+            self.disc_extent(),
+            j as f32 / k as f32,
+            (j + 1) as f32 / k as f32,
+        )
+    }
+
+    /// A disc of radius 1 across the axis reaches `sqrt(1 - axis_i^2)` along
+    /// world axis `i`.
+    fn disc_extent(&self) -> Vec3 {
+        let e = (Vec3::ONE - self.axis * self.axis).max(Vec3::ZERO);
+        Vec3::new(e.x.sqrt(), e.y.sqrt(), e.z.sqrt())
+    }
+
+    /// The bounds of the part of the cone between fractions `from` and `to`
+    /// of its height (0: the base, 1: the apex): those of its two end discs.
+    fn bounds_between(&self, extent: Vec3, from: f32, to: f32) -> Aabb {
+        let disc = |f: f32| {
+            let (c, r) = if f == 0.0 {
+                (self.base, self.base_radius)
+            } else if f == 1.0 {
+                (self.apex, self.apex_radius)
+            } else {
+                (
+                    self.base + (self.apex - self.base) * f,
+                    self.base_radius + (self.apex_radius - self.base_radius) * f,
+                )
+            };
             Aabb {
-                min: c - e,
-                max: c + e,
+                min: c - extent * r,
+                max: c + extent * r,
             }
         };
-        disc(self.base, self.base_radius).union(disc(self.apex, self.apex_radius))
+        disc(from).union(disc(to))
     }
 
     #[inline]

@@ -441,7 +441,9 @@ impl<'a> EpipolarPass<'a> {
         {
             return false;
         }
+        // (A primitive filed under several boxes is met once per leaf.)
         s.prims.sort_unstable();
+        s.prims.dedup();
         let shapes = &self.world.scene.shapes;
         // How near the plane a vertex or box corner counts as on it.
         let tol = self.margin * 16.0;
