@@ -145,7 +145,7 @@ fn rays_find_brute_forces_hits_through_the_pieces_with_fewer_tests() {
     let filed: usize = (0..world.scene.shapes.len() as u32)
         .map(|p| world.filed_boxes(p).count())
         .sum();
-    assert!(filed > world.scene.shapes.len() + 300, "{filed} boxes");
+    assert!(filed > world.scene.shapes.len() + 200, "{filed} boxes");
     // A leaf names a primitive once, and a primitive is in no more leaves
     // than it has pieces (the pieces follow the shapes into leaf order).
     let mut leaves = vec![0; world.scene.shapes.len()];
