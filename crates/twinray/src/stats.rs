@@ -8,7 +8,7 @@ use crate::render::MAX_VIEWS;
 
 /// Ray counts. A stereo method counts one eye ray per view and pixel sample, as
 /// two independent renders would, so the counts of the two methods compare.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, derive_more::AddAssign)]
 pub struct RayCounts {
     pub eye: u64,
     pub eye_hit: u64,
@@ -17,7 +17,7 @@ pub struct RayCounts {
     pub shadow: u64,
 }
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, derive_more::AddAssign)]
 pub struct TraceCounts {
     pub rays: RayCounts,
     /// Descents of the hierarchy for nearest hits (a packet of views is one).
@@ -114,6 +114,14 @@ pub struct TraceCounts {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct HitsPerView(pub [u64; MAX_VIEWS]);
 
+impl std::ops::AddAssign for HitsPerView {
+    fn add_assign(&mut self, o: HitsPerView) {
+        for (a, b) in self.0.iter_mut().zip(o.0) {
+            *a += b;
+        }
+    }
+}
+
 impl Default for HitsPerView {
     fn default() -> Self {
         HitsPerView([0; MAX_VIEWS])
@@ -121,60 +129,6 @@ impl Default for HitsPerView {
 }
 
 impl TraceCounts {
-    pub fn add(&mut self, o: &TraceCounts) {
-        self.rays.eye += o.rays.eye;
-        self.rays.eye_hit += o.rays.eye_hit;
-        self.rays.reflected += o.rays.reflected;
-        self.rays.refracted += o.rays.refracted;
-        self.rays.shadow += o.rays.shadow;
-        self.closest_traversals += o.closest_traversals;
-        self.eye_traversals += o.eye_traversals;
-        self.eye_packet_rays += o.eye_packet_rays;
-        self.eye_packets += o.eye_packets;
-        self.shared_secondary += o.shared_secondary;
-        self.shared_secondary_rays += o.shared_secondary_rays;
-        self.grouped_samples += o.grouped_samples;
-        self.merged_rays += o.merged_rays;
-        self.samples_cut += o.samples_cut;
-        self.reprojected += o.reprojected;
-        self.reproject_rejected += o.reproject_rejected;
-        self.hole_samples += o.hole_samples;
-        self.eye_pass_ns += o.eye_pass_ns;
-        self.shading_pass_ns += o.shading_pass_ns;
-        for (a, b) in self
-            .per_view_hits
-            .0
-            .iter_mut()
-            .zip(o.per_view_hits.0.iter())
-        {
-            *a += b;
-        }
-        self.nodes += o.nodes;
-        self.box_tests += o.box_tests;
-        self.prim_tests += o.prim_tests;
-        self.cache_entries += o.cache_entries;
-        self.cache_edge_refusals += o.cache_edge_refusals;
-        self.cache_hits += o.cache_hits;
-        self.cache_fallbacks += o.cache_fallbacks;
-        self.cache_colour_hits += o.cache_colour_hits;
-        self.cutout_continuations += o.cutout_continuations;
-        self.strip.add(&o.strip);
-        self.key_view_samples += o.key_view_samples;
-        self.key_view_probes += o.key_view_probes;
-        self.interpolated_samples += o.interpolated_samples;
-        self.key_view_fallbacks += o.key_view_fallbacks;
-        self.key_view_skipped_groups += o.key_view_skipped_groups;
-        self.fan_queries += o.fan_queries;
-        self.fan_free += o.fan_free;
-        self.runs.add(&o.runs);
-        self.shadow_rays_proved += o.shadow_rays_proved;
-        self.shadow_cache_tests += o.shadow_cache_tests;
-        self.shadow_cache_hits += o.shadow_cache_hits;
-        self.interp.add(&o.interp);
-        self.synthesis.add(&o.synthesis);
-        self.epipolar.add(&o.epipolar);
-    }
-
     pub fn add_traversal(&mut self, t: &TraversalStats) {
         self.nodes += t.nodes;
         self.box_tests += t.box_tests;
@@ -380,7 +334,7 @@ mod tests {
             a.per_view_hits.0[v] = v as u64;
             b.per_view_hits.0[v] = 1000;
         }
-        a.add(&b);
+        a += b;
         let mut report = Report::default();
         report.fill_counts(&a, 48);
         assert_eq!(report.hits_per_view.len(), 48);
@@ -402,11 +356,27 @@ mod tests {
         a.rays.shadow = 5;
         a.nodes = 7;
         a.eye_pass_ns = 11;
+        // The counts of each method, summed field by field too.
+        a.strip.covers = 13;
+        a.runs.filled = 17;
+        a.interp.spans = 19;
+        a.synthesis.holes = 23;
+        a.epipolar.shade_points = 29;
         let b = a;
-        a.add(&b);
+        a += b;
         assert_eq!(
             (a.rays.eye, a.rays.shadow, a.nodes, a.eye_pass_ns),
             (6, 10, 14, 22)
+        );
+        assert_eq!(
+            (
+                a.strip.covers,
+                a.runs.filled,
+                a.interp.spans,
+                a.synthesis.holes,
+                a.epipolar.shade_points
+            ),
+            (26, 34, 38, 46, 58)
         );
         a.add_traversal(&TraversalStats {
             nodes: 1,

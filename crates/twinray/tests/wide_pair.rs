@@ -98,8 +98,8 @@ fn a_pair_shares_its_descent_and_tests_no_more_per_lane_than_alone() {
             let p = packet([left, right], [dir; 2], [f32::INFINITY; 2]);
             let (h, [t, a]) = pair(&shapes, &bvh, &p);
             hit += h.has_hit(0) as u32 + h.has_hit(1) as u32;
-            together.add(&t);
-            alone.add(&a);
+            together += t;
+            alone += a;
         }
     }
     assert!(hit > 1900, "{hit} of 2048 rays hit the terrain");

@@ -215,7 +215,7 @@ pub fn ray_reaches(b: &Aabb, origin: Vec3, dir: Vec3, t_min: f32, t: f32) -> boo
 }
 
 /// What eye runs did, for statistics.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, derive_more::AddAssign)]
 pub struct RunStats {
     /// Families (a camera column's views through one sample).
     pub families: u64,
@@ -233,19 +233,6 @@ pub struct RunStats {
     /// Nodes and primitives the proofs visited.
     pub proof_nodes: u64,
     pub proof_prims: u64,
-}
-
-impl RunStats {
-    pub fn add(&mut self, o: &RunStats) {
-        self.families += o.families;
-        self.traced += o.traced;
-        self.filled += o.filled;
-        self.fill_refused += o.fill_refused;
-        self.proofs += o.proofs;
-        self.proofs_failed += o.proofs_failed;
-        self.proof_nodes += o.proof_nodes;
-        self.proof_prims += o.proof_prims;
-    }
 }
 
 /// Stack entries of a proof's descent; a deeper tree counts as met.

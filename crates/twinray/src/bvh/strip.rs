@@ -182,7 +182,7 @@ pub trait FamilyTest {
 }
 
 /// Work done by family descents, for statistics.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, derive_more::AddAssign)]
 pub struct StripStats {
     /// Descents (one per family).
     pub descents: u64,
@@ -195,17 +195,6 @@ pub struct StripStats {
     /// Single-ray tests of a ray against a primitive, and those that hit.
     pub exact_tests: u64,
     pub exact_hits: u64,
-}
-
-impl StripStats {
-    pub fn add(&mut self, o: &StripStats) {
-        self.descents += o.descents;
-        self.nodes += o.nodes;
-        self.covers += o.covers;
-        self.unbounded += o.unbounded;
-        self.exact_tests += o.exact_tests;
-        self.exact_hits += o.exact_hits;
-    }
 }
 
 /// A descent's buffers, kept from family to family.

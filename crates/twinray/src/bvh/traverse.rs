@@ -105,7 +105,7 @@ pub enum AnyHit {
 }
 
 /// Work done, for statistics. Counting is one add per event: cheap next to the tests.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, derive_more::AddAssign)]
 pub struct TraversalStats {
     /// Nodes popped and processed (one per node per packet, whatever its lanes).
     pub nodes: u64,
@@ -113,14 +113,6 @@ pub struct TraversalStats {
     pub box_tests: u64,
     /// Primitive tests, one per lane and primitive.
     pub prim_tests: u64,
-}
-
-impl TraversalStats {
-    pub fn add(&mut self, o: &TraversalStats) {
-        self.nodes += o.nodes;
-        self.box_tests += o.box_tests;
-        self.prim_tests += o.prim_tests;
-    }
 }
 
 /// The primitive test of a nearest-hit traversal.

@@ -262,7 +262,7 @@ mod tests {
                 continue;
             }
             segments_traced += 4;
-            packed.add(&p);
+            packed += p;
             occluders(&shapes, &bvh, &segments, false, false, &mut alone);
         }
         assert!(segments_traced > 1000, "{segments_traced}");

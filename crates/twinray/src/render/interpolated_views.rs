@@ -48,7 +48,7 @@ pub struct InterpolateViews {
 }
 
 /// What the interpolation did (`--stats`, `-v`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, derive_more::AddAssign)]
 pub struct InterpStats {
     /// Proved spans (of three views or more) on a hit primitive.
     pub spans: u64,
@@ -77,22 +77,6 @@ pub struct InterpStats {
     /// took an interpolated colour.
     pub shaded: u64,
     pub interpolated: u64,
-}
-
-impl InterpStats {
-    pub fn add(&mut self, o: &InterpStats) {
-        self.spans += o.spans;
-        self.spans_refused_material += o.spans_refused_material;
-        self.spans_refused_surface += o.spans_refused_surface;
-        self.pairs += o.pairs;
-        self.refused_tree += o.refused_tree;
-        self.refused_colour += o.refused_colour;
-        self.refused_light += o.refused_light;
-        self.refused_shadow += o.refused_shadow;
-        self.short_spans += o.short_spans;
-        self.shaded += o.shaded;
-        self.interpolated += o.interpolated;
-    }
 }
 
 /// The fewest views between two shaded ones that are judged: fewer are

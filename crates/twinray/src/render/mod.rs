@@ -804,10 +804,7 @@ impl Run<'_, '_> {
                 let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
                 (self.job.progress)(done, self.total.load(Ordering::Relaxed));
                 // A poisoned lock means a task panicked, and the panic goes on up.
-                total
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .add(&tracer.finish());
+                *total.lock().unwrap_or_else(|e| e.into_inner()) += tracer.finish();
                 Some(result)
             })
             .collect::<Option<_>>()?;
@@ -982,7 +979,7 @@ impl Run<'_, '_> {
                 .collect::<Vec<_>>()
         })?;
         let rows = bands.into_iter().flatten();
-        counts.add(&refine_counts);
+        counts += refine_counts;
         let mut images: Vec<Image> = (0..self.views)
             .map(|_| Image {
                 width: w as u32,

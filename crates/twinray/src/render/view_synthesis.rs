@@ -74,7 +74,7 @@ impl ViewSynthesis {
 }
 
 /// What the synthesis did (`--stats`, `-v`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, derive_more::AddAssign)]
 pub struct SynthesisStats {
     /// Samples of key views (traced and shaded exactly).
     pub key_samples: u64,
@@ -100,23 +100,6 @@ pub struct SynthesisStats {
     /// Rows whose samples lie in no epipolar plane (other samplings), traced
     /// exactly in every view.
     pub rows_exact: u64,
-}
-
-impl SynthesisStats {
-    pub fn add(&mut self, o: &SynthesisStats) {
-        self.key_samples += o.key_samples;
-        self.synthesized += o.synthesized;
-        self.refused_edge += o.refused_edge;
-        self.traced += o.traced;
-        self.holes += o.holes;
-        self.refused_material += o.refused_material;
-        self.refused_surface += o.refused_surface;
-        self.refused_region += o.refused_region;
-        self.proofs += o.proofs;
-        self.proofs_failed += o.proofs_failed;
-        self.proof_nodes += o.proof_nodes;
-        self.rows_exact += o.rows_exact;
-    }
 }
 
 /// How far toward the key eye a bracket's hits are pulled before its region

@@ -90,7 +90,7 @@ pub struct EpipolarViews {
 }
 
 /// What the epipolar rows did (`--stats`, `-v`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, derive_more::AddAssign)]
 pub struct EpipolarStats {
     /// Rows done in their plane, and rows traced exactly in every view
     /// (other samplings, a tree deeper than the descent's stack).
@@ -123,27 +123,6 @@ pub struct EpipolarStats {
     pub refused_shape: u64,
     /// Shade points kept.
     pub shade_points: u64,
-}
-
-impl EpipolarStats {
-    pub fn add(&mut self, o: &EpipolarStats) {
-        self.rows += o.rows;
-        self.rows_exact += o.rows_exact;
-        self.primitives += o.primitives;
-        self.tests += o.tests;
-        self.taken += o.taken;
-        self.light_taken += o.light_taken;
-        self.light_partly_taken += o.light_partly_taken;
-        self.lights_traced += o.lights_traced;
-        self.traced += o.traced;
-        self.misses += o.misses;
-        self.no_bracket += o.no_bracket;
-        self.refused_colour += o.refused_colour;
-        self.refused_wide += o.refused_wide;
-        self.refused_material += o.refused_material;
-        self.refused_shape += o.refused_shape;
-        self.shade_points += o.shade_points;
-    }
 }
 
 /// Largest distance between a sample's two shade points, in the view's
@@ -678,7 +657,7 @@ impl<'a> EpipolarPass<'a> {
         if let Some(h) = tracer.counts.per_view_hits.0.get_mut(v) {
             *h += n as u64 - stats.misses;
         }
-        tracer.counts.epipolar.add(&stats);
+        tracer.counts.epipolar += stats;
         self.shade_donations(tracer, p, n, origin, s, &mut out[v]);
         self.shade_takings(tracer, p, n, origin, s, &mut out[v]);
     }
