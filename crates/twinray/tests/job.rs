@@ -189,6 +189,34 @@ fn fast_does_not_cut_the_tree_the_epipolar_rows_need() {
     assert!(cut(true, None).is_none());
 }
 
+/// Where the epipolar rows cannot take the views (a material whose alpha
+/// matters), `--fast` cuts the object tree as it always did; the same quad
+/// opaque is not cut.
+#[test]
+fn fast_cuts_the_tree_where_the_epipolar_rows_do_not_apply() {
+    let dir = tempfile::tempdir().unwrap();
+    let cut = |alpha: &str| {
+        let material = serde_json::json!({
+            "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 0.5]},
+            "alphaMode": alpha
+        });
+        let sub = dir.path().join(alpha);
+        std::fs::create_dir_all(&sub).unwrap();
+        let mut spec = JobSpec::new(common::gltf_quad(&sub, material, &[]), "unused.png");
+        spec.camera.size = Some([40, 30]);
+        spec.rig.stereo = true;
+        spec.rig.interaxial = Some("0.1".into());
+        spec.sampling.samples = Some(1);
+        spec.approximations.fast = true;
+        let job = Job::check(spec).unwrap();
+        let loaded = job.load().unwrap();
+        assert_eq!(loaded.scene.has_alpha(), alpha != "OPAQUE", "{alpha}");
+        job.plan(&loaded).unwrap().cut
+    };
+    assert!(cut("BLEND").is_some());
+    assert!(cut("OPAQUE").is_none());
+}
+
 /// `--eye-runs` and `--shadow-fans` share work between the twin method's
 /// views: with `--method independent` each says it does nothing.
 #[test]
