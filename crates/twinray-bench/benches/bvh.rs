@@ -54,13 +54,7 @@ fn obvhs_tris(tris: &[[Vec3; 3]]) -> Vec<RtTriangle> {
 /// Nearest hit with twinray's traversal, one ray per packet: `(prim, t)`.
 #[inline(always)]
 fn twin_closest(bvh: &Bvh, tris: &[Triangle], ray: &Ray, st: &mut TraversalStats) -> (u32, f32) {
-    let p = Packet {
-        origins: [ray.origin],
-        dirs: [ray.dir],
-        t_min: 0.0,
-        t_max: [f32::INFINITY],
-        mask: 1,
-    };
+    let p = Packet::ray(ray.origin, ray.dir);
     let h = bvh.closest(&p, st, |prim: u32, _: usize, t_max: f32| {
         tris[prim as usize].intersect(ray, 0.0, t_max)
     });

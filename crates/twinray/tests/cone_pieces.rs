@@ -68,13 +68,7 @@ fn nearest_tests(world: &World, tree: &bvh::Bvh, rays: &[(Vec3, Vec3)]) -> u64 {
     let shapes = &world.scene.shapes;
     let mut stats = TraversalStats::default();
     for (i, &(o, d)) in rays.iter().enumerate() {
-        let p = Packet {
-            origins: [o],
-            dirs: [d],
-            t_min: 0.0,
-            t_max: [f32::INFINITY],
-            mask: 1,
-        };
+        let p = Packet::ray(o, d);
         let ray = Ray::new(o, d);
         let got = tree.closest(&p, &mut stats, |prim: u32, _: usize, t_max: f32| {
             shapes[prim as usize].intersect(&ray, 0.0, t_max)

@@ -265,13 +265,7 @@ fn sorted_children_stop_a_ray_in_the_nearest_cluster() {
         (Vec3::new(-5.0, 0.35, 0.0), Vec3::X, 0u32),
         (Vec3::new(300.0, 0.35, 0.0), Vec3::NEG_X, 63 * 8),
     ] {
-        let p = Packet {
-            origins: [origin],
-            dirs: [dir],
-            t_min: 0.0,
-            t_max: [f32::INFINITY],
-            mask: 1,
-        };
+        let p = Packet::ray(origin, dir);
         let mut st = TraversalStats::default();
         let test = Counting::new(&shapes, &p, &single, &two);
         let got = bvh.closest_each_wide8(&p, &mut st, test);

@@ -373,13 +373,7 @@ fn eight_wide_nodes_cut_the_inner_nodes_an_eye_ray_visits() {
     let mut hits = 0;
     for _ in 0..rays {
         let to = Vec3::new(rng.f32() * 60.0, rng.f32() * 60.0, 0.5);
-        let p = Packet {
-            origins: [eye],
-            dirs: [(to - eye).normalize()],
-            t_min: 0.0,
-            t_max: [f32::INFINITY],
-            mask: 1,
-        };
+        let p = Packet::ray(eye, (to - eye).normalize());
         let test = |prim: u32, _: usize, t: f32| {
             shapes[prim as usize].intersect(&Ray::new(p.origins[0], p.dirs[0]), 0.0, t)
         };
@@ -450,13 +444,7 @@ fn nearest_child_first_stops_a_ray_at_the_first_of_a_row() {
                 shapes[prim as usize].intersect(&Ray::new(o, d), 0.0, t)
             };
             let hits = if lanes == 1 {
-                let p = Packet {
-                    origins: [o],
-                    dirs: [d],
-                    t_min: 0.0,
-                    t_max: [f32::INFINITY],
-                    mask: 1,
-                };
+                let p = Packet::ray(o, d);
                 if eight {
                     bvh.closest_each_wide8(&p, &mut st, test).prim[0]
                 } else {
@@ -656,13 +644,7 @@ fn block_leaves_agree_on_shared_edges_vertices_and_degenerate_triangles() {
             ]
         })
         .collect();
-    let singles = rays.iter().map(|&(o, d)| Packet {
-        origins: [o],
-        dirs: [d],
-        t_min: 0.0,
-        t_max: [f32::INFINITY],
-        mask: 1,
-    });
+    let singles = rays.iter().map(|&(o, d)| Packet::ray(o, d));
     let (hits, tested) = run_blocks(&shapes, &bvh, singles);
     assert!(
         hits as usize > rays.len(),
@@ -726,13 +708,7 @@ fn every_lane_of_a_full_block_can_give_the_nearest_hit() {
             (c / 20) as f32 * 3.0 + 0.3,
             0.0,
         );
-        let p = Packet {
-            origins: [at + Vec3::Z * 5.0],
-            dirs: [Vec3::NEG_Z],
-            t_min: 0.0,
-            t_max: [f32::INFINITY],
-            mask: 1,
-        };
+        let p = Packet::ray(at + Vec3::Z * 5.0, Vec3::NEG_Z);
         let (hits, tested) = check_blocks(&shapes, &bvh, &p);
         // One hit per descent checked (`check_blocks`: four of them).
         assert_eq!((hits, tested > 0), (4, true), "cluster {c}");
@@ -966,13 +942,7 @@ fn blocks_cut_the_box_tests_of_an_eye_ray() {
     let rays = 2000;
     for _ in 0..rays {
         let to = Vec3::new(rng.f32() * 60.0, rng.f32() * 60.0, 0.5);
-        let p = Packet {
-            origins: [eye],
-            dirs: [(to - eye).normalize()],
-            t_min: 0.0,
-            t_max: [f32::INFINITY],
-            mask: 1,
-        };
+        let p = Packet::ray(eye, (to - eye).normalize());
         let ha = check(&per_prim, &shapes, &p, &mut a);
         let hb = check(&in_blocks, &shapes, &p, &mut b);
         assert_eq!(ha, hb);

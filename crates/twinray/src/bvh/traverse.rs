@@ -32,6 +32,19 @@ pub struct Packet<const K: usize> {
     pub mask: u32,
 }
 
+impl Packet<1> {
+    /// One ray from `origin` along `dir`, `0 < t`, as a packet of one.
+    pub fn ray(origin: Vec3, dir: Vec3) -> Packet<1> {
+        Packet {
+            origins: [origin],
+            dirs: [dir],
+            t_min: 0.0,
+            t_max: [f32::INFINITY],
+            mask: 1,
+        }
+    }
+}
+
 impl<const K: usize> Packet<K> {
     /// Lane `l`'s ray as a packet of its own (active whatever `mask` says).
     pub fn lane(&self, l: usize) -> Packet<1> {
@@ -949,13 +962,7 @@ mod tests {
                 let got = hits.has_hit(l).then(|| (hits.prim[l], hits.hit[l].t));
                 assert_eq!(got, expect, "lane {l}");
                 // Alone, as a packet of one, the lane gets the same answer.
-                let single = Packet {
-                    origins: [o],
-                    dirs: [dir],
-                    t_min: 0.0,
-                    t_max: [f32::INFINITY],
-                    mask: 1,
-                };
+                let single = Packet::ray(o, dir);
                 let h1 = bvh.closest(&single, &mut stats, |p: u32, _: usize, tmax: f32| {
                     sph[p as usize].intersect(&Ray::new(o, dir), 0.0, tmax)
                 });

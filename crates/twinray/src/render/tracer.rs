@@ -1150,13 +1150,7 @@ impl<'a> Tracer<'a> {
                 continue; // opposite directions: nothing to merge, trace them apart
             }
             let count = members.count_ones();
-            let single = Packet {
-                origins: [origin / count as f32],
-                dirs: [dir],
-                t_min: 0.0,
-                t_max: [f32::INFINITY],
-                mask: 1,
-            };
+            let single = Packet::ray(origin / count as f32, dir);
             let above = tree.single;
             tree.single = tree.top_lanes::<K>(members);
             let c = self.trace::<1>(&single, level, [weight], tree)[0];

@@ -206,13 +206,7 @@ impl Tracer<'_> {
         .into_iter()
         .flatten()
         {
-            let ray = Packet {
-                origins: [spawn.origin],
-                dirs: [spawn.dir],
-                t_min: 0.0,
-                t_max: [f32::INFINITY],
-                mask: 1,
-            };
+            let ray = Packet::ray(spawn.origin, spawn.dir);
             let hit = self.closest(&ray);
             self.counts.key_view_probes += 1;
             if expected.next() != Some(hit.prim[0]) {
