@@ -7,9 +7,11 @@
 
 mod common;
 
-use common::{brute, nff_world};
+use common::{brute, camera, difference, nff_world, options, run};
 use twinray::bvh::{self, AnyHit, Packet, SegmentPacket, TraversalStats};
 use twinray::math::{Ray, Vec3};
+use twinray::render::{Method, Sampling};
+use twinray::rig::Rig;
 use twinray::shading::shadow_packet;
 use twinray::shapes::{Cone, Shape};
 use twinray::World;
@@ -236,4 +238,33 @@ fn a_glass_cone_stays_whole_and_its_light_counts_once() {
         .is_some());
     let (through, _) = shadow_packet(&world, &seg, &mut TraversalStats::default());
     assert_eq!(through[0], 0.6);
+}
+
+/// The twin method on a tree with cones in pieces: every view bit for bit
+/// the independent renders', for a pair (its shadow segments in one
+/// descent) and four views (eight-ray packets), both convergences.
+#[test]
+fn twin_views_equal_independent_renders_with_cones_in_pieces() {
+    let world = nff_world(&rings(40, 9));
+    assert!((0..world.scene.shapes.len() as u32).any(|p| world.filed_boxes(p).count() > 1));
+    let cam = camera(&world, 64, 48);
+    for (views, convergence) in [(2, None), (2, Some(12.0)), (4, Some(12.0))] {
+        let rig = Rig::multi_view(&cam, views, 0.3, convergence).unwrap();
+        let reference = run(
+            &world,
+            &cam,
+            &rig,
+            &options(Method::Independent, Sampling::Centers),
+        );
+        let twin = run(
+            &world,
+            &cam,
+            &rig,
+            &options(Method::Twin, Sampling::Centers),
+        );
+        let (worst, differ) = difference(&reference, &twin);
+        assert_eq!(differ, 0, "{views} views, {convergence:?}: max {worst}");
+        assert_eq!(reference.counts.rays, twin.counts.rays);
+        assert!(twin.counts.rays.reflected > 0 && twin.counts.rays.shadow > 0);
+    }
 }
