@@ -98,7 +98,7 @@ fn build_all(scene: &Scene) -> (Bvh, Vec<u8>) {
             .iter()
             .zip(&pieces)
             .enumerate()
-            .flat_map(|(i, (s, &k))| (0..k as u32).map(move |j| (i as u32, filed_bounds(s, j, k))))
+            .flat_map(|(i, (s, &k))| filed_bounds(s, k).map(move |b| (i as u32, b)))
             .collect();
         let bvh = bvh::build_pieces(&boxes, &build_options(shapes.iter()));
         return (bvh, pieces);
@@ -148,12 +148,13 @@ fn pieces_of(scene: &Scene) -> Vec<u8> {
     }
 }
 
-/// Bounds of piece `j` of the `k` that `shape` is filed under.
-fn filed_bounds(shape: &Shape, j: u32, k: u8) -> Aabb {
-    match shape {
-        Shape::Cone(c) if k > 1 => c.piece_bounds(j, k as u32),
-        _ => shape.bounds(),
-    }
+/// Bounds of the `k` pieces `shape` is filed under.
+fn filed_bounds(shape: &Shape, k: u8) -> impl Iterator<Item = Aabb> + '_ {
+    let (cone, whole) = match shape {
+        Shape::Cone(c) if k > 1 => (Some(c.piece_boxes(k as u32)), None),
+        _ => (None, Some(shape.bounds())),
+    };
+    cone.into_iter().flatten().chain(whole)
 }
 
 /// The choice of `build_options`, given how many of `all` shapes are not
@@ -312,7 +313,7 @@ impl World {
     pub fn filed_boxes(&self, prim: u32) -> impl Iterator<Item = Aabb> + '_ {
         let shape = &self.scene.shapes[prim as usize];
         let k = self.pieces.get(prim as usize).copied().unwrap_or(1);
-        (0..k as u32).map(move |j| primitive_box(&filed_bounds(shape, j, k)))
+        filed_bounds(shape, k).map(|b| primitive_box(&b))
     }
 
     /// The transmission coefficient `T` of a primitive's material.

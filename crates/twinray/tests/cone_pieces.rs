@@ -103,7 +103,8 @@ fn a_tilted_cone_is_filed_in_pieces_that_cover_it() {
     // Every hit on the cone lies in the box of some piece, and the pieces
     // lie within the cone's box.
     let whole = tilted.bounds();
-    let pieces: Vec<_> = (0..k).map(|j| tilted.piece_bounds(j, k)).collect();
+    let pieces: Vec<_> = tilted.piece_boxes(k).collect();
+    assert_eq!(pieces.len(), k as usize);
     for b in &pieces {
         assert!(whole.min.cmple(b.min).all() && b.max.cmple(whole.max).all());
     }

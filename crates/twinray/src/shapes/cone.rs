@@ -21,7 +21,7 @@ pub struct Cone {
 }
 
 /// See `Cone::pieces`.
-pub const MAX_PIECES: u32 = 8;
+const MAX_PIECES: u32 = 8;
 const PIECE_CHARGE: f32 = 0.2;
 
 impl Cone {
@@ -127,23 +127,18 @@ impl Cone {
     }
 
     /// How many pieces along its height the hierarchy files the cone under
-    /// (`piece_bounds`): a long tilted cylinder's box is mostly empty, and
+    /// (`piece_boxes`): a long tilted cylinder's box is mostly empty, and
     /// rays through that emptiness test it for nothing. The count, up to
     /// `MAX_PIECES`, whose boxes' summed surface area is least once each
     /// piece past the first is charged `PIECE_CHARGE` more (a box test and
     /// a place in a leaf).
     pub fn pieces(&self) -> u32 {
-        let e = self.disc_extent();
         let area = |b: Aabb| {
             let d = b.max - b.min;
             d.x * d.y + d.y * d.z + d.z * d.x
         };
         let cost = |k: u32| {
-            let sum: f32 = (0..k)
-                .map(|j| {
-                    area(self.bounds_between(e, j as f32 / k as f32, (j + 1) as f32 / k as f32))
-                })
-                .sum();
+            let sum: f32 = self.piece_boxes(k).map(area).sum();
             sum * (1.0 + PIECE_CHARGE * (k - 1) as f32)
         };
         let mut best = (cost(1), 1);
@@ -156,14 +151,13 @@ impl Cone {
         best.1
     }
 
-    /// The bounds of piece `j` of `k` equal pieces of the cone's height:
-    /// together the `k` cover the cone (neighbours meet at the same disc).
-    pub fn piece_bounds(&self, j: u32, k: u32) -> Aabb {
-        self.bounds_between(
-            self.disc_extent(),
-            j as f32 / k as f32,
-            (j + 1) as f32 / k as f32,
-        )
+    /// The bounds of `k` equal pieces of the cone's height, base first:
+    /// together they cover the cone (neighbours meet at the same disc).
+    pub fn piece_boxes(&self, k: u32) -> impl Iterator<Item = Aabb> + '_ {
+        let extent = self.disc_extent();
+        (0..k).map(move |j| {
+            self.bounds_between(extent, j as f32 / k as f32, (j + 1) as f32 / k as f32)
+        })
     }
 
     /// A disc of radius 1 across the axis reaches `sqrt(1 - axis_i^2)` along
