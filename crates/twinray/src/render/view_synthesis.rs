@@ -197,6 +197,45 @@ const UNCOVERED: Cover = Cover {
     folded: false,
 };
 
+/// For the row passes over the views by offset `order`: the margin of the
+/// rows' rounding (a millionth of the larger of the scene's and the eyes'
+/// coordinates), and how far a ray must reach to cross the scene from any
+/// eye (the farthest eye's distance to the scene's centre, plus its
+/// diagonal).
+pub(super) fn rig_extent(
+    world: &World,
+    camera: &Camera,
+    order: &[(usize, f32, i32)],
+) -> (f64, f32) {
+    let bounds = world.bvh.bounds();
+    let scene_scale = bounds.min.abs().max(bounds.max.abs()).max_element();
+    let origins: Vec<Vec3> = order.iter().map(|v| camera.eye_at(v.1)).collect();
+    let origin_scale = origins
+        .iter()
+        .fold(0.0f32, |m, o| m.max(o.abs().max_element()));
+    let size = (bounds.max - bounds.min).length();
+    let far = bounds.center();
+    let beyond = origins
+        .iter()
+        .map(|o| (*o - far).length())
+        .fold(0.0f32, f32::max);
+    (
+        1e-6 * scene_scale.max(origin_scale).max(1e-3) as f64,
+        beyond + size,
+    )
+}
+
+/// Per material: whether its shading is independent of the view within
+/// `tol` (mirror, highlight and transmission weights at most `tol`).
+pub(super) fn plain_materials(world: &World, tol: f32) -> Vec<bool> {
+    world
+        .scene
+        .materials
+        .iter()
+        .map(|m| m.ks.max(m.mirror) <= tol && m.t <= tol)
+        .collect()
+}
+
 impl<'a> SynthesisPass<'a> {
     /// The pass for `rig`, or `None` where the synthesis does not apply (fewer
     /// than three views, no view between two key views, a cut of the object
@@ -228,25 +267,8 @@ impl<'a> SynthesisPass<'a> {
                 *right = (*right).max(p);
             }
         }
-        let bounds = world.bvh.bounds();
-        let scene_scale = bounds.min.abs().max(bounds.max.abs()).max_element();
-        let origins: Vec<Vec3> = order.iter().map(|v| camera.eye_at(v.1)).collect();
-        let origin_scale = origins
-            .iter()
-            .fold(0.0f32, |m, o| m.max(o.abs().max_element()));
-        let size = (bounds.max - bounds.min).length();
-        let far = bounds.center();
-        let beyond = origins
-            .iter()
-            .map(|o| (*o - far).length())
-            .fold(0.0f32, f32::max);
+        let (margin, reach) = rig_extent(world, camera, &order);
         let tol = synthesis.tolerance;
-        let plain = world
-            .scene
-            .materials
-            .iter()
-            .map(|m| m.ks.max(m.mirror) <= tol && m.t <= tol)
-            .collect();
         Some(SynthesisPass {
             world,
             camera,
@@ -255,9 +277,9 @@ impl<'a> SynthesisPass<'a> {
             serves,
             tolerance: tol,
             focal: camera.focal_pixels(),
-            margin: 1e-6 * scene_scale.max(origin_scale).max(1e-3) as f64,
-            beyond: (beyond + size) * 1.01,
-            plain,
+            margin,
+            beyond: reach * 1.01,
+            plain: plain_materials(world, tol),
         })
     }
 

@@ -72,7 +72,7 @@ use serde::Serialize;
 use plane::{Plane, Section, NEAR_SLACK};
 
 use super::sampler::{Pattern, RowColors, SampleRow};
-use super::view_synthesis::{largest, trace_all};
+use super::view_synthesis::{largest, plain_materials, rig_extent, trace_all};
 use super::{Donors, RowWorker, SecondaryRays, Tracer, TRACE_LIGHT};
 use crate::bvh::{Packet, PacketHits, RunRegion, RunStats, EYE_PACKET};
 use crate::math::{Color, Ray, Vec3};
@@ -273,33 +273,17 @@ impl<'a> EpipolarPass<'a> {
             return None;
         }
         let order = rig.views_by_offset();
-        let bounds = world.bvh.bounds();
-        let scene_scale = bounds.min.abs().max(bounds.max.abs()).max_element();
-        let origins: Vec<Vec3> = order.iter().map(|v| camera.eye_at(v.1)).collect();
-        let origin_scale = origins
-            .iter()
-            .fold(0.0f32, |m, o| m.max(o.abs().max_element()));
-        let size = (bounds.max - bounds.min).length();
-        let beyond = origins
-            .iter()
-            .map(|o| (*o - bounds.center()).length())
-            .fold(0.0f32, f32::max);
+        let (margin, reach) = rig_extent(world, camera, &order);
         let tol = epipolar.tolerance;
-        let plain = world
-            .scene
-            .materials
-            .iter()
-            .map(|m| m.ks.max(m.mirror) <= tol && m.t <= tol)
-            .collect();
         Some(EpipolarPass {
             world,
             camera,
             visit: visit_order(n),
             order,
             tolerance: tol,
-            plain,
-            margin: 1e-6 * scene_scale.max(origin_scale).max(1e-3) as f64,
-            beyond: (beyond + size) * 2.0,
+            plain: plain_materials(world, tol),
+            margin,
+            beyond: reach * 2.0,
         })
     }
 
