@@ -116,7 +116,7 @@ impl World {
         let mut joined = bvh::splice(&parts);
         super::into_leaf_order(&mut scene, std::iter::once(&mut joined));
         World {
-            pieces: Vec::new(),
+            pieces: Default::default(),
             has_alpha: scene.has_alpha(),
             scene,
             bvh: joined,
