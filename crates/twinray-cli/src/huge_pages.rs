@@ -3,8 +3,9 @@
 //! A render's images are fresh memory (glibc maps every block above its
 //! mmap threshold anew, see `fix_mmap_threshold`), and the kernel fills such
 //! memory a 4 KiB page at a time, one fault each: a 1024² image of colours is
-//! 3,072 faults, 15–25 % of a one-thread render of a matte scene
-//! (docs/benchmarks.md, "Issue 17, fourteenth pass"). Where the kernel backs
+//! 3,072 faults, and with huge pages a one-thread render of a matte scene at
+//! that size takes 10 % less CPU time (docs/benchmarks.md, "Issue 17,
+//! fourteenth pass"). Where the kernel backs
 //! a block's 2 MiB-aligned stretches with huge pages instead (Linux's
 //! transparent huge pages, asked for by `madvise`), one fault fills 2 MiB.
 //! This is what glibc's own `glibc.malloc.hugetlb=1` tunable does; a tunable
