@@ -192,28 +192,54 @@ pub(crate) fn to_rgb8(img: &Image, opts: &WriteOptions) -> Vec<u8> {
     use rayon::prelude::*;
     const RUN: usize = 1 << 14;
     let mut bytes = vec![0u8; img.pixels.len() * 3];
-    let runs = bytes
+    bytes
         .par_chunks_mut(3 * RUN)
-        .zip(img.pixels.par_chunks(RUN));
+        .zip(img.pixels.par_chunks(RUN))
+        .for_each(|(bytes, pixels)| rgb8_into(pixels, bytes, opts));
+    bytes
+}
+
+/// `pixels` as interleaved 8-bit RGB into `bytes` (three per pixel), as an
+/// 8-bit file holds them.
+pub(crate) fn rgb8_into(pixels: &[Color], bytes: &mut [u8], opts: &WriteOptions) {
     if opts.srgb {
         let table = Srgb8::get();
-        runs.for_each(|(bytes, pixels)| {
-            for (b, c) in bytes.chunks_exact_mut(3).zip(pixels) {
-                b.copy_from_slice(&[table.byte(c.x), table.byte(c.y), table.byte(c.z)]);
-            }
-        });
+        for (b, c) in bytes.chunks_exact_mut(3).zip(pixels) {
+            b.copy_from_slice(&[table.byte(c.x), table.byte(c.y), table.byte(c.z)]);
+        }
     } else {
-        runs.for_each(|(bytes, pixels)| {
-            for (b, c) in bytes.chunks_exact_mut(3).zip(pixels) {
-                b.copy_from_slice(&[
-                    quantise(c.x, false),
-                    quantise(c.y, false),
-                    quantise(c.z, false),
-                ]);
-            }
-        });
+        for (b, c) in bytes.chunks_exact_mut(3).zip(pixels) {
+            b.copy_from_slice(&[
+                quantise(c.x, false),
+                quantise(c.y, false),
+                quantise(c.z, false),
+            ]);
+        }
     }
-    bytes
+}
+
+/// 8-bit RGB pixels, `width` x `height`, top row first: what a PNG or a
+/// JPEG holds.
+pub(crate) struct Rgb8<'a> {
+    pub bytes: &'a [u8],
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Encodes 8-bit pixels for `path` (PNG or JPEG; float formats are refused)
+/// without touching `path` yet.
+pub(crate) fn stage_rgb8(path: &Path, rgb: &Rgb8) -> Result<Staged> {
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Png => stage(path, |w| png_from_rgb8(w, rgb)),
+        ImageFormat::Jpeg => stage(path, |w| {
+            w.write_all(&jpeg_from_rgb8(rgb)?)?;
+            Ok(())
+        }),
+        ImageFormat::Exr | ImageFormat::Pfm => Err(Error::Invalid(format!(
+            "{}: an 8-bit picture goes to a PNG or JPEG file",
+            path.display()
+        ))),
+    }
 }
 
 fn encode_png(
@@ -221,13 +247,24 @@ fn encode_png(
     img: &Image,
     opts: &WriteOptions,
 ) -> std::result::Result<(), Failure> {
+    let bytes = to_rgb8(img, opts);
+    png_from_rgb8(
+        w,
+        &Rgb8 {
+            bytes: &bytes,
+            width: img.width,
+            height: img.height,
+        },
+    )
+}
+
+fn png_from_rgb8(w: &mut dyn Sink, rgb: &Rgb8) -> std::result::Result<(), Failure> {
     use ::image::ImageEncoder;
-    let rgb = to_rgb8(img, opts);
     ::image::codecs::png::PngEncoder::new(&mut *w)
         .write_image(
-            &rgb,
-            img.width,
-            img.height,
+            rgb.bytes,
+            rgb.width,
+            rgb.height,
             ::image::ExtendedColorType::Rgb8,
         )
         .map_err(image_failure)
@@ -262,13 +299,21 @@ pub(crate) fn jpeg_bytes(
     img: &Image,
     opts: &WriteOptions,
 ) -> std::result::Result<Vec<u8>, Failure> {
-    let rgb = to_rgb8(img, opts);
+    let bytes = to_rgb8(img, opts);
+    jpeg_from_rgb8(&Rgb8 {
+        bytes: &bytes,
+        width: img.width,
+        height: img.height,
+    })
+}
+
+fn jpeg_from_rgb8(rgb: &Rgb8) -> std::result::Result<Vec<u8>, Failure> {
     let mut out = Vec::new();
     ::image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, JPEG_QUALITY)
         .encode(
-            &rgb,
-            img.width,
-            img.height,
+            rgb.bytes,
+            rgb.width,
+            rgb.height,
             ::image::ExtendedColorType::Rgb8,
         )
         .map_err(image_failure)?;

@@ -53,7 +53,7 @@ pub use floating_window::{apply_floating_window, mask_edges};
 pub use layouts::{cross, interlace, separate_paths, side_by_side, top_bottom, InterlaceMode};
 pub use mpo::write_mpo;
 pub use multiview_exr::{write_multiview_exr, write_multiview_exr_with_depth};
-pub use quilt::{compose_quilt, quilt_path, QuiltLayout, QuiltPreset, QuiltSpec};
+pub use quilt::{compose_quilt, quilt_path, write_quilt, QuiltLayout, QuiltPreset, QuiltSpec};
 pub use targets::{check_distinct, check_file_target, check_image_target, check_stereo_targets};
 
 use crate::{Error, Image, Result};
