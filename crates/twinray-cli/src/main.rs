@@ -2,8 +2,6 @@
 //! prints what they report, shows progress.
 
 mod bench;
-#[cfg(target_os = "linux")]
-mod huge_pages;
 mod look_args;
 mod preview;
 mod render_args;
@@ -162,11 +160,6 @@ pub(crate) fn interrupted() -> ! {
     eprintln!("twinray: interrupted");
     std::process::exit(130);
 }
-
-/// Large blocks (images, the hierarchy of a big mesh) on huge pages.
-#[cfg(target_os = "linux")]
-#[global_allocator]
-static ALLOCATOR: huge_pages::HugePageAlloc = huge_pages::HugePageAlloc;
 
 /// Whether a render is in flight (a signal then cancels it).
 pub(crate) static RENDERING: AtomicBool = AtomicBool::new(false);
