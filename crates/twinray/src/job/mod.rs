@@ -609,7 +609,7 @@ impl Job {
                 height,
                 self.views,
                 quilt_tiles,
-                outputs::is_float_output(&self.spec.output.path),
+                outputs::quilt_pixel_bytes(&self.spec.output.path),
                 self.spec.output.depth,
             ));
         check_memory(

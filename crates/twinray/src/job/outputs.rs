@@ -39,7 +39,7 @@ pub(super) fn check_layout_format(layout: LayoutSpec, out: &Path) -> Result<()> 
 
 /// Whether `out` is a float image (EXR, PFM): written as rendered, linear,
 /// without exposure or tone curve.
-pub(super) fn is_float_output(out: &Path) -> bool {
+fn is_float_output(out: &Path) -> bool {
     let ext = out
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
@@ -430,22 +430,33 @@ fn write_with_depth(
     output::commit_all(staged)
 }
 
+/// The bytes a pixel of a quilt written to `out` takes while it is
+/// composed: an image file's 8-bit pixels straight from the views
+/// (`output::write_quilt`), a float file's floats, and for a video frame
+/// both (it is composed in floats, then made 8-bit).
+pub(super) fn quilt_pixel_bytes(out: &Path) -> u64 {
+    match output::ImageFormat::from_path(out) {
+        Ok(output::ImageFormat::Png | output::ImageFormat::Jpeg) => 3,
+        Ok(output::ImageFormat::Exr | output::ImageFormat::Pfm) => 12,
+        Err(_) => 12 + 3,
+    }
+}
+
 /// Memory beyond the renderer's estimate, in bytes: a composed quilt of
-/// `quilt_tiles` tiles (floats for a `float` file, else its 8-bit pixels,
-/// `output::write_quilt`) and the depth channels of `views` views (two
-/// floats a pixel).
+/// `quilt_tiles` tiles of `quilt_pixel_bytes` a pixel and the depth channels
+/// of `views` views (two floats a pixel).
 pub(super) fn extra_memory(
     width: u32,
     height: u32,
     views: usize,
     quilt_tiles: usize,
-    float: bool,
+    quilt_pixel_bytes: u64,
     depth: bool,
 ) -> u64 {
     let pixels = u64::from(width).saturating_mul(u64::from(height));
     let quilt_bytes = pixels
         .saturating_mul(quilt_tiles as u64)
-        .saturating_mul(if float { 12 } else { 3 });
+        .saturating_mul(quilt_pixel_bytes);
     let depth_bytes = if depth {
         pixels.saturating_mul(views as u64).saturating_mul(8)
     } else {
@@ -472,5 +483,24 @@ mod tests {
         let shown = displayed(&spec, &views);
         assert!(matches!(shown, Cow::Owned(_)));
         assert_eq!(shown[1].get(0, 0), Color::new(0.5, 1.0, 1.0));
+    }
+
+    /// A quilt's composition takes what its writer holds: 8-bit pixels for
+    /// an image file, floats for a float file, both for a video's frame.
+    #[test]
+    fn a_quilts_memory_is_counted_as_its_writer_holds_it() {
+        let bytes = |name: &str| quilt_pixel_bytes(Path::new(name));
+        assert_eq!(
+            [
+                bytes("q.png"),
+                bytes("q.JPG"),
+                bytes("q.exr"),
+                bytes("q.pfm"),
+                bytes("q.mp4")
+            ],
+            [3, 3, 12, 12, 15]
+        );
+        assert_eq!(extra_memory(10, 10, 48, 48, 3, false), 10 * 10 * 48 * 3);
+        assert_eq!(extra_memory(10, 10, 2, 0, 15, true), 10 * 10 * 2 * 8);
     }
 }
