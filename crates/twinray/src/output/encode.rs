@@ -40,6 +40,11 @@ pub enum ImageFormat {
 }
 
 impl ImageFormat {
+    /// Whether the format holds 8-bit pixels (PNG, JPEG), not floats.
+    pub fn is_8_bit(self) -> bool {
+        matches!(self, ImageFormat::Png | ImageFormat::Jpeg)
+    }
+
     /// The format for `path`'s extension (case-insensitive): `.png`, `.exr`,
     /// `.pfm`, `.jpg` or `.jpeg`.
     pub fn from_path(path: &Path) -> Result<ImageFormat> {

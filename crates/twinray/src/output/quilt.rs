@@ -207,10 +207,7 @@ pub fn write_quilt(
     opts: &WriteOptions,
 ) -> Result<()> {
     use rayon::prelude::*;
-    if !matches!(
-        ImageFormat::from_path(path)?,
-        ImageFormat::Png | ImageFormat::Jpeg
-    ) {
+    if !ImageFormat::from_path(path)?.is_8_bit() {
         return write_image(path, &compose_quilt(views, layout)?, opts);
     }
     let (w, h, qw, qh) = quilt_size(views, layout)?;

@@ -348,7 +348,7 @@ impl StripEyePass<'_> {
             (ta + (tb - ta) * w) * (1.0 + FILL_REACH) + self.margin * 0.5
         };
         let shapes = &self.world.scene.shapes;
-        let hit_prim = shapes.get(pa as usize).map(|_| pa);
+        let hit_prim = ((pa as usize) < shapes.len()).then_some(pa);
         let runs = &mut tracer.counts.runs;
         runs.proofs += 1;
         let family = &out.family;
@@ -368,7 +368,9 @@ impl StripEyePass<'_> {
                     .intersect(&Ray::new(origin, dir), hither, f32::INFINITY)
                     .filter(|h| {
                         (h.t as f64) <= bound(s)
-                            && (self.world.filed_boxes(pa))
+                            && self
+                                .world
+                                .filed_boxes(pa)
                                 .any(|b| ray_reaches(&b, origin, dir, hither, h.t))
                     });
                 let Some(hit) = kept else {

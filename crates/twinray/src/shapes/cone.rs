@@ -137,8 +137,10 @@ impl Cone {
             let d = b.max - b.min;
             d.x * d.y + d.y * d.z + d.z * d.x
         };
+        // The discs' extent once for every count (three square roots).
+        let extent = self.disc_extent();
         let cost = |k: u32| {
-            let sum: f32 = self.piece_boxes(k).map(area).sum();
+            let sum: f32 = self.boxes_of_pieces(extent, k).map(area).sum();
             sum * (1.0 + PIECE_CHARGE * (k - 1) as f32)
         };
         let mut best = (cost(1), 1);
@@ -154,7 +156,11 @@ impl Cone {
     /// The bounds of `k` equal pieces of the cone's height, base first:
     /// together they cover the cone (neighbours meet at the same disc).
     pub fn piece_boxes(&self, k: u32) -> impl Iterator<Item = Aabb> + '_ {
-        let extent = self.disc_extent();
+        self.boxes_of_pieces(self.disc_extent(), k)
+    }
+
+    /// `piece_boxes`, given the discs' `disc_extent`.
+    fn boxes_of_pieces(&self, extent: Vec3, k: u32) -> impl Iterator<Item = Aabb> + '_ {
         (0..k).map(move |j| {
             self.bounds_between(extent, j as f32 / k as f32, (j + 1) as f32 / k as f32)
         })
