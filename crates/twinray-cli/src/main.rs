@@ -378,7 +378,7 @@ fn render_still(
         bar.set_position(done);
     };
     RENDERING.store(true, Ordering::Relaxed);
-    let rendered = job.render(&plan, &progress, cancel_token());
+    let rendered = job.render_for_writing(&plan, &progress, cancel_token());
     RENDERING.store(false, Ordering::Relaxed);
     bar.finish_and_clear();
     if let Err(twinray::Error::Cancelled) = rendered {

@@ -35,3 +35,13 @@ impl Image {
         self.pixels[y as usize * self.width as usize + x as usize] = c;
     }
 }
+
+/// A view as an 8-bit file holds it: interleaved RGB bytes, three a pixel,
+/// top row first, quantised with the file's options (see
+/// [`ViewStorage::Rgb8`](crate::render::ViewStorage::Rgb8)).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Rgb8Image {
+    pub width: u32,
+    pub height: u32,
+    pub bytes: Vec<u8>,
+}

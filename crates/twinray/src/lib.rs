@@ -27,7 +27,7 @@ pub mod video;
 pub mod world;
 
 pub use error::{Error, Result};
-pub use image::Image;
+pub use image::{Image, Rgb8Image};
 pub use job::{Job, JobSpec};
 pub use scene::Scene;
 pub use world::World;

@@ -190,6 +190,9 @@ pub struct Report {
     pub height: u32,
     pub views: usize,
     pub method: String,
+    /// How the renderer kept the views: "float", or "rgb8" (the 8-bit
+    /// pixels of the files, quantised as the rows were traced).
+    pub views_kept_as: String,
     pub samples_per_view: u64,
     /// How the pixels were sampled, and what it took.
     pub sampling: SamplingFacts,

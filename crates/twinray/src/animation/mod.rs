@@ -442,7 +442,11 @@ impl Animation {
                     total,
                 })
             };
-            let rendered = job.render(&plan, &frame_progress, cancel)?;
+            // Frames written as images need only the files' 8-bit pixels.
+            let rendered = match &self.output {
+                FrameOutput::Images(_) => job.render_for_writing(&plan, &frame_progress, cancel)?,
+                FrameOutput::Video(_) => job.render(&plan, &frame_progress, cancel)?,
+            };
             let mut frame_messages = plan.messages.clone();
             if let Some(c) = plan.world.instances {
                 frame_messages.push(Message {

@@ -55,7 +55,7 @@ use crate::math::Vec3;
 use crate::output::{self, DepthChannels, QuiltSpec};
 use crate::render::{
     self, Approximations, Filter, Method, RenderOptions, RenderOutput, ReprojectMode, Reprojection,
-    Sampling, SharedShading, TraceSettings,
+    Sampling, SharedShading, TraceSettings, ViewStorage,
 };
 use crate::rig::budget::DepthBudget;
 use crate::rig::camera_overrides::{self as view, CameraOverrides};
@@ -663,7 +663,30 @@ impl Job {
         progress: &(dyn Fn(u64, u64) + Sync),
         cancel: &CancelToken,
     ) -> Result<Rendered> {
-        self.render_with(plan, &self.options, progress, cancel)
+        self.render_with(plan, &self.options, ViewStorage::Float, progress, cancel)
+    }
+
+    /// [`Job::render`] for a caller that only writes the files
+    /// ([`Job::write`]): where every file is an 8-bit image of views as
+    /// rendered (separate files or a quilt, no exposure, tone curve,
+    /// floating window or depth channels) and the sampling is pixel
+    /// centres, the views come back as the 8-bit pixels the files hold
+    /// (`output.rgb8`, and `output.images` empty): a quarter of the memory,
+    /// quantised as the rows are traced. The files are the same, byte for
+    /// byte. A caller that shows, composes or measures the images uses
+    /// [`Job::render`].
+    pub fn render_for_writing(
+        &self,
+        plan: &Plan,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        cancel: &CancelToken,
+    ) -> Result<Rendered> {
+        let storage = if self.spec.rig.floating_window {
+            ViewStorage::Float
+        } else {
+            self.targets(&plan.rig, plan.interaxial).storage()
+        };
+        self.render_with(plan, &self.options, storage, progress, cancel)
     }
 
     /// [`Job::render`] with other render options (a preview's coarse passes).
@@ -671,16 +694,18 @@ impl Job {
         &self,
         plan: &Plan,
         options: &RenderOptions,
+        storage: ViewStorage,
         progress: &(dyn Fn(u64, u64) + Sync),
         cancel: &CancelToken,
     ) -> Result<Rendered> {
         let mut output = self.pool.install(|| {
-            render::render_rows(
+            render::render_rows_as(
                 &plan.world,
                 &plan.camera,
                 &plan.rig,
                 options,
                 plan.rows.clone(),
+                storage,
                 progress,
                 cancel,
             )
@@ -813,11 +838,15 @@ impl Job {
         let start = Instant::now();
         let targets = self.targets(&plan.rig, plan.interaxial);
         let mut written = self.pool().install(|| {
-            targets.write(
-                &rendered.output.images,
-                rendered.depth.as_deref(),
-                &plan.files,
-            )
+            if rendered.output.rgb8.is_empty() {
+                targets.write(
+                    &rendered.output.images,
+                    rendered.depth.as_deref(),
+                    &plan.files,
+                )
+            } else {
+                targets.write_rgb8(&rendered.output.rgb8, &plan.files)
+            }
         })?;
         let write_s = start.elapsed().as_secs_f64();
         if let Some(path) = &self.spec.output.stats {
@@ -865,6 +894,12 @@ impl Job {
             } else {
                 self.options.method.name().to_string()
             },
+            views_kept_as: if result.rgb8.is_empty() {
+                "float"
+            } else {
+                "rgb8"
+            }
+            .into(),
             samples_per_view: result.samples_per_view,
             sampling: SamplingFacts {
                 mode: self.options.sampling.describe(),
@@ -901,7 +936,7 @@ impl Job {
         let job = Job::check(spec)?;
         let loaded = job.load()?;
         let plan = job.plan(&loaded)?;
-        let rendered = job.render(&plan, progress, cancel)?;
+        let rendered = job.render_for_writing(&plan, progress, cancel)?;
         let written = job.write(&loaded, &plan, &rendered)?;
         let messages = [
             job.messages(),

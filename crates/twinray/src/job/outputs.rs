@@ -10,9 +10,10 @@ use crate::output::{
     self, AnaglyphMethod, DepthChannels, DisplayTransform, InterlaceMode, Layout, QuiltSpec,
     StereoOptions, Tonemap, WriteOptions,
 };
+use crate::render::ViewStorage;
 use crate::rig::Camera;
 use crate::rig::Rig;
-use crate::{Error, Image, Result, World};
+use crate::{Error, Image, Result, Rgb8Image, World};
 
 /// Checks that `out`'s name suits the layout (an MPO's `.mpo`, a multi-view
 /// EXR's `.exr`, an image format otherwise).
@@ -323,6 +324,61 @@ impl Targets<'_> {
             &images[1],
             &self.stereo_options(),
         )
+    }
+}
+
+impl Targets<'_> {
+    /// How the views may be kept for these files: as the 8-bit pixels the
+    /// files hold where every file is an 8-bit image of one view as rendered
+    /// (no exposure or tone curve, no depth channels) or a quilt of them;
+    /// else in floats (pairs composed or packed, anaglyphs, float files).
+    /// The job also keeps floats under a floating window, which masks the
+    /// views after the render.
+    pub fn storage(&self) -> ViewStorage {
+        let o = self.output;
+        let eight_bit = output::ImageFormat::from_path(&o.path).is_ok_and(|f| f.is_8_bit());
+        let one_view_each = match (o.layout, self.quilt) {
+            (LayoutSpec::Quilt, Some(_)) => true,
+            (LayoutSpec::Multiview, _) => self.views == 1,
+            _ => self.views != 2 || stereo_layout(o) == Layout::Separate,
+        };
+        if eight_bit && !o.depth && display_transform(o).is_identity() && one_view_each {
+            ViewStorage::Rgb8(self.write_options())
+        } else {
+            ViewStorage::Float
+        }
+    }
+
+    /// [`Targets::write`] for views kept as 8-bit pixels (as
+    /// [`Targets::storage`] allows): the same files, byte for byte.
+    pub fn write_rgb8(&self, views: &[Rgb8Image], files: &[PathBuf]) -> Result<Vec<PathBuf>> {
+        if self.storage() == ViewStorage::Float {
+            return Err(Error::Invalid(
+                "these files are not written from views kept as 8-bit pixels".into(),
+            ));
+        }
+        let out = &self.output.path;
+        if let (LayoutSpec::Quilt, Some(spec)) = (self.output.layout, self.quilt) {
+            output::write_quilt_rgb8(&files[0], views, spec.layout)?;
+            return Ok(vec![files[0].clone()]);
+        }
+        let paths: Vec<PathBuf> = match views.len() {
+            1 => vec![out.clone()],
+            2 => {
+                let (l, r) = output::separate_paths(out);
+                vec![l, r]
+            }
+            n => (0..n).map(|i| numbered(out, i)).collect(),
+        };
+        // Encoded first, on the caller's thread pool, then put in place
+        // together, as the float views are.
+        use rayon::prelude::*;
+        let staged = views
+            .par_iter()
+            .zip(&paths)
+            .map(|(v, p)| output::stage_rgb8_image(p, v))
+            .collect::<Result<Vec<_>>>()?;
+        output::commit_all(staged)
     }
 }
 

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use super::{outputs, Job, Loaded, Plan, Rendered};
 use crate::image::Image;
 use crate::output::WriteOptions;
-use crate::render::Sampling;
+use crate::render::{Sampling, ViewStorage};
 use crate::rig::camera_overrides as view;
 use crate::rig::{Camera, Rig, View};
 use crate::scene::Viewpoint;
@@ -128,7 +128,7 @@ impl Job {
         if let Some(s) = sampling {
             options.sampling = s;
         }
-        self.render_with(plan, &options, progress, cancel)
+        self.render_with(plan, &options, ViewStorage::Float, progress, cancel)
     }
 
     /// The images the job's layout delivers, composed in memory as an 8-bit

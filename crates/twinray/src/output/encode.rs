@@ -20,7 +20,7 @@ use std::path::Path;
 use crate::math::Color;
 use crate::output::atomic::{stage, Failure, Sink, Staged};
 use crate::output::check_image;
-use crate::{Error, Image, Result};
+use crate::{Error, Image, Result, Rgb8Image};
 
 /// Options for 8-bit outputs (PNG, JPEG, MPO). Float outputs ignore them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -229,6 +229,35 @@ pub(crate) struct Rgb8<'a> {
     pub bytes: &'a [u8],
     pub width: u32,
     pub height: u32,
+}
+
+/// Encodes a view kept as 8-bit pixels
+/// ([`ViewStorage::Rgb8`](crate::render::ViewStorage::Rgb8)) for `path`, a
+/// PNG or JPEG, without touching `path` yet.
+pub fn stage_rgb8_image(path: &Path, img: &Rgb8Image) -> Result<Staged> {
+    check_rgb8(img, "image")?;
+    let rgb = Rgb8 {
+        bytes: &img.bytes,
+        width: img.width,
+        height: img.height,
+    };
+    stage_rgb8(path, &rgb)
+}
+
+/// `img` is well-formed: non-empty, three bytes a pixel.
+pub(crate) fn check_rgb8(img: &Rgb8Image, what: &str) -> Result<()> {
+    let expected = (img.width as usize)
+        .checked_mul(img.height as usize)
+        .and_then(|n| n.checked_mul(3));
+    if img.width == 0 || img.height == 0 || expected != Some(img.bytes.len()) {
+        return Err(Error::Invalid(format!(
+            "{what} is malformed: {}x{} with {} bytes of 8-bit RGB",
+            img.width,
+            img.height,
+            img.bytes.len()
+        )));
+    }
+    Ok(())
 }
 
 /// Encodes 8-bit pixels for `path` (PNG or JPEG; float formats are refused)

@@ -48,12 +48,17 @@ pub use atomic::{commit_all, remove_temporary_files, write_text, Staged};
 pub use compare::{compare, difference_image, Difference};
 pub use depth_channels::{stage_exr_with_depth, DepthChannels};
 pub use display::{DisplayTransform, Tonemap};
-pub use encode::{png_bytes, read_image, stage_image, write_image, ImageFormat, WriteOptions};
+pub(crate) use encode::rgb8_into;
+pub use encode::{
+    png_bytes, read_image, stage_image, stage_rgb8_image, write_image, ImageFormat, WriteOptions,
+};
 pub use floating_window::{apply_floating_window, mask_edges};
 pub use layouts::{cross, interlace, separate_paths, side_by_side, top_bottom, InterlaceMode};
 pub use mpo::write_mpo;
 pub use multiview_exr::{write_multiview_exr, write_multiview_exr_with_depth};
-pub use quilt::{compose_quilt, quilt_path, write_quilt, QuiltLayout, QuiltPreset, QuiltSpec};
+pub use quilt::{
+    compose_quilt, quilt_path, write_quilt, write_quilt_rgb8, QuiltLayout, QuiltPreset, QuiltSpec,
+};
 pub use targets::{check_distinct, check_file_target, check_image_target, check_stereo_targets};
 
 use crate::{Error, Image, Result};

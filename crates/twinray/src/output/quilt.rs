@@ -14,9 +14,9 @@
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
-use super::encode::{rgb8_into, stage_rgb8, Rgb8};
+use super::encode::{check_rgb8, rgb8_into, stage_rgb8, Rgb8};
 use super::{write_image, ImageFormat, WriteOptions};
-use crate::{Error, Image, Result};
+use crate::{Error, Image, Result, Rgb8Image};
 
 /// A grid of views.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -206,14 +206,71 @@ pub fn write_quilt(
     layout: QuiltLayout,
     opts: &WriteOptions,
 ) -> Result<()> {
-    use rayon::prelude::*;
     if !ImageFormat::from_path(path)?.is_8_bit() {
         return write_image(path, &compose_quilt(views, layout)?, opts);
     }
     let (w, h, qw, qh) = quilt_size(views, layout)?;
-    let origins: Vec<(u32, u32)> = (0..views.len())
-        .map(|i| layout.tile_origin(i, w, h))
-        .collect();
+    let bytes = quilt_bytes(layout, views.len(), (w, h), (qw, qh), |v, y, to| {
+        rgb8_into(
+            &views[v].pixels[y * w as usize..(y + 1) * w as usize],
+            to,
+            opts,
+        )
+    });
+    stage_rgb8(
+        path,
+        &Rgb8 {
+            bytes: &bytes,
+            width: qw,
+            height: qh,
+        },
+    )?
+    .commit()
+}
+
+/// Writes the quilt of `views` kept as 8-bit pixels
+/// ([`ViewStorage::Rgb8`](crate::render::ViewStorage::Rgb8)) to `path`, a
+/// PNG or JPEG: their rows copied into the quilt's, the file of
+/// [`write_quilt`] with the options the views were quantised with.
+pub fn write_quilt_rgb8(path: &Path, views: &[Rgb8Image], layout: QuiltLayout) -> Result<()> {
+    if !ImageFormat::from_path(path)?.is_8_bit() {
+        return Err(Error::Invalid(format!(
+            "{}: views kept as 8-bit pixels go to a PNG or JPEG quilt",
+            path.display()
+        )));
+    }
+    for (i, v) in views.iter().enumerate() {
+        check_rgb8(v, &format!("view {i}"))?;
+    }
+    let sizes: Vec<(u32, u32)> = views.iter().map(|v| (v.width, v.height)).collect();
+    let (w, h, qw, qh) = quilt_size_of(&sizes, layout)?;
+    let row = 3 * w as usize;
+    let bytes = quilt_bytes(layout, views.len(), (w, h), (qw, qh), |v, y, to| {
+        to.copy_from_slice(&views[v].bytes[y * row..(y + 1) * row])
+    });
+    stage_rgb8(
+        path,
+        &Rgb8 {
+            bytes: &bytes,
+            width: qw,
+            height: qh,
+        },
+    )?
+    .commit()
+}
+
+/// The 8-bit quilt of `count` views of `w` x `h`: `tile_row(v, y, bytes)`
+/// writes row `y` of view `v` into its place; tiles beyond the last view stay
+/// black. Rows go to the current thread pool.
+fn quilt_bytes(
+    layout: QuiltLayout,
+    count: usize,
+    (w, h): (u32, u32),
+    (qw, qh): (u32, u32),
+    tile_row: impl Fn(usize, usize, &mut [u8]) + Sync,
+) -> Vec<u8> {
+    use rayon::prelude::*;
+    let origins: Vec<(u32, u32)> = (0..count).map(|i| layout.tile_origin(i, w, h)).collect();
     let row_bytes = qw as usize * 3;
     let mut bytes = vec![0u8; row_bytes * qh as usize];
     bytes
@@ -221,45 +278,44 @@ pub fn write_quilt(
         .enumerate()
         .for_each(|(qy, row)| {
             let qy = qy as u32;
-            for (v, &(x0, y0)) in views.iter().zip(&origins) {
+            for (v, &(x0, y0)) in origins.iter().enumerate() {
                 if (y0..y0 + h).contains(&qy) {
-                    let y = (qy - y0) as usize;
-                    let src = &v.pixels[y * w as usize..(y + 1) * w as usize];
                     let at = x0 as usize * 3;
-                    rgb8_into(src, &mut row[at..at + 3 * w as usize], opts);
+                    tile_row(v, (qy - y0) as usize, &mut row[at..at + 3 * w as usize]);
                 }
             }
         });
-    let rgb = Rgb8 {
-        bytes: &bytes,
-        width: qw,
-        height: qh,
-    };
-    stage_rgb8(path, &rgb)?.commit()
+    bytes
 }
 
 /// The views' size and the quilt's, checked: at least one view, no more
 /// than the tiles, all of one size, a quilt that fits in `u32`.
 fn quilt_size(views: &[Image], layout: QuiltLayout) -> Result<(u32, u32, u32, u32)> {
-    let Some(first) = views.first() else {
+    for (i, v) in views.iter().enumerate() {
+        super::check_image(v, &format!("view {i}"))?;
+    }
+    let sizes: Vec<(u32, u32)> = views.iter().map(|v| (v.width, v.height)).collect();
+    quilt_size_of(&sizes, layout)
+}
+
+/// [`quilt_size`] of views of `sizes`, each already checked well-formed.
+fn quilt_size_of(sizes: &[(u32, u32)], layout: QuiltLayout) -> Result<(u32, u32, u32, u32)> {
+    let Some(&(w, h)) = sizes.first() else {
         return Err(Error::Invalid("a quilt needs at least one view".into()));
     };
-    if views.len() > layout.tiles() {
+    if sizes.len() > layout.tiles() {
         return Err(Error::Invalid(format!(
             "{} views do not fit a {}x{} quilt ({} tiles)",
-            views.len(),
+            sizes.len(),
             layout.columns,
             layout.rows,
             layout.tiles()
         )));
     }
-    let (w, h) = (first.width, first.height);
-    for (i, v) in views.iter().enumerate() {
-        super::check_image(v, &format!("view {i}"))?;
-        if (v.width, v.height) != (w, h) {
+    for (i, &(vw, vh)) in sizes.iter().enumerate() {
+        if (vw, vh) != (w, h) {
             return Err(Error::Invalid(format!(
-                "quilt views differ in size: view 0 is {w}x{h}, view {i} is {}x{}",
-                v.width, v.height
+                "quilt views differ in size: view 0 is {w}x{h}, view {i} is {vw}x{vh}"
             )));
         }
     }
@@ -356,7 +412,34 @@ mod tests {
                 std::fs::read(&floats).unwrap(),
             );
             assert!(a == b, "{name} srgb {srgb}: the files differ");
+            // The views kept as 8-bit pixels, as the renderer keeps them.
+            let kept = dir.path().join(format!("c{name}"));
+            let bytes: Vec<Rgb8Image> = views
+                .iter()
+                .map(|v| Rgb8Image {
+                    width: v.width,
+                    height: v.height,
+                    bytes: super::super::encode::to_rgb8(v, &opts),
+                })
+                .collect();
+            if name.ends_with(".pfm") {
+                assert!(write_quilt_rgb8(&kept, &bytes, layout).is_err());
+                continue;
+            }
+            write_quilt_rgb8(&kept, &bytes, layout).unwrap();
+            let c = std::fs::read(&kept).unwrap();
+            assert!(
+                a == c,
+                "{name} srgb {srgb}: the file of 8-bit views differs"
+            );
         }
+        let short = Rgb8Image {
+            width: 7,
+            height: 4,
+            bytes: vec![0; 7 * 4 * 3 - 1],
+        };
+        let err = write_quilt_rgb8(&dir.path().join("d.png"), &[short], layout);
+        assert!(err.is_err_and(|e| e.to_string().contains("malformed")));
         let too_many: Vec<Image> = (0..7).map(|_| Image::new(7, 4)).collect();
         assert!(write_quilt(
             &dir.path().join("c.png"),
