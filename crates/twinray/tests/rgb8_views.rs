@@ -6,7 +6,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use twinray::job::{CancelToken, Job, JobSpec, LayoutSpec, TonemapSpec};
+use twinray::job::{CancelToken, InterlaceSpec, Job, JobSpec, LayoutSpec, TonemapSpec};
 
 /// A job on the bundled example scene (SPD tetra for quilts), 40x30 pixel
 /// centres, writing `name` (and the stats) into `dir`.
@@ -91,6 +91,25 @@ fn images_of_the_views_as_rendered_are_written_from_8_bit_pixels() {
     }));
     assert!(kept_as_rgb8(|d| spec(d, "pair.png", 2)));
     assert!(kept_as_rgb8(|d| spec(d, "five.jpg", 5)));
+    // A pair whose frame only moves the eyes' pixels.
+    for layout in [
+        LayoutSpec::Sbs,
+        LayoutSpec::Cross,
+        LayoutSpec::Tb,
+        LayoutSpec::Interlace,
+    ] {
+        assert!(kept_as_rgb8(|d| {
+            let mut s = spec(d, "frame.png", 2);
+            s.output.layout = layout;
+            s
+        }));
+    }
+    assert!(kept_as_rgb8(|d| {
+        let mut s = spec(d, "checker.png", 2);
+        s.output.layout = LayoutSpec::Interlace;
+        s.output.interlace = Some(InterlaceSpec::Checker);
+        s
+    }));
     // A quilt of 12 views, by the twin method and by the epipolar rows.
     for epipolar in [false, true] {
         assert!(kept_as_rgb8(|d| {
@@ -112,7 +131,11 @@ fn views_that_are_composed_mapped_or_stored_in_floats_stay_floats() {
         s.output.layout = layout;
         s
     };
-    assert!(!kept_as_rgb8(|d| pair(d, LayoutSpec::Sbs)));
+    assert!(!kept_as_rgb8(|d| {
+        let mut s = pair(d, LayoutSpec::Sbs);
+        s.output.squeeze = true;
+        s
+    }));
     assert!(!kept_as_rgb8(|d| pair(d, LayoutSpec::Anaglyph)));
     assert!(!kept_as_rgb8(|d| {
         let mut s = spec(d, "exposed.png", 1);

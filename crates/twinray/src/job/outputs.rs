@@ -329,9 +329,11 @@ impl Targets<'_> {
 
 impl Targets<'_> {
     /// How the views may be kept for these files: as the 8-bit pixels the
-    /// files hold where every file is an 8-bit image of one view as rendered
-    /// (no exposure or tone curve, no depth channels) or a quilt of them;
-    /// else in floats (pairs composed or packed, anaglyphs, float files).
+    /// files hold where every file is an 8-bit image of views as rendered
+    /// (no exposure or tone curve, no depth channels) whose pixels it only
+    /// moves: one view a file, a quilt, a pair side by side, crossed,
+    /// top-bottom or interlaced; else in floats (squeezed pairs, anaglyphs,
+    /// MPO, float files).
     /// The job also keeps floats under a floating window, which masks the
     /// views after the render.
     pub fn storage(&self) -> ViewStorage {
@@ -340,7 +342,12 @@ impl Targets<'_> {
         let one_view_each = match (o.layout, self.quilt) {
             (LayoutSpec::Quilt, Some(_)) => true,
             (LayoutSpec::Multiview, _) => self.views == 1,
-            _ => self.views != 2 || stereo_layout(o) == Layout::Separate,
+            _ => {
+                let layout = stereo_layout(o);
+                self.views != 2
+                    || layout == Layout::Separate
+                    || output::moves_pixels_only(layout, o.squeeze)
+            }
         };
         if eight_bit && !o.depth && display_transform(o).is_identity() && one_view_each {
             ViewStorage::Rgb8(self.write_options())
@@ -361,6 +368,12 @@ impl Targets<'_> {
         if let (LayoutSpec::Quilt, Some(spec)) = (self.output.layout, self.quilt) {
             output::write_quilt_rgb8(&files[0], views, spec.layout)?;
             return Ok(vec![files[0].clone()]);
+        }
+        let layout = stereo_layout(self.output);
+        if views.len() == 2 && layout != Layout::Separate {
+            let frame = output::pair_frame_rgb8(&views[0], &views[1], layout)?;
+            output::stage_rgb8_image(out, &frame)?.commit()?;
+            return Ok(vec![out.clone()]);
         }
         let paths: Vec<PathBuf> = match views.len() {
             1 => vec![out.clone()],

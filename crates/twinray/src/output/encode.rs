@@ -187,7 +187,9 @@ impl Srgb8 {
     /// traced (`ViewStorage::Rgb8`), 11 M of them for a 48-view quilt.
     #[inline]
     fn byte(&self, v: f32) -> u8 {
-        // `max` and `min` take the number where one side is NaN: NaN gives 0.
+        // `max` and `min` take the number where one side is NaN: NaN gives 0
+        // (`clamp` would keep the NaN).
+        #[allow(clippy::manual_clamp)]
         let v = v.max(0.0).min(1.0);
         // `v * 8192` is exact (a power of two), so the bucket's lowest
         // value is at or below `v`, and the bucket holds at most one

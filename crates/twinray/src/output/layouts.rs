@@ -16,8 +16,9 @@
 use std::path::{Path, PathBuf};
 
 use crate::math::Color;
-use crate::output::check_pair;
-use crate::{Error, Image, Result};
+use crate::output::encode::check_rgb8;
+use crate::output::{check_pair, Layout};
+use crate::{Error, Image, Result, Rgb8Image};
 
 /// How [`interlace`] alternates the eyes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -64,19 +65,107 @@ pub fn top_bottom(left: &Image, right: &Image, squeeze: bool) -> Result<Image> {
 /// Both eyes woven into one eye-sized frame (see [`InterlaceMode`]).
 pub fn interlace(left: &Image, right: &Image, mode: InterlaceMode) -> Result<Image> {
     check_pair(left, right)?;
-    let mut out = Image::new(left.width, left.height);
-    for y in 0..left.height {
-        for x in 0..left.width {
+    Ok(Image {
+        width: left.width,
+        height: left.height,
+        pixels: woven(&left.pixels, &right.pixels, left.width as usize, 1, mode),
+    })
+}
+
+/// The eyes' pixels (`per_pixel` values each, rows of `width` pixels) woven
+/// as `mode` says.
+fn woven<T: Copy>(
+    left: &[T],
+    right: &[T],
+    width: usize,
+    per_pixel: usize,
+    mode: InterlaceMode,
+) -> Vec<T> {
+    let mut out = left.to_vec();
+    let row = (width * per_pixel).max(1);
+    for (y, (to, from)) in out.chunks_mut(row).zip(right.chunks(row)).enumerate() {
+        for (x, (to, from)) in to
+            .chunks_mut(per_pixel)
+            .zip(from.chunks(per_pixel))
+            .enumerate()
+        {
             let from_left = match mode {
                 InterlaceMode::Rows => y % 2 == 0,
                 InterlaceMode::Columns => x % 2 == 0,
                 InterlaceMode::Checker => (x + y) % 2 == 0,
             };
-            let src = if from_left { left } else { right };
-            out.set(x, y, src.get(x, y));
+            if !from_left {
+                to.copy_from_slice(from);
+            }
         }
     }
-    Ok(out)
+    out
+}
+
+/// Whether `layout` packs the eyes by moving their pixels only (side by
+/// side, crossed or top-bottom without `squeeze`, interlaced): a frame that
+/// [`pair_frame_rgb8`] makes from 8-bit eyes, the bytes of the float frame's.
+pub fn moves_pixels_only(layout: Layout, squeeze: bool) -> bool {
+    match layout {
+        Layout::SideBySide | Layout::Cross | Layout::TopBottom => !squeeze,
+        Layout::Interlace(_) => true,
+        _ => false,
+    }
+}
+
+/// The frame of `layout` (one that [`moves_pixels_only`] without squeeze)
+/// from eyes kept as 8-bit pixels.
+pub fn pair_frame_rgb8(left: &Rgb8Image, right: &Rgb8Image, layout: Layout) -> Result<Rgb8Image> {
+    check_rgb8(left, "left image")?;
+    check_rgb8(right, "right image")?;
+    if (left.width, left.height) != (right.width, right.height) {
+        return Err(Error::Invalid(format!(
+            "left and right images differ in size: {}x{} and {}x{}",
+            left.width, left.height, right.width, right.height
+        )));
+    }
+    let (w, h) = (left.width, left.height);
+    let frame = |width, height, bytes| Rgb8Image {
+        width,
+        height,
+        bytes,
+    };
+    let row = 3 * w as usize;
+    Ok(match layout {
+        Layout::SideBySide => frame(
+            2 * w,
+            h,
+            side_by_side_rows(&left.bytes, row, &right.bytes, row),
+        ),
+        Layout::Cross => frame(
+            2 * w,
+            h,
+            side_by_side_rows(&right.bytes, row, &left.bytes, row),
+        ),
+        Layout::TopBottom => frame(w, 2 * h, [&left.bytes[..], &right.bytes[..]].concat()),
+        Layout::Interlace(mode) => {
+            frame(w, h, woven(&left.bytes, &right.bytes, w as usize, 3, mode))
+        }
+        _ => {
+            return Err(Error::Invalid(format!(
+                "the {} layout is composed from the eyes' float colours",
+                layout.name()
+            )))
+        }
+    })
+}
+
+/// Rows of `a` and `b` (`a_row` and `b_row` values each) side by side.
+fn side_by_side_rows<T: Copy>(a: &[T], a_row: usize, b: &[T], b_row: usize) -> Vec<T> {
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    for (ra, rb) in a
+        .chunks_exact(a_row.max(1))
+        .zip(b.chunks_exact(b_row.max(1)))
+    {
+        out.extend_from_slice(ra);
+        out.extend_from_slice(rb);
+    }
+    out
 }
 
 /// The two file names of the `Separate` layout: `dir/pair.png` →
@@ -102,16 +191,11 @@ fn hconcat(a: &Image, b: &Image) -> Result<Image> {
             a.width, b.width
         ))
     })?;
-    let mut pixels = Vec::with_capacity(width as usize * a.height as usize);
     let (aw, bw) = (a.width as usize, b.width as usize);
-    for (ra, rb) in a.pixels.chunks_exact(aw).zip(b.pixels.chunks_exact(bw)) {
-        pixels.extend_from_slice(ra);
-        pixels.extend_from_slice(rb);
-    }
     Ok(Image {
         width,
         height: a.height,
-        pixels,
+        pixels: side_by_side_rows(&a.pixels, aw, &b.pixels, bw),
     })
 }
 

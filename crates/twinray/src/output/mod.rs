@@ -53,7 +53,10 @@ pub use encode::{
     png_bytes, read_image, stage_image, stage_rgb8_image, write_image, ImageFormat, WriteOptions,
 };
 pub use floating_window::{apply_floating_window, mask_edges};
-pub use layouts::{cross, interlace, separate_paths, side_by_side, top_bottom, InterlaceMode};
+pub use layouts::{
+    cross, interlace, moves_pixels_only, pair_frame_rgb8, separate_paths, side_by_side, top_bottom,
+    InterlaceMode,
+};
 pub use mpo::write_mpo;
 pub use multiview_exr::{write_multiview_exr, write_multiview_exr_with_depth};
 pub use quilt::{
