@@ -233,15 +233,19 @@ struct Taking {
 pub(super) struct EpiScratch {
     prims: Vec<u32>,
     sections: Vec<Section>,
-    /// Per position, per sample: the ray's direction, and the nearest hit
-    /// (index into `prims`, `u32::MAX` for none).
-    dirs: Vec<Vec3>,
+    /// Per position, per sample: the nearest hit (index into `prims`,
+    /// `u32::MAX` for none).
     best: Vec<(SurfaceHit, u32)>,
-    /// Per position, per sample: the ray's length per unit of `b`, and its
-    /// slope `x` (a point at `b` on it has `a = offset + x·b`); and the
-    /// sections by their nearest `b`.
+    /// Per camera column the row's views look along (the views' columns
+    /// are one set shifted by whole pixels: view `p`'s sample `i` looks
+    /// along column `i + first[p]`): the ray's direction, its length per
+    /// unit of `b`, and its slope `x` (a point at `b` on it has `a = offset
+    /// + x·b`).
+    dirs: Vec<Vec3>,
     lens: Vec<f64>,
     slopes: Vec<f64>,
+    first: Vec<usize>,
+    /// The sections by their nearest `b`.
     near: Vec<(f64, u32)>,
     /// Per gathered primitive: its shade points by `param`.
     points: Vec<Vec<ShadePoint>>,
@@ -353,7 +357,7 @@ impl<'a> EpipolarPass<'a> {
                 let k = p * n + d.sample as usize;
                 let (hit, local) = s.best[k];
                 packet.origins[l] = self.camera.eye_at(self.order[p].1);
-                packet.dirs[l] = s.dirs[k];
+                packet.dirs[l] = s.dirs[s.first[p] + d.sample as usize];
                 hits.prim[l] = s.prims[local as usize];
                 hits.hit[l] = hit;
             }
@@ -424,25 +428,34 @@ impl<'a> EpipolarPass<'a> {
     fn visibility(&self, tracer: &mut Tracer, row: &SampleRow, plane: &Plane, s: &mut EpiScratch) {
         let n = row.len();
         let views = self.order.len();
-        // Each ray's direction, eight at a time (bit for bit `direction`'s),
-        // and its length per unit of `b`: a point at plane coordinate `b`
-        // lies at `t = b·L` along the ray of direction `(R·x + W)/L`.
+        // Each camera column's ray direction, eight at a time (bit for bit
+        // `direction`'s), and its length per unit of `b`: a point at plane
+        // coordinate `b` lies at `t = b·L` along the ray of direction
+        // `(R·x + W)/L`. The row's samples are contiguous pixels of one
+        // pattern, so view `p`'s sample `i` looks along the column of sample
+        // 0 shifted by `i + shift`: one set of columns serves every view
+        // (once, not once per view).
+        let lo_shift = self.order.iter().map(|o| o.2).min().unwrap_or(0);
+        let hi_shift = self.order.iter().map(|o| o.2).max().unwrap_or(0);
+        let columns = n + (hi_shift - lo_shift) as usize;
+        s.first.clear();
+        s.first
+            .extend(self.order.iter().map(|o| (o.2 - lo_shift) as usize));
         s.dirs.clear();
         s.lens.clear();
         s.slopes.clear();
-        for &(_, _, shift) in &self.order {
-            for first in (0..n).step_by(8) {
-                let point = |l: usize| row.camera_point((first + l).min(n - 1), shift);
-                let columns: [f32; 8] = std::array::from_fn(|l| point(l).0);
-                let rows = std::array::from_fn(|l| point(l).1);
-                let dirs = self.camera.directions8(columns, rows);
-                let count = (n - first).min(8);
-                s.dirs.extend_from_slice(&dirs[..count]);
-                for &c in &columns[..count] {
-                    let x = (c as f64 - plane.cx) * plane.ps;
-                    s.slopes.push(x);
-                    s.lens.push((x * x + plane.ww).sqrt());
-                }
+        for first in (0..columns).step_by(8) {
+            let point =
+                |l: usize| row.camera_point(0, lo_shift + (first + l).min(columns - 1) as i32);
+            let cols: [f32; 8] = std::array::from_fn(|l| point(l).0);
+            let rows = std::array::from_fn(|l| point(l).1);
+            let dirs = self.camera.directions8(cols, rows);
+            let count = (columns - first).min(8);
+            s.dirs.extend_from_slice(&dirs[..count]);
+            for &c in &cols[..count] {
+                let x = (c as f64 - plane.cx) * plane.ps;
+                s.slopes.push(x);
+                s.lens.push((x * x + plane.ww).sqrt());
             }
         }
         s.best.clear();
@@ -471,15 +484,15 @@ impl<'a> EpipolarPass<'a> {
             for (p, &(_, offset, shift)) in self.order.iter().enumerate() {
                 let (lo, hi) = plane.samples_of(section, offset as f64, shift, n);
                 let origin = self.camera.eye_at(offset);
-                let base = p * n;
+                let (base, column) = (p * n, s.first[p]);
                 for i in lo..hi {
-                    let k = base + i;
+                    let (k, c) = (base + i, column + i);
                     let (best, best_local) = s.best[k];
-                    if near * s.lens[k] > best.t as f64 {
+                    if near * s.lens[c] > best.t as f64 {
                         continue;
                     }
                     tests += 1;
-                    let ray = Ray::new(origin, s.dirs[k]);
+                    let ray = Ray::new(origin, s.dirs[c]);
                     // A tie keeps the lower primitive index, as the hierarchy
                     // does (locals ascend with the primitives).
                     if let Some(h) = shape.intersect(&ray, hither, best.t.next_up()) {
@@ -514,12 +527,13 @@ impl<'a> EpipolarPass<'a> {
         s.donations.clear();
         s.takings.clear();
         let mut cursor: Option<(u32, usize)> = None;
+        let column = s.first[p];
         #[allow(clippy::needless_range_loop)] // `i` also indexes `best` and `dirs`
         for i in 0..n {
-            let k = p * n + i;
+            let (k, c) = (p * n + i, column + i);
             let (hit, local) = s.best[k];
             if local == u32::MAX {
-                out[v][i] = self.world.scene.background_toward(s.dirs[k]);
+                out[v][i] = self.world.scene.background_toward(s.dirs[c]);
                 stats.misses += 1;
                 continue;
             }
@@ -530,8 +544,8 @@ impl<'a> EpipolarPass<'a> {
                 // the same surface (`shade_deferred`).
                 stats.refused_material += 1;
                 stats.traced += 1;
-                let b = hit.t as f64 / s.lens[k];
-                let param = s.sections[local as usize].param(offset + s.slopes[k] * b, b);
+                let b = hit.t as f64 / s.lens[c];
+                let param = s.sections[local as usize].param(offset + s.slopes[c] * b, b);
                 s.deferred.push(Deferred {
                     local,
                     param: param.unwrap_or(0.0),
@@ -541,8 +555,8 @@ impl<'a> EpipolarPass<'a> {
                 continue;
             }
             // The hit's plane coordinates from its distance: `t = b·L`.
-            let b = hit.t as f64 / s.lens[k];
-            let a = offset + s.slopes[k] * b;
+            let b = hit.t as f64 / s.lens[c];
+            let a = offset + s.slopes[c] * b;
             let section = &s.sections[local as usize];
             let Some(param) = section.param(a, b) else {
                 stats.refused_shape += 1;
@@ -668,7 +682,7 @@ impl<'a> EpipolarPass<'a> {
         for l in 0..count {
             let k = p * n + sample(l);
             let (hit, local) = s.best[k];
-            packet.dirs[l] = s.dirs[k];
+            packet.dirs[l] = s.dirs[s.first[p] + sample(l)];
             hits.prim[l] = s.prims[local as usize];
             hits.hit[l] = hit;
         }
@@ -897,12 +911,14 @@ mod tests {
                 );
                 pass.visibility(&mut tracer, &row, &plane, &mut s);
                 let n = row.len();
-                for (p, &(_, offset, _)) in pass.order.iter().enumerate() {
+                for (p, &(_, offset, shift)) in pass.order.iter().enumerate() {
                     for i in 0..n {
                         let k = p * n + i;
+                        // The direction of the sample's own ray, not the pass's.
+                        let (x, y) = row.camera_point(i, shift);
                         let packet = Packet::<1> {
                             origins: [camera.eye_at(offset)],
-                            dirs: [s.dirs[k]],
+                            dirs: [camera.direction(x, y)],
                             t_min: camera.hither,
                             t_max: [f32::INFINITY],
                             mask: 1,
