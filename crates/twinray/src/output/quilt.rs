@@ -217,15 +217,7 @@ pub fn write_quilt(
             opts,
         )
     });
-    stage_rgb8(
-        path,
-        &Rgb8 {
-            bytes: &bytes,
-            width: qw,
-            height: qh,
-        },
-    )?
-    .commit()
+    commit_quilt(path, &bytes, (qw, qh))
 }
 
 /// Writes the quilt of `views` kept as 8-bit pixels
@@ -248,12 +240,17 @@ pub fn write_quilt_rgb8(path: &Path, views: &[Rgb8Image], layout: QuiltLayout) -
     let bytes = quilt_bytes(layout, views.len(), (w, h), (qw, qh), |v, y, to| {
         to.copy_from_slice(&views[v].bytes[y * row..(y + 1) * row])
     });
+    commit_quilt(path, &bytes, (qw, qh))
+}
+
+/// Encodes the quilt's bytes for `path` and puts the file in place.
+fn commit_quilt(path: &Path, bytes: &[u8], (width, height): (u32, u32)) -> Result<()> {
     stage_rgb8(
         path,
         &Rgb8 {
-            bytes: &bytes,
-            width: qw,
-            height: qh,
+            bytes,
+            width,
+            height,
         },
     )?
     .commit()
