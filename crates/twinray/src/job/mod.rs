@@ -668,9 +668,10 @@ impl Job {
 
     /// [`Job::render`] for a caller that only writes the files
     /// ([`Job::write`]): where every file is an 8-bit image of views as
-    /// rendered (separate files or a quilt, no exposure, tone curve,
-    /// floating window or depth channels) and the sampling is pixel
-    /// centres, the views come back as the 8-bit pixels the files hold
+    /// rendered whose pixels it only moves (separate files, a quilt, a pair
+    /// side by side, crossed, top-bottom or interlaced; no exposure, tone
+    /// curve, floating window or depth channels: `Targets::storage`) and
+    /// the sampling is pixel centres, the views come back as the 8-bit pixels the files hold
     /// (`output.rgb8`, and `output.images` empty): a quarter of the memory,
     /// quantised as the rows are traced. The files are the same, byte for
     /// byte. A caller that shows, composes or measures the images uses

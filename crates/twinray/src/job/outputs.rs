@@ -325,9 +325,7 @@ impl Targets<'_> {
             &self.stereo_options(),
         )
     }
-}
 
-impl Targets<'_> {
     /// How the views may be kept for these files: as the 8-bit pixels the
     /// files hold where every file is an 8-bit image of views as rendered
     /// (no exposure or tone curve, no depth channels) whose pixels it only

@@ -344,7 +344,7 @@ pub fn render_cancellable(
     render_rows(world, camera, rig, opts, rows, progress, cancel)
 }
 
-/// [`render_rows`] with the views in floats.
+/// [`render_rows_as`] with the views in floats ([`ViewStorage::Float`]).
 #[allow(clippy::too_many_arguments)]
 pub fn render_rows(
     world: &World,
