@@ -155,10 +155,33 @@ fn views_that_are_composed_mapped_or_stored_in_floats_stay_floats() {
         s
     }));
     assert!(!kept_as_rgb8(|d| spec(d, "float.pfm", 2)));
-    // Other samplings than pixel centres give floats.
+    // The SPD procedure's corners give floats.
     assert!(!kept_as_rgb8(|d| {
-        let mut s = spec(d, "aa.png", 1);
+        let mut s = spec(d, "spd.png", 1);
         s.sampling.samples = None;
+        s.sampling.spd = true;
         s
     }));
+}
+
+#[test]
+fn adaptive_and_stratified_samples_are_kept_as_bytes_too() {
+    // The default adaptive sampling (its rows quantised as they are
+    // refined), a pair and a quilt; four stratified samples (the film's
+    // sums quantised).
+    let sampled = |d: &Path, name: &str, views: usize, samples: Option<u32>| {
+        let mut s = spec(d, name, views);
+        s.sampling.samples = samples;
+        s.output.stats = Some(d.join("stats.json"));
+        s
+    };
+    assert!(kept_as_rgb8(|d| sampled(d, "aa.png", 1, None)));
+    assert!(kept_as_rgb8(|d| sampled(d, "aa-pair.jpg", 2, None)));
+    assert!(kept_as_rgb8(|d| {
+        let mut s = sampled(d, "aa-q.png", 6, None);
+        s.output.layout = LayoutSpec::Quilt;
+        s.output.quilt = Some("3x2".into());
+        s
+    }));
+    assert!(kept_as_rgb8(|d| sampled(d, "four.png", 2, Some(4))));
 }

@@ -9,8 +9,9 @@
 //! are the same in every view: one weight per pixel serves all views.
 
 use super::sampler::{Filter, RowColors, SampleRow};
-use crate::image::Image;
+use crate::image::{Image, Rgb8Image};
 use crate::math::Color;
+use crate::output::{rgb8_into, WriteOptions};
 
 /// The rows of the film one task writes: `rows` from `first_row`, with the
 /// sums of every view and the weights.
@@ -120,6 +121,33 @@ impl Film {
         }
     }
 
+    /// Every view's image as 8-bit pixels quantised with `opts`: the bytes
+    /// of [`Film::images`] written to an 8-bit file, without the float images.
+    pub(super) fn rgb8(self, opts: &WriteOptions) -> Vec<Rgb8Image> {
+        let (width, height, weights) = (self.width, self.height, &self.weights);
+        let mut row = Vec::with_capacity(width);
+        self.sums
+            .iter()
+            .map(|sums| {
+                let mut bytes = vec![0u8; 3 * width * height];
+                for ((to, sums), weights) in bytes
+                    .chunks_mut(3 * width.max(1))
+                    .zip(sums.chunks(width.max(1)))
+                    .zip(weights.chunks(width.max(1)))
+                {
+                    row.clear();
+                    row.extend(sums.iter().zip(weights).map(|(&s, &w)| pixel(s, w)));
+                    rgb8_into(&row, to, opts);
+                }
+                Rgb8Image {
+                    width: width as u32,
+                    height: height as u32,
+                    bytes,
+                }
+            })
+            .collect()
+    }
+
     /// Every view's image: each pixel its weighted sum over its weight.
     pub(super) fn images(self) -> Vec<Image> {
         let (width, height, weights) = (self.width, self.height, self.weights);
@@ -131,10 +159,20 @@ impl Film {
                 pixels: sums
                     .into_iter()
                     .zip(&weights)
-                    .map(|(s, &w)| if w > 0.0 { s * (1.0 / w) } else { s })
+                    .map(|(s, &w)| pixel(s, w))
                     .collect(),
             })
             .collect()
+    }
+}
+
+/// A pixel's colour from its weighted sum `s` and its weight `w`.
+#[inline]
+fn pixel(s: Color, w: f32) -> Color {
+    if w > 0.0 {
+        s * (1.0 / w)
+    } else {
+        s
     }
 }
 

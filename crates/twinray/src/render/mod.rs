@@ -268,8 +268,8 @@ pub struct RenderOutput {
     /// were kept as 8-bit pixels (`rgb8`).
     pub images: Vec<Image>,
     /// The views as 8-bit pixels, in rig order, when [`ViewStorage::Rgb8`]
-    /// was asked for and the sampling is [`Sampling::Centers`] (the others
-    /// give `images`); else empty.
+    /// was asked for and the sampling is not [`Sampling::Corners`] (which
+    /// gives `images`); else empty.
     pub rgb8: Vec<Rgb8Image>,
     pub counts: TraceCounts,
     pub seconds: f64,
@@ -293,7 +293,9 @@ pub enum ViewStorage {
     /// only writes 8-bit files: a view takes a quarter of the fresh memory
     /// (which the kernel must clear first: 2.8 MB, about 2.4 ms on the
     /// project's VM, for a view of 420×560 in floats) and no pass of its own
-    /// to quantise. Only pixel centres are kept so; other samplings give
+    /// to quantise. Pixel centres, the adaptive sampling (its rows as they
+    /// are refined; its corner lattice stays floats) and stratified samples
+    /// (the film's sums, then bytes) are kept so; the SPD's corners give
     /// floats.
     Rgb8(crate::output::WriteOptions),
 }
@@ -517,11 +519,11 @@ pub fn render_rows_as(
             samples,
             filter,
             seed,
-        } => run.stratified(samples, filter, seed),
+        } => run.stratified(samples, filter, seed, storage),
         Sampling::Adaptive {
             threshold,
             max_samples,
-        } => run.adaptive(threshold, max_samples),
+        } => run.adaptive(threshold, max_samples, storage),
     }
     .ok_or(crate::Error::Cancelled)?;
     Ok(RenderOutput {
@@ -991,7 +993,13 @@ impl Run<'_, '_> {
     }
 
     /// `samples` points of each pixel's sequence, filtered into the film.
-    fn stratified(&self, samples: u32, filter: Filter, seed: u32) -> Option<Sampled> {
+    fn stratified(
+        &self,
+        samples: u32,
+        filter: Filter,
+        seed: u32,
+        storage: ViewStorage,
+    ) -> Option<Sampled> {
         let (w, h) = (self.width, self.height);
         // The bands whose samples reach the rows rendered, halo included.
         let halo = film::halo(filter);
@@ -1021,9 +1029,14 @@ impl Run<'_, '_> {
         for band in &bands {
             film.add(band);
         }
+        drop(bands);
+        let (images, rgb8) = match storage {
+            ViewStorage::Float => (film.images(), Vec::new()),
+            ViewStorage::Rgb8(opts) => (Vec::new(), film.rgb8(&opts)),
+        };
         Some(Sampled {
-            images: film.images(),
-            rgb8: Vec::new(),
+            images,
+            rgb8,
             counts,
             samples_per_view: (w * self.rows.len()) as u64 * u64::from(samples),
             max_per_pixel: samples,
@@ -1033,7 +1046,7 @@ impl Run<'_, '_> {
 
     /// Section 2.6: the corners, then each pixel row refined where its
     /// cells' corners differ (in any view).
-    fn adaptive(&self, threshold: f32, max_samples: u32) -> Option<Sampled> {
+    fn adaptive(&self, threshold: f32, max_samples: u32, storage: ViewStorage) -> Option<Sampled> {
         let (w, h) = (self.width, self.rows.len());
         let (y0, y_end) = (self.rows.start, self.rows.end);
         // The rows start on a band's first row (render_rows checks it).
@@ -1057,31 +1070,61 @@ impl Run<'_, '_> {
                         &mut trace,
                         &mut out,
                     );
-                    (out, report)
+                    // Kept as bytes, a row is a quarter of its colours.
+                    let bytes = match storage {
+                        ViewStorage::Float => Vec::new(),
+                        ViewStorage::Rgb8(opts) => std::mem::take(&mut out)
+                            .iter()
+                            .map(|colors| {
+                                let mut bytes = vec![0u8; 3 * colors.len()];
+                                crate::output::rgb8_into(colors, &mut bytes, &opts);
+                                bytes
+                            })
+                            .collect(),
+                    };
+                    (out, bytes, report)
                 })
                 .collect::<Vec<_>>()
         })?;
+        drop(corners);
         let rows = bands.into_iter().flatten();
         counts += refine_counts;
+        let kept = matches!(storage, ViewStorage::Rgb8(_));
+        let per_view = if kept { 0 } else { w * h };
         let mut images: Vec<Image> = (0..self.views)
             .map(|_| Image {
                 width: w as u32,
                 height: h as u32,
-                pixels: Vec::with_capacity(w * h),
+                pixels: Vec::with_capacity(per_view),
+            })
+            .collect();
+        let mut rgb8: Vec<Rgb8Image> = (0..self.views)
+            .map(|_| Rgb8Image {
+                width: w as u32,
+                height: h as u32,
+                bytes: Vec::with_capacity(if kept { 3 * w * h } else { 0 }),
             })
             .collect();
         let mut total = RowRefinement::default();
-        for (row, report) in rows {
+        for (row, bytes, report) in rows {
             for (img, r) in images.iter_mut().zip(row) {
                 img.pixels.extend(r);
+            }
+            for (img, b) in rgb8.iter_mut().zip(bytes) {
+                img.bytes.extend(b);
             }
             total.added += report.added;
             total.refined += report.refined;
             total.max_per_pixel = total.max_per_pixel.max(report.max_per_pixel);
         }
+        if kept {
+            images.clear();
+        } else {
+            rgb8.clear();
+        }
         Some(Sampled {
             images,
-            rgb8: Vec::new(),
+            rgb8,
             counts,
             samples_per_view: ((w + 1) * (h + 1)) as u64 + total.added,
             max_per_pixel: total.max_per_pixel,
