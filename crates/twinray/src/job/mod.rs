@@ -671,10 +671,10 @@ impl Job {
     /// rendered whose pixels it only moves (separate files, a quilt, a pair
     /// side by side, crossed, top-bottom or interlaced; no exposure, tone
     /// curve, floating window or depth channels: `Targets::storage`) and
-    /// the sampling is not the SPD's corners, the views come back as the 8-bit pixels the files hold
-    /// (`output.rgb8`, and `output.images` empty): a quarter of the memory,
-    /// quantised as the rows are traced. The files are the same, byte for
-    /// byte. A caller that shows, composes or measures the images uses
+    /// the sampling is not the SPD's corners, the views come back as the
+    /// 8-bit pixels the files hold (`output.rgb8`, and `output.images`
+    /// empty): a quarter of the memory, quantised as the rows are traced.
+    /// The files are the same, byte for byte. A caller that shows, composes or measures the images uses
     /// [`Job::render`].
     pub fn render_for_writing(
         &self,
