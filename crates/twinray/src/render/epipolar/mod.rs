@@ -146,6 +146,11 @@ pub(super) struct EpipolarPass<'a> {
     order: Vec<(usize, f32, i32)>,
     /// Positions in `order`, in the order their rows are shaded.
     visit: Vec<usize>,
+    /// The least and the greatest shift of the views.
+    shifts: (i32, i32),
+    /// Per position: the first of a row's camera columns that its view
+    /// looks along (its shift less the least; see `EpiScratch::dirs`).
+    first: Vec<usize>,
     tolerance: f32,
     /// Per material: shading independent of the view within the tolerance.
     plain: Vec<bool>,
@@ -238,13 +243,12 @@ pub(super) struct EpiScratch {
     best: Vec<(SurfaceHit, u32)>,
     /// Per camera column the row's views look along (the views' columns
     /// are one set shifted by whole pixels: view `p`'s sample `i` looks
-    /// along column `i + first[p]`): the ray's direction, its length per
-    /// unit of `b`, and its slope `x` (a point at `b` on it has `a = offset
-    /// + x·b`).
+    /// along column `i + EpipolarPass::first[p]`): the ray's direction, its
+    /// length per unit of `b`, and its slope `x` (a point at `b` on it has
+    /// `a = offset + x·b`).
     dirs: Vec<Vec3>,
     lens: Vec<f64>,
     slopes: Vec<f64>,
-    first: Vec<usize>,
     /// The sections by their nearest `b`.
     near: Vec<(f64, u32)>,
     /// Per gathered primitive: its shade points by `param`.
@@ -278,11 +282,17 @@ impl<'a> EpipolarPass<'a> {
         }
         let order = rig.views_by_offset();
         let (margin, reach) = rig_extent(world, camera, &order);
+        let shifts = order
+            .iter()
+            .fold((i32::MAX, i32::MIN), |(l, h), o| (l.min(o.2), h.max(o.2)));
+        let first = order.iter().map(|o| (o.2 - shifts.0) as usize).collect();
         let tol = epipolar.tolerance;
         Some(EpipolarPass {
             world,
             camera,
             visit: visit_order(n),
+            shifts,
+            first,
             order,
             tolerance: tol,
             plain: plain_materials(world, tol),
@@ -357,7 +367,7 @@ impl<'a> EpipolarPass<'a> {
                 let k = p * n + d.sample as usize;
                 let (hit, local) = s.best[k];
                 packet.origins[l] = self.camera.eye_at(self.order[p].1);
-                packet.dirs[l] = s.dirs[s.first[p] + d.sample as usize];
+                packet.dirs[l] = s.dirs[self.first[p] + d.sample as usize];
                 hits.prim[l] = s.prims[local as usize];
                 hits.hit[l] = hit;
             }
@@ -380,9 +390,7 @@ impl<'a> EpipolarPass<'a> {
     ) -> bool {
         let n = row.len();
         let (first, last) = (self.order[0], self.order[self.order.len() - 1]);
-        let shifts = self.order.iter().map(|o| o.2);
-        let (lo_shift, hi_shift) =
-            shifts.fold((i32::MAX, i32::MIN), |(l, h), s| (l.min(s), h.max(s)));
+        let (lo_shift, hi_shift) = self.shifts;
         let (c_lo, y) = row.camera_point(0, lo_shift);
         let (c_hi, _) = row.camera_point(n - 1, hi_shift);
         let (left, right) = (self.camera.eye_at(first.1), self.camera.eye_at(last.1));
@@ -435,12 +443,8 @@ impl<'a> EpipolarPass<'a> {
         // pattern, so view `p`'s sample `i` looks along the column of sample
         // 0 shifted by `i + shift`: one set of columns serves every view
         // (once, not once per view).
-        let lo_shift = self.order.iter().map(|o| o.2).min().unwrap_or(0);
-        let hi_shift = self.order.iter().map(|o| o.2).max().unwrap_or(0);
+        let (lo_shift, hi_shift) = self.shifts;
         let columns = n + (hi_shift - lo_shift) as usize;
-        s.first.clear();
-        s.first
-            .extend(self.order.iter().map(|o| (o.2 - lo_shift) as usize));
         s.dirs.clear();
         s.lens.clear();
         s.slopes.clear();
@@ -484,7 +488,7 @@ impl<'a> EpipolarPass<'a> {
             for (p, &(_, offset, shift)) in self.order.iter().enumerate() {
                 let (lo, hi) = plane.samples_of(section, offset as f64, shift, n);
                 let origin = self.camera.eye_at(offset);
-                let (base, column) = (p * n, s.first[p]);
+                let (base, column) = (p * n, self.first[p]);
                 for i in lo..hi {
                     let (k, c) = (base + i, column + i);
                     let (best, best_local) = s.best[k];
@@ -527,7 +531,7 @@ impl<'a> EpipolarPass<'a> {
         s.donations.clear();
         s.takings.clear();
         let mut cursor: Option<(u32, usize)> = None;
-        let column = s.first[p];
+        let column = self.first[p];
         #[allow(clippy::needless_range_loop)] // `i` also indexes `best` and `dirs`
         for i in 0..n {
             let (k, c) = (p * n + i, column + i);
@@ -682,7 +686,7 @@ impl<'a> EpipolarPass<'a> {
         for l in 0..count {
             let k = p * n + sample(l);
             let (hit, local) = s.best[k];
-            packet.dirs[l] = s.dirs[s.first[p] + sample(l)];
+            packet.dirs[l] = s.dirs[self.first[p] + sample(l)];
             hits.prim[l] = s.prims[local as usize];
             hits.hit[l] = hit;
         }
