@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use crate::math::Color;
 use crate::output::encode::check_rgb8;
-use crate::output::{check_pair, Layout};
+use crate::output::{check_pair, check_same_size, Layout};
 use crate::{Error, Image, Result, Rgb8Image};
 
 /// How [`interlace`] alternates the eyes.
@@ -118,12 +118,7 @@ pub fn moves_pixels_only(layout: Layout, squeeze: bool) -> bool {
 pub fn pair_frame_rgb8(left: &Rgb8Image, right: &Rgb8Image, layout: Layout) -> Result<Rgb8Image> {
     check_rgb8(left, "left image")?;
     check_rgb8(right, "right image")?;
-    if (left.width, left.height) != (right.width, right.height) {
-        return Err(Error::Invalid(format!(
-            "left and right images differ in size: {}x{} and {}x{}",
-            left.width, left.height, right.width, right.height
-        )));
-    }
+    check_same_size((left.width, left.height), (right.width, right.height))?;
     let (w, h) = (left.width, left.height);
     let frame = |width, height, bytes| Rgb8Image {
         width,
@@ -263,6 +258,32 @@ fn squeeze_rows(img: &Image) -> Result<Image> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::output::AnaglyphMethod;
+
+    #[test]
+    fn eight_bit_eyes_of_two_sizes_or_a_mixing_layout_are_refused() {
+        let eye = |w: u32, h: u32, v: u8| Rgb8Image {
+            width: w,
+            height: h,
+            bytes: vec![v; (3 * w * h) as usize],
+        };
+        let (l, r) = (eye(2, 1, 10), eye(2, 1, 20));
+        let sbs = pair_frame_rgb8(&l, &r, Layout::SideBySide).unwrap();
+        assert_eq!((sbs.width, sbs.height), (4, 1));
+        assert_eq!(sbs.bytes, [[10u8; 6], [20u8; 6]].concat());
+        let cross = pair_frame_rgb8(&l, &r, Layout::Cross).unwrap();
+        assert_eq!(cross.bytes, [[20u8; 6], [10u8; 6]].concat());
+        let err = pair_frame_rgb8(&l, &eye(3, 1, 20), Layout::TopBottom).unwrap_err();
+        assert!(err.to_string().contains("differ in size"), "{err}");
+        let short = Rgb8Image {
+            bytes: vec![0; 5],
+            ..eye(2, 1, 0)
+        };
+        let err = pair_frame_rgb8(&short, &r, Layout::SideBySide).unwrap_err();
+        assert!(err.to_string().contains("malformed"), "{err}");
+        let anaglyph = Layout::Anaglyph(AnaglyphMethod::Dubois);
+        assert!(pair_frame_rgb8(&l, &r, anaglyph).is_err());
+    }
 
     const RED: Color = Color::new(1.0, 0.0, 0.0);
     const BLUE: Color = Color::new(0.0, 0.0, 1.0);

@@ -278,10 +278,15 @@ pub(crate) fn check_image(img: &Image, what: &str) -> Result<()> {
 pub(crate) fn check_pair(left: &Image, right: &Image) -> Result<()> {
     check_image(left, "left image")?;
     check_image(right, "right image")?;
-    if (left.width, left.height) != (right.width, right.height) {
+    check_same_size((left.width, left.height), (right.width, right.height))
+}
+
+/// The eyes' sizes (`width`, `height`) are the same.
+pub(crate) fn check_same_size(left: (u32, u32), right: (u32, u32)) -> Result<()> {
+    if left != right {
         return Err(Error::Invalid(format!(
             "left and right images differ in size: {}x{} and {}x{}",
-            left.width, left.height, right.width, right.height
+            left.0, left.1, right.0, right.1
         )));
     }
     Ok(())
