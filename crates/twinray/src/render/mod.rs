@@ -769,6 +769,81 @@ struct Sampled {
     refined: u64,
 }
 
+/// Every view's pixels (or a row of them), in floats or as the files'
+/// bytes, as [`ViewStorage`] asks.
+enum Views {
+    Float(Vec<Vec<Color>>),
+    Rgb8(Vec<Vec<u8>>),
+}
+
+impl Views {
+    /// No pixels yet, room for `pixels` a view.
+    fn empty(storage: ViewStorage, views: usize, pixels: usize) -> Views {
+        match storage {
+            ViewStorage::Float => {
+                Views::Float((0..views).map(|_| Vec::with_capacity(pixels)).collect())
+            }
+            ViewStorage::Rgb8(_) => {
+                Views::Rgb8((0..views).map(|_| Vec::with_capacity(3 * pixels)).collect())
+            }
+        }
+    }
+
+    /// A row of every view's colours, kept as `storage` asks (quantised with
+    /// the writer's routine).
+    fn of_row(colors: Vec<RowColors>, storage: ViewStorage) -> Views {
+        match storage {
+            ViewStorage::Float => Views::Float(colors),
+            ViewStorage::Rgb8(opts) => Views::Rgb8(
+                colors
+                    .iter()
+                    .map(|c| {
+                        let mut bytes = vec![0u8; 3 * c.len()];
+                        crate::output::rgb8_into(c, &mut bytes, &opts);
+                        bytes
+                    })
+                    .collect(),
+            ),
+        }
+    }
+
+    /// `row` (of the same kind) after every view's pixels.
+    fn append(&mut self, row: Views) {
+        match (self, row) {
+            (Views::Float(all), Views::Float(row)) => {
+                all.iter_mut().zip(row).for_each(|(a, r)| a.extend(r))
+            }
+            (Views::Rgb8(all), Views::Rgb8(row)) => {
+                all.iter_mut().zip(row).for_each(|(a, r)| a.extend(r))
+            }
+            _ => unreachable!("one render keeps its views one way"),
+        }
+    }
+
+    /// The views as `w` x `h` images: float ones, or the files' bytes.
+    fn into_images(self, w: usize, h: usize) -> (Vec<Image>, Vec<Rgb8Image>) {
+        let (width, height) = (w as u32, h as u32);
+        match self {
+            Views::Float(views) => {
+                let images = views.into_iter().map(|pixels| Image {
+                    width,
+                    height,
+                    pixels,
+                });
+                (images.collect(), Vec::new())
+            }
+            Views::Rgb8(views) => {
+                let images = views.into_iter().map(|bytes| Rgb8Image {
+                    width,
+                    height,
+                    bytes,
+                });
+                (Vec::new(), images.collect())
+            }
+        }
+    }
+}
+
 /// Rows of pixels one task samples (`--samples N`, `--adaptive`): a fixed
 /// number, so that the film's sums do not depend on the thread count; the
 /// adaptive refinement traces the edges its rows share once.
@@ -914,35 +989,20 @@ impl Run<'_, '_> {
             dx: 0.0,
             y: (y0 + j) as f32,
         };
-        let (images, rgb8, counts) = match storage {
+        let (views, counts) = match storage {
             ViewStorage::Float => {
                 let (grids, counts) = self.lattice(w, h, pattern)?;
-                let images = grids
-                    .into_iter()
-                    .map(|pixels| Image {
-                        width: w as u32,
-                        height: h as u32,
-                        pixels,
-                    })
-                    .collect();
-                (images, Vec::new(), counts)
+                (Views::Float(grids), counts)
             }
             ViewStorage::Rgb8(opts) => {
                 // The writer's own quantisation, so the bytes are the file's.
                 let (grids, counts) = self.lattice_into(w, h, 3, pattern, |from, to| {
                     crate::output::rgb8_into(from, to, &opts)
                 })?;
-                let rgb8 = grids
-                    .into_iter()
-                    .map(|bytes| Rgb8Image {
-                        width: w as u32,
-                        height: h as u32,
-                        bytes,
-                    })
-                    .collect();
-                (Vec::new(), rgb8, counts)
+                (Views::Rgb8(grids), counts)
             }
         };
+        let (images, rgb8) = views.into_images(w, h);
         Some(Sampled {
             images,
             rgb8,
@@ -1071,57 +1131,21 @@ impl Run<'_, '_> {
                         &mut out,
                     );
                     // Kept as bytes, a row is a quarter of its colours.
-                    let bytes = match storage {
-                        ViewStorage::Float => Vec::new(),
-                        ViewStorage::Rgb8(opts) => std::mem::take(&mut out)
-                            .iter()
-                            .map(|colors| {
-                                let mut bytes = vec![0u8; 3 * colors.len()];
-                                crate::output::rgb8_into(colors, &mut bytes, &opts);
-                                bytes
-                            })
-                            .collect(),
-                    };
-                    (out, bytes, report)
+                    (Views::of_row(out, storage), report)
                 })
                 .collect::<Vec<_>>()
         })?;
         drop(corners);
-        let rows = bands.into_iter().flatten();
         counts += refine_counts;
-        let kept = matches!(storage, ViewStorage::Rgb8(_));
-        let per_view = if kept { 0 } else { w * h };
-        let mut images: Vec<Image> = (0..self.views)
-            .map(|_| Image {
-                width: w as u32,
-                height: h as u32,
-                pixels: Vec::with_capacity(per_view),
-            })
-            .collect();
-        let mut rgb8: Vec<Rgb8Image> = (0..self.views)
-            .map(|_| Rgb8Image {
-                width: w as u32,
-                height: h as u32,
-                bytes: Vec::with_capacity(if kept { 3 * w * h } else { 0 }),
-            })
-            .collect();
+        let mut views = Views::empty(storage, self.views, w * h);
         let mut total = RowRefinement::default();
-        for (row, bytes, report) in rows {
-            for (img, r) in images.iter_mut().zip(row) {
-                img.pixels.extend(r);
-            }
-            for (img, b) in rgb8.iter_mut().zip(bytes) {
-                img.bytes.extend(b);
-            }
+        for (row, report) in bands.into_iter().flatten() {
+            views.append(row);
             total.added += report.added;
             total.refined += report.refined;
             total.max_per_pixel = total.max_per_pixel.max(report.max_per_pixel);
         }
-        if kept {
-            images.clear();
-        } else {
-            rgb8.clear();
-        }
+        let (images, rgb8) = views.into_images(w, h);
         Some(Sampled {
             images,
             rgb8,
