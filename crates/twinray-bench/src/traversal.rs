@@ -12,7 +12,7 @@
 use std::path::Path;
 
 use rayon::prelude::*;
-use twinray::bvh::{AnyHit, Bvh, NearestTest, Packet, SegmentPacket, TraversalStats};
+use twinray::bvh::{AnyHit, AnyHitTest, Bvh, NearestTest, Packet, SegmentPacket, TraversalStats};
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::math::{reflect, Ray, Vec3};
 use twinray::shapes::{BlockHits, Shape, SurfaceHit, Triangle4};
@@ -355,6 +355,11 @@ pub fn shadow_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
     pass(&sets.shadow, threads, |s| any_hits(&sets.world, [*s], tree))
 }
 
+/// Whether the segment `(origin, dir, length)` meets anything, traced alone.
+pub fn shadow_blocked(w: &World, seg: &(Vec3, Vec3, f32), tree: Tree) -> bool {
+    any_hits(w, [*seg], tree) != 0
+}
+
 /// Whether each lane's segment `(origin, dir, length)`, traced as one packet,
 /// is blocked (bit `l` for lane `l`).
 #[inline(always)]
@@ -366,18 +371,13 @@ fn any_hits<const K: usize>(w: &World, segs: [(Vec3, Vec3, f32); K], tree: Tree)
         t_max: segs.map(|s| s.2),
         mask: (1 << K) - 1,
     };
-    let mut blocked = 0u64;
-    let mut test = |prim: u32, l: usize| {
-        let (o, d, len) = segs[l];
-        if shapes[prim as usize]
-            .intersect(&Ray::new(o, d), 0.0, len)
-            .is_some()
-        {
-            blocked |= 1 << l;
-            AnyHit::Stop
-        } else {
-            AnyHit::Continue
-        }
+    let rays = segs.map(|(o, d, _)| Ray::new(o, d));
+    let mut test = Blocked {
+        shapes,
+        blocks: tree.blocks(),
+        rays: &rays,
+        lengths: segs.map(|s| s.2),
+        blocked: 0,
     };
     let mut st = TraversalStats::default();
     if tree == Tree::Wide8 {
@@ -393,7 +393,50 @@ fn any_hits<const K: usize>(w: &World, segs: [(Vec3, Vec3, f32); K], tree: Tree)
     } else {
         w.bvh.occlusion_binary(&p, &mut st, &mut test)
     }
-    blocked
+    test.blocked
+}
+
+/// The renderer's any-hit test for opaque scenes (`shading::ShadowTest`):
+/// a lane stops at the first primitive its segment meets; leaves of
+/// triangles four at a time when `blocks`.
+struct Blocked<'a, const K: usize> {
+    shapes: &'a [Shape],
+    blocks: bool,
+    rays: &'a [Ray; K],
+    lengths: [f32; K],
+    /// Bit `l`: lane `l` met something.
+    blocked: u64,
+}
+
+impl<const K: usize> Blocked<'_, K> {
+    fn stop(&mut self, lane: usize) -> AnyHit {
+        self.blocked |= 1 << lane;
+        AnyHit::Stop
+    }
+}
+
+impl<const K: usize> AnyHitTest for Blocked<'_, K> {
+    #[inline(always)]
+    fn test(&mut self, prim: u32, lane: usize) -> AnyHit {
+        let shape = &self.shapes[prim as usize];
+        match shape.intersect(&self.rays[lane], 0.0, self.lengths[lane]) {
+            Some(_) => self.stop(lane),
+            None => AnyHit::Continue,
+        }
+    }
+
+    #[inline(always)]
+    fn test_block(&mut self, block: &Triangle4, prims: &[u32], lane: usize) -> Option<AnyHit> {
+        if !self.blocks {
+            return None;
+        }
+        let hits = block.intersect(&self.rays[lane], 0.0, self.lengths[lane]);
+        Some(if hits.first(prims.len()).next().is_some() {
+            self.stop(lane)
+        } else {
+            AnyHit::Continue
+        })
+    }
 }
 
 /// The work of tracing `rays` one at a time: nodes, box tests, primitive tests.
