@@ -236,7 +236,14 @@ fn check_args(args: &BenchArgs) -> Result<()> {
         bail!("--sizes must be at least 1");
     }
     if let Some(&size) = args.sizes.iter().max() {
-        let pair = twinray::job::estimate_render_memory(size, size, 2, Sampling::Centers);
+        // Its pairs are compared as floats.
+        let pair = twinray::job::estimate_render_memory(
+            size,
+            size,
+            2,
+            Sampling::Centers,
+            twinray::job::ViewsKeptAs::Floats,
+        );
         twinray::job::check_memory(
             pair.saturating_mul(2),
             twinray::job::available_memory(),

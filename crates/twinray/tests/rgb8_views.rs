@@ -6,7 +6,11 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use twinray::job::{CancelToken, InterlaceSpec, Job, JobSpec, LayoutSpec, TonemapSpec};
+use twinray::job::{
+    estimate_render_memory, CancelToken, InterlaceSpec, Job, JobSpec, LayoutSpec, TonemapSpec,
+    ViewsKeptAs,
+};
+use twinray::render::Sampling;
 
 /// A job on the bundled example scene (SPD tetra for quilts), 40x30 pixel
 /// centres, writing `name` (and the stats) into `dir`.
@@ -184,4 +188,26 @@ fn adaptive_and_stratified_samples_are_kept_as_bytes_too() {
         s
     }));
     assert!(kept_as_rgb8(|d| sampled(d, "four.png", 2, Some(4))));
+}
+
+/// The plan's memory check counts the views as `render_for_writing` keeps
+/// them: the 8-bit pixels for PNG files of pixel centres (a quarter of the
+/// floats' memory or less), floats for PFM files and anaglyphs.
+#[test]
+fn the_memory_check_counts_the_views_as_they_will_be_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let memory = |spec: JobSpec| {
+        let job = Job::check(spec).unwrap();
+        let loaded = job.load().unwrap();
+        job.plan(&loaded).unwrap().memory
+    };
+    let estimate = |kept| estimate_render_memory(40, 30, 2, Sampling::Centers, kept);
+    let png = memory(spec(dir.path(), "pair.png", 2));
+    assert_eq!(png, estimate(ViewsKeptAs::Bytes));
+    let pfm = memory(spec(dir.path(), "pair.pfm", 2));
+    assert_eq!(pfm, estimate(ViewsKeptAs::Floats));
+    let mut anaglyph = spec(dir.path(), "anaglyph.png", 2);
+    anaglyph.output.layout = LayoutSpec::Anaglyph;
+    assert_eq!(memory(anaglyph), estimate(ViewsKeptAs::Floats));
+    assert!(4 * png <= pfm, "{png} against {pfm}");
 }

@@ -33,7 +33,7 @@ pub mod tiles;
 pub use outputs::numbered;
 pub use preflight::{
     available_memory, check_memory, check_threads, estimate_render_memory, human_bytes,
-    lights_warning, MANY_LIGHTS, MAX_THREADS,
+    lights_warning, ViewsKeptAs, MANY_LIGHTS, MAX_THREADS,
 };
 pub use preview::Pass;
 pub use spec::{
@@ -186,6 +186,11 @@ pub struct Plan {
     pub messages: Vec<Message>,
     /// The pixel rows rendered: all of them, or a tile's.
     pub rows: std::ops::Range<u32>,
+    /// The memory the render and the writing need, in bytes, as estimated
+    /// and checked against what the machine has, with the views kept as
+    /// [`Job::render_for_writing`] keeps them ([`Job::render`], which keeps
+    /// floats, checks again).
+    pub memory: u64,
 }
 
 /// The views rendered, in memory.
@@ -520,7 +525,9 @@ impl Job {
         let mut files = self
             .targets(&rig, interaxial)
             .plan(written, &self.spec.scene)?;
-        self.check_memory(width, height)?;
+        // As `render_for_writing` keeps the views (`Job::render`, which keeps
+        // floats, checks again).
+        let memory = self.check_memory(width, height, self.kept_for_writing(&rig, interaxial))?;
 
         let mut build_seconds = 0.0;
         // `--fast` cuts the object tree only where the epipolar rows cannot
@@ -566,6 +573,7 @@ impl Job {
             build_seconds,
             messages: Vec::new(),
             rows,
+            memory,
         };
         let rig = &self.spec.rig;
         let rig_by_default = self.quilt.is_some()
@@ -600,10 +608,22 @@ impl Job {
         }
     }
 
-    /// Refuses a render the machine has no memory for.
-    fn check_memory(&self, width: u32, height: u32) -> Result<()> {
+    /// How `render_for_writing` keeps the views of `rig`.
+    fn kept_for_writing(&self, rig: &Rig, interaxial: f32) -> ViewsKeptAs {
+        if self.spec.rig.floating_window {
+            return ViewsKeptAs::Floats;
+        }
+        match self.targets(rig, interaxial).storage() {
+            ViewStorage::Float => ViewsKeptAs::Floats,
+            ViewStorage::Rgb8(_) => ViewsKeptAs::Bytes,
+        }
+    }
+
+    /// The memory a render needs with its views kept as `kept` (bytes);
+    /// refused where the machine has less.
+    fn check_memory(&self, width: u32, height: u32, kept: ViewsKeptAs) -> Result<u64> {
         let quilt_tiles = self.quilt.map_or(0, |q| q.layout.tiles());
-        let needed = estimate_render_memory(width, height, self.views, self.options.sampling)
+        let needed = estimate_render_memory(width, height, self.views, self.options.sampling, kept)
             .saturating_add(outputs::extra_memory(
                 width,
                 height,
@@ -616,7 +636,8 @@ impl Job {
             needed,
             available_memory(),
             &format!("rendering {} view(s) of {width}x{height}", self.views),
-        )
+        )?;
+        Ok(needed)
     }
 
     /// The loaded scene's whole hierarchy, or a new one with `cut`.
@@ -663,6 +684,11 @@ impl Job {
         progress: &(dyn Fn(u64, u64) + Sync),
         cancel: &CancelToken,
     ) -> Result<Rendered> {
+        // The plan checked the memory for views kept as bytes where the
+        // files allow it; floats take up to four times as much.
+        if self.kept_for_writing(&plan.rig, plan.interaxial) == ViewsKeptAs::Bytes {
+            self.check_memory(plan.width, plan.height, ViewsKeptAs::Floats)?;
+        }
         self.render_with(plan, &self.options, ViewStorage::Float, progress, cancel)
     }
 

@@ -43,15 +43,41 @@ pub fn lights_warning(lights: usize) -> Option<String> {
 /// Bytes of one colour (three `f32`).
 const COLOR_BYTES: u64 = 12;
 
+/// Bytes of one pixel kept as the file's 8-bit RGB.
+const RGB8_BYTES: u64 = 3;
+
+/// How a render keeps its views while it runs (`render::ViewStorage`): as
+/// floats ([`Job::render`](super::Job::render)), or as the 8-bit pixels the
+/// files hold ([`Job::render_for_writing`](super::Job::render_for_writing)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewsKeptAs {
+    Floats,
+    Bytes,
+}
+
 /// The peak memory of rendering `views` images of `width` x `height` and
-/// writing them, in bytes, not counting the scene: the larger of
+/// writing them, in bytes, not counting the scene.
+///
+/// Views kept as floats: the larger of
 /// * rendering: each view's samples twice (the rows as traced, then joined);
 /// * writing: the images, plus for a pair a composed frame of both eyes, its
 ///   8-bit copy and the encoder's buffers (a single image: its 8-bit copy).
 ///
+/// Views kept as bytes (a sampling other than the SPD's corners, which keeps
+/// floats): each view's 8-bit pixels twice (rows, then joined), plus what
+/// the sampling keeps in floats while it runs (the adaptive sampling's
+/// corner lattice, the stratified film's sums and weights); writing then
+/// needs no more than that.
+///
 /// An estimate from the buffers the renderer allocates (docs/reliability.md
 /// compares it with measured peaks); saturates instead of overflowing.
-pub fn estimate_render_memory(width: u32, height: u32, views: usize, sampling: Sampling) -> u64 {
+pub fn estimate_render_memory(
+    width: u32,
+    height: u32,
+    views: usize,
+    sampling: Sampling,
+    kept: ViewsKeptAs,
+) -> u64 {
     let (w, h) = (u64::from(width), u64::from(height));
     // Samples kept at once per view: the pixel centres, the corner lattice,
     // or the film's sums (and one weight per pixel, shared by the views).
@@ -61,6 +87,15 @@ pub fn estimate_render_memory(width: u32, height: u32, views: usize, sampling: S
     };
     let views = views as u64;
     let pixels = w.saturating_mul(h);
+    if kept == ViewsKeptAs::Bytes && !matches!(sampling, Sampling::Corners) {
+        let floats = match sampling {
+            Sampling::Centers => 0,
+            Sampling::Stratified { .. } => pixels.saturating_mul(COLOR_BYTES + 4),
+            _ => sw.saturating_mul(sh).saturating_mul(COLOR_BYTES),
+        };
+        let per_view = pixels.saturating_mul(2 * RGB8_BYTES).saturating_add(floats);
+        return per_view.saturating_mul(views);
+    }
     let image = pixels.saturating_mul(COLOR_BYTES);
     let samples = sw.saturating_mul(sh).saturating_mul(COLOR_BYTES);
     let rendering = samples.saturating_mul(2).saturating_mul(views);
@@ -138,6 +173,7 @@ pub fn human_bytes(bytes: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::Filter;
 
     #[test]
     fn thread_counts() {
@@ -159,19 +195,48 @@ mod tests {
     fn memory_estimates() {
         // One 16384² view: the samples twice (6.4 GB), the attack's 9 GB peak
         // less the copy the renderer no longer makes.
-        let mono = estimate_render_memory(16384, 16384, 1, Sampling::Centers);
+        let floats = |w, h, views, sampling| {
+            estimate_render_memory(w, h, views, sampling, ViewsKeptAs::Floats)
+        };
+        let mono = floats(16384, 16384, 1, Sampling::Centers);
         assert_eq!(mono, 2 * 16384 * 16384 * 12);
         // 32 views of 4096²: 13 GB.
-        let many = estimate_render_memory(4096, 4096, 32, Sampling::Centers);
+        let many = floats(4096, 4096, 32, Sampling::Centers);
         assert_eq!(many, 2 * 32 * 4096 * 4096 * 12);
         // A pair's output frame counts when it is the larger.
-        let pair = estimate_render_memory(10, 10, 2, Sampling::Centers);
+        let pair = floats(10, 10, 2, Sampling::Centers);
         assert_eq!(pair, 2 * 1200 + 4 * 1200 + 800);
-        assert!(estimate_render_memory(10, 10, 1, Sampling::Corners) > 2 * 1200);
+        assert!(floats(10, 10, 1, Sampling::Corners) > 2 * 1200);
+        assert_eq!(floats(u32::MAX, u32::MAX, 32, Sampling::Corners), u64::MAX);
+    }
+
+    /// Views kept as the files' bytes: 3 bytes a pixel, twice, plus the
+    /// floats the sampling keeps while it runs; the SPD's corners keep floats.
+    #[test]
+    fn memory_estimates_of_views_kept_as_bytes() {
+        let bytes = |w, h, views, sampling| {
+            estimate_render_memory(w, h, views, sampling, ViewsKeptAs::Bytes)
+        };
         assert_eq!(
-            estimate_render_memory(u32::MAX, u32::MAX, 32, Sampling::Corners),
-            u64::MAX
+            bytes(4096, 4096, 32, Sampling::Centers),
+            32 * 4096 * 4096 * 6
         );
+        let adaptive = Sampling::Adaptive {
+            threshold: 0.1,
+            max_samples: 16,
+        };
+        assert_eq!(bytes(10, 10, 2, adaptive), 2 * (600 + 11 * 11 * 12));
+        let stratified = Sampling::Stratified {
+            samples: 4,
+            filter: Filter::default(),
+            seed: 0,
+        };
+        assert_eq!(bytes(10, 10, 1, stratified), 600 + 100 * 16);
+        assert_eq!(
+            bytes(10, 10, 2, Sampling::Corners),
+            estimate_render_memory(10, 10, 2, Sampling::Corners, ViewsKeptAs::Floats)
+        );
+        assert_eq!(bytes(u32::MAX, u32::MAX, 32, adaptive), u64::MAX);
     }
 
     #[test]

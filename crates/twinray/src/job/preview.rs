@@ -112,6 +112,8 @@ impl Job {
             rows: plan.rows.start / d..plan.rows.end.div_ceil(d).min(height),
             build_seconds: 0.0,
             messages: Vec::new(),
+            // At most the full plan's.
+            memory: plan.memory,
         })
     }
 
