@@ -999,6 +999,10 @@ fn plan_messages(plan: &Plan, rig_by_default: bool) -> Vec<Message> {
         world.bvh.depth(),
         plan.build_seconds
     ))];
+    m.push(Message::info(format!(
+        "memory: about {} for the views and the files (the scene aside)",
+        human_bytes(plan.memory)
+    )));
     if plan.rig.views.len() > 1 {
         let conv = match plan.convergence {
             Some(c) => format!("{c}"),
