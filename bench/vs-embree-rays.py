@@ -68,8 +68,8 @@ def main():
         ours = {}
         for line in out.splitlines():
             w = line.split()
-            if len(w) >= 5 and re.fullmatch(r"\d+", w[2]):
-                rates = sorted(float(x) for x in w[4:])
+            if len(w) >= 7 and re.fullmatch(r"\d+", w[2]):
+                rates = sorted(float(x) for x in w[6:])
                 ours[(w[0], w[1])] = (int(w[2]), int(w[3]), rates[len(rates) // 2])
         print("%-10s %-9s %8s %12s %12s %7s %9s" % (
             "scene", "kind", "rays", "twinray_Mr/s", "embree_Mr/s", "ratio", "hit_diff"))

@@ -7,7 +7,8 @@
 //! `cargo bench -p twinray-bench --bench ray_kinds -- [--size N] [--rounds R] [--out DIR] SCENE.nff ...`
 //!
 //! Prints per scene and kind the rays, the hits (blocked segments for
-//! shadows) and the Mrays/s of each round. With `--out`, each kind's rays are
+//! shadows), the nodes visited and primitives tested per ray, and the
+//! Mrays/s of each round. With `--out`, each kind's rays are
 //! written to `DIR/NAME.KIND.f32` (per ray seven little-endian `f32`: origin,
 //! direction, far end; `inf` for rays) so that another tracer can take the
 //! same rays: `bench/vs-embree-rays.py` does, with Intel Embree.
@@ -16,7 +17,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use twinray::math::{Ray, Vec3};
-use twinray_bench::traversal::{closest, rays_pass, shadow_blocked, shadow_pass, RaySets, Tree};
+use twinray_bench::traversal::{
+    closest, rays_pass, shadow_blocked, shadow_pass, shadow_work, work, RaySets, Tree,
+};
 
 /// This thread's time on a CPU, in seconds (Linux: /proc/thread-self/schedstat).
 fn cpu_seconds() -> Option<f64> {
@@ -61,7 +64,9 @@ fn main() {
             _ => scenes.push(PathBuf::from(a)),
         }
     }
-    println!("scene      kind        rays     hits  Mrays/s per round (1 thread, CPU time)");
+    println!(
+        "scene      kind        rays     hits  nodes  prims  Mrays/s per round (1 thread, CPU time)"
+    );
     for path in scenes {
         let name = path
             .file_stem()
@@ -125,7 +130,19 @@ fn main() {
                 let rate = f64::from(passes) * n as f64 / seconds / 1e6;
                 rates.push(format!("{rate:.2}"));
             }
-            println!("{name:<10} {kind:<9} {n:>8} {hit:>8}  {}", rates.join(" "));
+            // The descent's work per ray: nodes, and primitives tested.
+            let work = match kind {
+                "eye" => work(&sets, &sets.eye, Tree::Wide8),
+                "reflected" => work(&sets, &sets.reflected, Tree::Wide8),
+                _ => shadow_work(&sets, Tree::Wide8),
+            };
+            let per = |x: u64| x as f64 / n.max(1) as f64;
+            println!(
+                "{name:<10} {kind:<9} {n:>8} {hit:>8} {:>6.2} {:>6.2}  {}",
+                per(work.nodes),
+                per(work.prim_tests),
+                rates.join(" ")
+            );
         }
     }
 }

@@ -346,24 +346,40 @@ pub fn octs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
 /// Any-hit of the four-lane shadow packets (`RaySets::shadow_quads`).
 pub fn shadow_quads_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
     pass(&sets.shadow_quads, threads, |segs| {
-        any_hits(&sets.world, *segs, tree)
+        any_hits(&sets.world, *segs, tree, &mut TraversalStats::default())
     })
 }
 
 /// Any-hit of the shadow segments, one at a time, stopping at the first blocker.
 pub fn shadow_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
-    pass(&sets.shadow, threads, |s| any_hits(&sets.world, [*s], tree))
+    pass(&sets.shadow, threads, |s| {
+        any_hits(&sets.world, [*s], tree, &mut TraversalStats::default())
+    })
 }
 
 /// Whether the segment `(origin, dir, length)` meets anything, traced alone.
 pub fn shadow_blocked(w: &World, seg: &(Vec3, Vec3, f32), tree: Tree) -> bool {
-    any_hits(w, [*seg], tree) != 0
+    any_hits(w, [*seg], tree, &mut TraversalStats::default()) != 0
+}
+
+/// The work of tracing the shadow segments one at a time.
+pub fn shadow_work(sets: &RaySets, tree: Tree) -> TraversalStats {
+    let mut st = TraversalStats::default();
+    for s in &sets.shadow {
+        any_hits(&sets.world, [*s], tree, &mut st);
+    }
+    st
 }
 
 /// Whether each lane's segment `(origin, dir, length)`, traced as one packet,
 /// is blocked (bit `l` for lane `l`).
 #[inline(always)]
-fn any_hits<const K: usize>(w: &World, segs: [(Vec3, Vec3, f32); K], tree: Tree) -> u64 {
+fn any_hits<const K: usize>(
+    w: &World,
+    segs: [(Vec3, Vec3, f32); K],
+    tree: Tree,
+    st: &mut TraversalStats,
+) -> u64 {
     let shapes = &w.scene.shapes;
     let p = SegmentPacket {
         origins: segs.map(|s| s.0),
@@ -379,19 +395,18 @@ fn any_hits<const K: usize>(w: &World, segs: [(Vec3, Vec3, f32); K], tree: Tree)
         lengths: segs.map(|s| s.2),
         blocked: 0,
     };
-    let mut st = TraversalStats::default();
     if tree == Tree::Wide8 {
-        w.bvh.occlusion_wide8(&p, &mut st, &mut test)
+        w.bvh.occlusion_wide8(&p, st, &mut test)
     } else if tree == Tree::Wide8Pair {
         if K == 2 {
-            w.bvh.occlusion_pair_wide8(&p, &mut st, &mut test)
+            w.bvh.occlusion_pair_wide8(&p, st, &mut test)
         } else {
-            w.bvh.occlusion_wide8(&p, &mut st, &mut test)
+            w.bvh.occlusion_wide8(&p, st, &mut test)
         }
     } else if tree.wide() {
-        w.bvh.occlusion_wide(&p, &mut st, &mut test)
+        w.bvh.occlusion_wide(&p, st, &mut test)
     } else {
-        w.bvh.occlusion_binary(&p, &mut st, &mut test)
+        w.bvh.occlusion_binary(&p, st, &mut test)
     }
     test.blocked
 }
@@ -452,6 +467,6 @@ pub fn work(sets: &RaySets, rays: &[Ray], tree: Tree) -> TraversalStats {
 /// at its first blocker.
 pub fn shadow_pairs_pass(sets: &RaySets, tree: Tree, threads: usize) -> u64 {
     pass(&sets.shadow_pairs, threads, |segs| {
-        any_hits(&sets.world, *segs, tree)
+        any_hits(&sets.world, *segs, tree, &mut TraversalStats::default())
     })
 }
