@@ -46,6 +46,9 @@ const COLOR_BYTES: u64 = 12;
 /// Bytes of one pixel kept as the file's 8-bit RGB.
 const RGB8_BYTES: u64 = 3;
 
+/// Bytes of one pixel of a stratified film: its sum and its weight.
+const FILM_BYTES: u64 = COLOR_BYTES + 4;
+
 /// How a render keeps its views while it runs (`render::ViewStorage`): as
 /// floats ([`Job::render`](super::Job::render)), or as the 8-bit pixels the
 /// files hold ([`Job::render_for_writing`](super::Job::render_for_writing)).
@@ -79,25 +82,36 @@ pub fn estimate_render_memory(
     kept: ViewsKeptAs,
 ) -> u64 {
     let (w, h) = (u64::from(width), u64::from(height));
-    // Samples kept at once per view: the pixel centres, the corner lattice,
-    // or the film's sums (and one weight per pixel, shared by the views).
-    let (sw, sh) = match sampling {
-        Sampling::Centers | Sampling::Stratified { .. } => (w, h),
-        Sampling::Corners | Sampling::Adaptive { .. } => (w + 1, h + 1),
-    };
     let views = views as u64;
     let pixels = w.saturating_mul(h);
+    let lattice = (w + 1).saturating_mul(h + 1);
     if kept == ViewsKeptAs::Bytes && !matches!(sampling, Sampling::Corners) {
+        // The floats a view's sampling keeps while it runs: the adaptive
+        // sampling's corner lattice, the stratified film's sums and weight
+        // (twice: the bands' and the film's, measured: docs/reliability.md).
         let floats = match sampling {
             Sampling::Centers => 0,
-            Sampling::Stratified { .. } => pixels.saturating_mul(COLOR_BYTES + 4),
-            _ => sw.saturating_mul(sh).saturating_mul(COLOR_BYTES),
+            Sampling::Stratified { .. } => pixels.saturating_mul(2 * FILM_BYTES),
+            _ => lattice.saturating_mul(COLOR_BYTES),
         };
-        let per_view = pixels.saturating_mul(2 * RGB8_BYTES).saturating_add(floats);
-        return per_view.saturating_mul(views);
+        let rendering = pixels
+            .saturating_mul(2 * RGB8_BYTES)
+            .saturating_add(floats)
+            .saturating_mul(views);
+        // The views, and a pair's composed frame and the encoder's output
+        // (a single image: the encoder's).
+        let frames = if views > 1 { 3 } else { 1 };
+        let writing = pixels.saturating_mul(RGB8_BYTES.saturating_mul(views + frames));
+        return rendering.max(writing);
     }
+    // Samples kept at once per view: the pixel centres, the corner lattice,
+    // or the film's sums and weights.
+    let samples = match sampling {
+        Sampling::Centers => pixels.saturating_mul(COLOR_BYTES),
+        Sampling::Stratified { .. } => pixels.saturating_mul(FILM_BYTES),
+        Sampling::Corners | Sampling::Adaptive { .. } => lattice.saturating_mul(COLOR_BYTES),
+    };
     let image = pixels.saturating_mul(COLOR_BYTES);
-    let samples = sw.saturating_mul(sh).saturating_mul(COLOR_BYTES);
     let rendering = samples.saturating_mul(2).saturating_mul(views);
     let extra = if views > 1 {
         // Measured (docs/reliability.md): a side-by-side pair of 2048² peaked
@@ -207,6 +221,13 @@ mod tests {
         let pair = floats(10, 10, 2, Sampling::Centers);
         assert_eq!(pair, 2 * 1200 + 4 * 1200 + 800);
         assert!(floats(10, 10, 1, Sampling::Corners) > 2 * 1200);
+        // A stratified film: each pixel's sum and weight, twice.
+        let stratified = Sampling::Stratified {
+            samples: 4,
+            filter: Filter::default(),
+            seed: 0,
+        };
+        assert_eq!(floats(10, 10, 1, stratified), 2 * 100 * 16);
         assert_eq!(floats(u32::MAX, u32::MAX, 32, Sampling::Corners), u64::MAX);
     }
 
@@ -231,7 +252,7 @@ mod tests {
             filter: Filter::default(),
             seed: 0,
         };
-        assert_eq!(bytes(10, 10, 1, stratified), 600 + 100 * 16);
+        assert_eq!(bytes(10, 10, 1, stratified), 600 + 2 * 100 * 16);
         assert_eq!(
             bytes(10, 10, 2, Sampling::Corners),
             estimate_render_memory(10, 10, 2, Sampling::Corners, ViewsKeptAs::Floats)
