@@ -14,26 +14,16 @@
 #          target/release/twinray,--epipolar-views -- ../shared/scenes/spd/{mount,tetra,tree}.nff
 # N (default 48), SIZE (default 420x560) and INTERAXIAL (default 0.02) override.
 set -euo pipefail
+source "$(dirname "$0")/binaries.sh"
 rounds=$1
 shift
-bins=()
-while [[ $# -gt 0 && $1 != -- ]]; do bins+=("$1"); shift; done
-[[ $# -gt 0 ]] && shift
-[[ ${#bins[@]} -ge 1 && $# -ge 1 ]] || { sed -n 2,15p "$0" >&2; exit 2; }
+split_binaries "$@" || { sed -n 2,15p "$0" >&2; exit 2; }
 n=${N:-48} size=${SIZE:-420x560} b=${INTERAXIAL:-0.02}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-# Runs a render; prints "render_s cpu_s".
-measure() {
-  /usr/bin/time -f '%U %S' -o "$tmp/time" "$@" --size "$size" --samples 1 --threads 1 -q \
-    --stats "$tmp/stats.json" 2>/dev/null
-  read -r u s < "$tmp/time"
-  python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time']['render_s'], $u + $s)" \
-    "$tmp/stats.json"
-}
 printf '%-8s %5s  %-40s %8s %8s %8s %8s %8s  %s\n' scene round binary mono_s n_s 2n_s \
   added added_cpu views
-for scene in "$@"; do
+for scene in "${scenes[@]}"; do
   name=$(basename "$scene" .nff)
   for round in $(seq "$rounds"); do
     for i in "${!bins[@]}"; do
@@ -42,12 +32,12 @@ for scene in "$@"; do
       mkdir -p "$tmp/v$i" "$tmp/m"
       # The mono render: the median of three by render_s.
       for k in 1 2 3; do
-        measure "${cmd[0]}" render "$scene" -o "$tmp/m/mono.png"
+        measure "${cmd[0]}" render "$scene" -o "$tmp/m/mono.png" --size "$size"
       done | sort -g | sed -n 2p > "$tmp/mono"
       read -r m_s m_cpu < "$tmp/mono"
-      read -r a_s a_cpu < <(measure "${cmd[0]}" render "$scene" -o "$tmp/m/v.png" \
+      read -r a_s a_cpu < <(measure "${cmd[0]}" render "$scene" -o "$tmp/m/v.png" --size "$size" \
         --views "$n" --interaxial "$b" "${cmd[@]:1}")
-      read -r c_s c_cpu < <(measure "${cmd[0]}" render "$scene" -o "$tmp/v$i/v.png" \
+      read -r c_s c_cpu < <(measure "${cmd[0]}" render "$scene" -o "$tmp/v$i/v.png" --size "$size" \
         --views $((2 * n)) --interaxial "$b" "${cmd[@]:1}")
       same=-
       if [[ $i -gt 0 ]]; then

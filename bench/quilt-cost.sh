@@ -14,26 +14,16 @@
 # VIEWS (default 48), QUILT (default 8x6), SIZE (default 420x560) and
 # INTERAXIAL (default 0.02) override the quilt.
 set -euo pipefail
+source "$(dirname "$0")/binaries.sh"
 rounds=$1
 shift
-bins=()
-while [[ $# -gt 0 && $1 != -- ]]; do bins+=("$1"); shift; done
-[[ $# -gt 0 ]] && shift
-[[ ${#bins[@]} -ge 1 && $# -ge 1 ]] || { sed -n 2,15p "$0" >&2; exit 2; }
+split_binaries "$@" || { sed -n 2,15p "$0" >&2; exit 2; }
 views=${VIEWS:-48} quilt=${QUILT:-8x6} size=${SIZE:-420x560} b=${INTERAXIAL:-0.02}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-# Runs a render; prints "render_s cpu_s".
-measure() {
-  /usr/bin/time -f '%U %S' -o "$tmp/time" "$@" --samples 1 --threads 1 -q \
-    --stats "$tmp/stats.json" 2>/dev/null
-  read -r u s < "$tmp/time"
-  python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time']['render_s'], $u + $s)" \
-    "$tmp/stats.json"
-}
 printf '%-8s %5s  %-40s %9s %7s %9s %7s %8s %8s  %s\n' scene round binary mono_s mono_cpu \
   quilt_s q_cpu x_render x_cpu quilt
-for scene in "$@"; do
+for scene in "${scenes[@]}"; do
   name=$(basename "$scene" .nff)
   for round in $(seq "$rounds"); do
     for i in "${!bins[@]}"; do
@@ -58,7 +48,7 @@ name, rnd, binary, m_s, m_cpu, q_s, q_cpu, same = sys.argv[1:]
 binary = binary[-40:]
 m_s, m_cpu, q_s, q_cpu = map(float, (m_s, m_cpu, q_s, q_cpu))
 print("%-8s %5s  %-40s %9.4f %7.3f %9.3f %7.3f %8.1f %8.1f  %s" % (
-    name, rnd, binary, m_s, m_cpu, q_s, q_cpu, q_s / m_s, q_cpu / m_cpu, same))
+    name, rnd, binary, m_s, m_cpu, q_s, q_cpu, q_s / m_s, q_cpu / max(m_cpu, 0.01), same))
 PY
     done
   done

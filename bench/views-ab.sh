@@ -12,18 +12,16 @@
 #          -- ../shared/scenes/spd/{balls,gears}.nff
 # SIZE (default 420x560) and INTERAXIAL (default 0.02) override the rig.
 set -euo pipefail
+source "$(dirname "$0")/binaries.sh"
 rounds=$1 views=$2
 shift 2
-bins=()
-while [[ $# -gt 0 && $1 != -- ]]; do bins+=("$1"); shift; done
-[[ $# -gt 0 ]] && shift
-[[ ${#bins[@]} -ge 1 && $# -ge 1 ]] || { sed -n 2,13p "$0" >&2; exit 2; }
+split_binaries "$@" || { sed -n 2,13p "$0" >&2; exit 2; }
 size=${SIZE:-420x560}
 b=${INTERAXIAL:-0.02}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 render_s() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time']['render_s'])" "$1"; }
-for scene in "$@"; do
+for scene in "${scenes[@]}"; do
   name=$(basename "$scene" .nff)
   for round in $(seq "$rounds"); do
     for i in "${!bins[@]}"; do
