@@ -608,12 +608,20 @@ impl Job {
         }
     }
 
-    /// How `render_for_writing` keeps the views of `rig`.
-    fn kept_for_writing(&self, rig: &Rig, interaxial: f32) -> ViewsKeptAs {
+    /// How `render_for_writing` keeps the views of `rig`: as the files'
+    /// bytes where they only show them (`Targets::storage`), but in floats
+    /// under a floating window, which masks the views after the render.
+    fn storage_for_writing(&self, rig: &Rig, interaxial: f32) -> ViewStorage {
         if self.spec.rig.floating_window {
-            return ViewsKeptAs::Floats;
+            ViewStorage::Float
+        } else {
+            self.targets(rig, interaxial).storage()
         }
-        match self.targets(rig, interaxial).storage() {
+    }
+
+    /// `storage_for_writing`, as the memory check counts it.
+    fn kept_for_writing(&self, rig: &Rig, interaxial: f32) -> ViewsKeptAs {
+        match self.storage_for_writing(rig, interaxial) {
             ViewStorage::Float => ViewsKeptAs::Floats,
             ViewStorage::Rgb8(_) => ViewsKeptAs::Bytes,
         }
@@ -708,11 +716,7 @@ impl Job {
         progress: &(dyn Fn(u64, u64) + Sync),
         cancel: &CancelToken,
     ) -> Result<Rendered> {
-        let storage = if self.spec.rig.floating_window {
-            ViewStorage::Float
-        } else {
-            self.targets(&plan.rig, plan.interaxial).storage()
-        };
+        let storage = self.storage_for_writing(&plan.rig, plan.interaxial);
         self.render_with(plan, &self.options, storage, progress, cancel)
     }
 

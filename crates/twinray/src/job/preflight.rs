@@ -59,18 +59,9 @@ pub enum ViewsKeptAs {
 }
 
 /// The peak memory of rendering `views` images of `width` x `height` and
-/// writing them, in bytes, not counting the scene.
-///
-/// Views kept as floats: the larger of
-/// * rendering: each view's samples twice (the rows as traced, then joined);
-/// * writing: the images, plus for a pair a composed frame of both eyes, its
-///   8-bit copy and the encoder's buffers (a single image: its 8-bit copy).
-///
-/// Views kept as bytes (a sampling other than the SPD's corners, which keeps
-/// floats): each view's 8-bit pixels twice (rows, then joined), plus what
-/// the sampling keeps in floats while it runs (the adaptive sampling's
-/// corner lattice, the stratified film's sums and weights); writing then
-/// needs no more than that.
+/// writing them, in bytes, not counting the scene: `floats_estimate` or,
+/// for views kept as bytes with any sampling but the SPD's corners (which
+/// keeps floats), `bytes_estimate` (each says what it counts).
 ///
 /// An estimate from the buffers the renderer allocates (docs/reliability.md
 /// compares it with measured peaks); saturates instead of overflowing.
@@ -83,45 +74,37 @@ pub fn estimate_render_memory(
 ) -> u64 {
     let (w, h) = (u64::from(width), u64::from(height));
     let views = views as u64;
+    if kept == ViewsKeptAs::Bytes && !matches!(sampling, Sampling::Corners) {
+        bytes_estimate(w, h, views, sampling)
+    } else {
+        floats_estimate(w, h, views, sampling)
+    }
+}
+
+/// Views kept as floats: the larger of
+/// * rendering: each view's samples twice (the rows as traced, then joined;
+///   a stratified film's sums and weights), and for a lattice (adaptive, the
+///   SPD's corners) the rows refined or averaged beside it, a third of an
+///   image;
+/// * writing: the images, plus for a pair a composed frame of both eyes, its
+///   8-bit copy and the encoder's buffers (a single image: its 8-bit copy).
+fn floats_estimate(w: u64, h: u64, views: u64, sampling: Sampling) -> u64 {
     let pixels = w.saturating_mul(h);
     let lattice = (w + 1).saturating_mul(h + 1);
-    if kept == ViewsKeptAs::Bytes && !matches!(sampling, Sampling::Corners) {
-        // The floats a view's sampling keeps while it runs: the adaptive
-        // sampling's corner lattice, the stratified film's sums and weight
-        // (twice: the bands' and the film's, measured: docs/reliability.md).
-        let floats = match sampling {
-            Sampling::Centers => 0,
-            Sampling::Stratified { .. } => pixels.saturating_mul(2 * FILM_BYTES),
-            _ => lattice.saturating_mul(COLOR_BYTES),
-        };
-        let rendering = pixels
-            .saturating_mul(2 * RGB8_BYTES)
-            .saturating_add(floats)
-            .saturating_mul(views);
-        // The views, and a pair's composed frame and the encoder's output
-        // (a single image: the encoder's).
-        let frames = if views > 1 { 3 } else { 1 };
-        let writing = pixels.saturating_mul(RGB8_BYTES.saturating_mul(views + frames));
-        return rendering.max(writing);
-    }
-    // Samples kept at once per view: the pixel centres, the corner lattice,
-    // or the film's sums and weights.
-    let samples = match sampling {
-        Sampling::Centers => pixels.saturating_mul(COLOR_BYTES),
-        Sampling::Stratified { .. } => pixels.saturating_mul(FILM_BYTES),
-        Sampling::Corners | Sampling::Adaptive { .. } => lattice.saturating_mul(COLOR_BYTES),
-    };
-    let image = pixels.saturating_mul(COLOR_BYTES);
-    // A refined sampling also keeps its refinement's rows (measured: a
-    // 2048² PFM of the adaptive sampling peaked 7 % above twice its lattice).
-    let refinement = match sampling {
-        Sampling::Corners | Sampling::Adaptive { .. } => pixels.saturating_mul(4),
-        _ => 0,
+    let (samples, beside) = match sampling {
+        Sampling::Centers => (pixels.saturating_mul(COLOR_BYTES), 0),
+        Sampling::Stratified { .. } => (pixels.saturating_mul(FILM_BYTES), 0),
+        // Measured: a 2048² PFM peaked 7 % above twice its lattice.
+        Sampling::Corners | Sampling::Adaptive { .. } => (
+            lattice.saturating_mul(COLOR_BYTES),
+            pixels.saturating_mul(4),
+        ),
     };
     let rendering = samples
         .saturating_mul(2)
-        .saturating_add(refinement)
+        .saturating_add(beside)
         .saturating_mul(views);
+    let image = pixels.saturating_mul(COLOR_BYTES);
     let extra = if views > 1 {
         // Measured (docs/reliability.md): a side-by-side pair of 2048² peaked
         // at 328 MB, the two images plus about four more of composition and
@@ -133,6 +116,31 @@ pub fn estimate_render_memory(
         pixels.saturating_mul(4)
     };
     let writing = image.saturating_mul(views).saturating_add(extra);
+    rendering.max(writing)
+}
+
+/// Views kept as the files' bytes: the larger of
+/// * rendering: each view's 8-bit pixels twice (rows, then joined), plus what
+///   its sampling keeps in floats while it runs (the adaptive sampling's
+///   corner lattice; the stratified film's sums and weights, twice: the
+///   bands' and the film's);
+/// * writing: the views, plus for a pair its composed frame and the
+///   encoder's output (a single image: the encoder's).
+fn bytes_estimate(w: u64, h: u64, views: u64, sampling: Sampling) -> u64 {
+    let pixels = w.saturating_mul(h);
+    let floats = match sampling {
+        Sampling::Centers => 0,
+        Sampling::Stratified { .. } => pixels.saturating_mul(2 * FILM_BYTES),
+        Sampling::Corners | Sampling::Adaptive { .. } => {
+            (w + 1).saturating_mul(h + 1).saturating_mul(COLOR_BYTES)
+        }
+    };
+    let rendering = pixels
+        .saturating_mul(2 * RGB8_BYTES)
+        .saturating_add(floats)
+        .saturating_mul(views);
+    let frames = if views > 1 { 3 } else { 1 };
+    let writing = pixels.saturating_mul(RGB8_BYTES.saturating_mul(views + frames));
     rendering.max(writing)
 }
 
@@ -261,6 +269,8 @@ mod tests {
             threshold: 0.1,
             max_samples: 16,
         };
+        // A pair's composed frame and its encoding, when that is the larger.
+        assert_eq!(bytes(10, 10, 2, Sampling::Centers), (2 + 3) * 300);
         assert_eq!(bytes(10, 10, 2, adaptive), 2 * (600 + 11 * 11 * 12));
         let stratified = Sampling::Stratified {
             samples: 4,
