@@ -16,6 +16,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use twinray::bvh::TraversalStats;
 use twinray::math::{Ray, Vec3};
 use twinray_bench::traversal::{
     closest, rays_pass, shadow_blocked, shadow_pass, shadow_work, work, RaySets, Tree,
@@ -49,96 +50,179 @@ fn write_rays(path: &Path, rays: impl Iterator<Item = (Vec3, Vec3, f32)>) -> std
     out.flush()
 }
 
-fn main() {
-    let mut args = std::env::args().skip(1).filter(|a| a != "--bench");
-    let (mut size, mut rounds, mut out, mut scenes) = (512usize, 3usize, None, Vec::new());
-    while let Some(a) = args.next() {
-        let mut value = |what: &str| {
-            args.next()
-                .unwrap_or_else(|| panic!("{what} needs a value"))
-        };
-        match a.as_str() {
-            "--size" => size = value("--size").parse().expect("--size N"),
-            "--rounds" => rounds = value("--rounds").parse().expect("--rounds R"),
-            "--out" => out = Some(PathBuf::from(value("--out"))),
-            _ => scenes.push(PathBuf::from(a)),
+/// The three kinds of rays, each traced alone.
+#[derive(Clone, Copy)]
+enum Kind {
+    Eye,
+    Reflected,
+    Shadow,
+}
+
+impl Kind {
+    const ALL: [Kind; 3] = [Kind::Eye, Kind::Reflected, Kind::Shadow];
+
+    fn name(self) -> &'static str {
+        match self {
+            Kind::Eye => "eye",
+            Kind::Reflected => "reflected",
+            Kind::Shadow => "shadow",
         }
     }
+
+    /// The rays of this kind as segments (origin, direction, far end).
+    fn segments(self, sets: &RaySets) -> Vec<(Vec3, Vec3, f32)> {
+        let as_segment = |r: &Ray| (r.origin, r.dir, f32::INFINITY);
+        match self {
+            Kind::Eye => sets.eye.iter().map(as_segment).collect(),
+            Kind::Reflected => sets.reflected.iter().map(as_segment).collect(),
+            Kind::Shadow => sets.shadow.clone(),
+        }
+    }
+
+    /// The rays, for the nearest-hit kinds.
+    fn rays(self, sets: &RaySets) -> &[Ray] {
+        match self {
+            Kind::Eye => &sets.eye,
+            Kind::Reflected => &sets.reflected,
+            Kind::Shadow => &[],
+        }
+    }
+
+    /// How many rays there are.
+    fn len(self, sets: &RaySets) -> usize {
+        match self {
+            Kind::Shadow => sets.shadow.len(),
+            _ => self.rays(sets).len(),
+        }
+    }
+
+    /// How many rays hit something (segments: are blocked).
+    fn hits(self, sets: &RaySets) -> usize {
+        let world = &sets.world;
+        match self {
+            Kind::Shadow => sets
+                .shadow
+                .iter()
+                .filter(|s| shadow_blocked(world, s, Tree::Wide8))
+                .count(),
+            _ => self
+                .rays(sets)
+                .iter()
+                .filter(|r| {
+                    let (p, _) =
+                        closest(&world.bvh, world, r, Tree::Wide8, &mut Default::default());
+                    p != u32::MAX
+                })
+                .count(),
+        }
+    }
+
+    /// One pass over every ray on one thread: a checksum of the hits.
+    fn pass(self, sets: &RaySets) -> u64 {
+        match self {
+            Kind::Shadow => shadow_pass(sets, Tree::Wide8, 1),
+            _ => rays_pass(sets, self.rays(sets), Tree::Wide8, 1),
+        }
+    }
+
+    /// The descent's work over every ray.
+    fn work(self, sets: &RaySets) -> TraversalStats {
+        match self {
+            Kind::Shadow => shadow_work(sets, Tree::Wide8),
+            _ => work(sets, self.rays(sets), Tree::Wide8),
+        }
+    }
+}
+
+/// What the command line asks: ray sets of `size`², `rounds` timings, the
+/// rays written under `out`, the scenes.
+struct Args {
+    size: usize,
+    rounds: usize,
+    out: Option<PathBuf>,
+    scenes: Vec<PathBuf>,
+}
+
+fn parse_args() -> Result<Args, String> {
+    let mut args = std::env::args().skip(1).filter(|a| a != "--bench");
+    let mut parsed = Args {
+        size: 512,
+        rounds: 3,
+        out: None,
+        scenes: Vec::new(),
+    };
+    while let Some(a) = args.next() {
+        let mut value = |what: &str| args.next().ok_or(format!("{what} needs a value"));
+        match a.as_str() {
+            "--size" => {
+                parsed.size = value("--size")?
+                    .parse()
+                    .map_err(|_| "--size takes a number of pixels")?
+            }
+            "--rounds" => {
+                parsed.rounds = value("--rounds")?
+                    .parse()
+                    .map_err(|_| "--rounds takes a number")?
+            }
+            "--out" => parsed.out = Some(PathBuf::from(value("--out")?)),
+            _ => parsed.scenes.push(PathBuf::from(a)),
+        }
+    }
+    Ok(parsed)
+}
+
+fn main() {
+    let args = match parse_args() {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("ray_kinds: {e}\nusage: ray_kinds [--size N] [--rounds R] [--out DIR] SCENE.nff ...");
+            std::process::exit(2);
+        }
+    };
     println!(
         "scene      kind        rays     hits  nodes  prims  Mrays/s per round (1 thread, CPU time)"
     );
-    for path in scenes {
+    for path in &args.scenes {
         let name = path
             .file_stem()
             .map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
-        let sets = match RaySets::load(&path, size) {
+        let sets = match RaySets::load(path, args.size) {
             Ok(s) => s,
             Err(e) => {
                 eprintln!("skipping {}: {e}", path.display());
                 continue;
             }
         };
-        let as_segment = |r: &Ray| (r.origin, r.dir, f32::INFINITY);
-        if let Some(dir) = &out {
-            let file = |kind: &str| dir.join(format!("{name}.{kind}.f32"));
-            let written = write_rays(&file("eye"), sets.eye.iter().map(as_segment))
-                .and_then(|()| {
-                    write_rays(&file("reflected"), sets.reflected.iter().map(as_segment))
-                })
-                .and_then(|()| write_rays(&file("shadow"), sets.shadow.iter().copied()));
-            if let Err(e) = written {
-                eprintln!("{}: {e}", dir.display());
-                std::process::exit(1);
+        for kind in Kind::ALL {
+            if let Some(dir) = &args.out {
+                let file = dir.join(format!("{name}.{}.f32", kind.name()));
+                if let Err(e) = write_rays(&file, kind.segments(&sets).into_iter()) {
+                    eprintln!("{}: {e}", file.display());
+                    std::process::exit(1);
+                }
             }
-        }
-        let world = &sets.world;
-        // Hits (blocked segments) counted once, for the other tracer to agree with.
-        let hits = |rays: &[Ray]| {
-            rays.iter()
-                .filter(|r| {
-                    let (p, _) =
-                        closest(&world.bvh, world, r, Tree::Wide8, &mut Default::default());
-                    p != u32::MAX
-                })
-                .count()
-        };
-        let kinds: [(&str, usize, usize); 3] = [
-            ("eye", sets.eye.len(), hits(&sets.eye)),
-            ("reflected", sets.reflected.len(), hits(&sets.reflected)),
-            ("shadow", sets.shadow.len(), {
-                let blocked = sets.shadow.iter();
-                blocked
-                    .filter(|s| shadow_blocked(world, s, Tree::Wide8))
-                    .count()
-            }),
-        ];
-        for (kind, n, hit) in kinds {
+            let n = kind.len(&sets);
             let mut rates = Vec::new();
-            let pass = || match kind {
-                "eye" => rays_pass(&sets, &sets.eye, Tree::Wide8, 1),
-                "reflected" => rays_pass(&sets, &sets.reflected, Tree::Wide8, 1),
-                _ => shadow_pass(&sets, Tree::Wide8, 1),
-            };
-            for _ in 0..rounds {
+            for _ in 0..args.rounds {
                 // Passes until a quarter second of CPU: the thread's clock
                 // ticks in milliseconds.
                 let (mut seconds, mut passes) = (0.0, 0u32);
                 while seconds < 0.25 {
-                    seconds += timed(pass).0;
+                    let (s, sum) = timed(|| kind.pass(&sets));
+                    std::hint::black_box(sum);
+                    seconds += s;
                     passes += 1;
                 }
                 let rate = f64::from(passes) * n as f64 / seconds / 1e6;
                 rates.push(format!("{rate:.2}"));
             }
             // The descent's work per ray: nodes, and primitives tested.
-            let work = match kind {
-                "eye" => work(&sets, &sets.eye, Tree::Wide8),
-                "reflected" => work(&sets, &sets.reflected, Tree::Wide8),
-                _ => shadow_work(&sets, Tree::Wide8),
-            };
+            let work = kind.work(&sets);
             let per = |x: u64| x as f64 / n.max(1) as f64;
             println!(
-                "{name:<10} {kind:<9} {n:>8} {hit:>8} {:>6.2} {:>6.2}  {}",
+                "{name:<10} {:<9} {n:>8} {:>8} {:>6.2} {:>6.2}  {}",
+                kind.name(),
+                kind.hits(&sets),
                 per(work.nodes),
                 per(work.prim_tests),
                 rates.join(" ")
