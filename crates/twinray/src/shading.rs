@@ -15,8 +15,9 @@ use crate::bvh::{AnyHit, AnyHitTest, SegmentPacket, TraversalStats};
 use crate::lights::Light;
 use crate::math::{Color, Ray, Vec3};
 use crate::scene::{AlphaMode, Material};
-use crate::shapes::{BlockHits, SurfaceHit, Triangle4};
+use crate::shapes::{BlockHits, EightRays, Shape, SurfaceHit, Triangle4};
 use crate::world::World;
+use wide::f32x8;
 
 /// Distance a secondary ray's origin is moved off the surface, relative to the
 /// magnitude of the coordinates involved (rounding of the hit point grows with it).
@@ -122,6 +123,7 @@ fn shadow_packet_with<const K: usize, const ALPHA: bool>(
         segments,
         through: std::array::from_fn(|_| Transmittance::default()),
         blocker: [None; K],
+        eight: None,
     };
     world.bvh.occlusion(segments, stats, &mut test);
     let (mut through, mut blocker) = (test.through, test.blocker);
@@ -139,6 +141,7 @@ fn shadow_packet_with<const K: usize, const ALPHA: bool>(
             segments: &rest,
             through,
             blocker,
+            eight: None,
         };
         far.occlusion(&rest, stats, &mut test);
         (through, blocker) = (test.through, test.blocker);
@@ -153,6 +156,9 @@ struct ShadowTest<'a, const K: usize, const ALPHA: bool> {
     segments: &'a SegmentPacket<K>,
     through: [Transmittance; K],
     blocker: [Option<u32>; K],
+    /// The segments as eight rays and their lengths, made at the first
+    /// `test_lanes`.
+    eight: Option<(EightRays, f32x8)>,
 }
 
 impl<const K: usize, const ALPHA: bool> ShadowTest<'_, K, ALPHA> {
@@ -206,6 +212,49 @@ impl<const K: usize, const ALPHA: bool> AnyHitTest for ShadowTest<'_, K, ALPHA> 
     fn test_block(&mut self, block: &Triangle4, prims: &[u32], lane: usize) -> Option<AnyHit> {
         let hits = block.intersect(&self.ray(lane), 0.0, self.segments.t_max[lane]);
         Some(self.met_block(&hits, prims, lane))
+    }
+
+    /// Spheres and cones, for up to eight lanes at once (`Shape::intersect8`,
+    /// each lane bit for bit the single test).
+    #[inline(always)]
+    fn test_lanes(&mut self, prim: u32, lanes: u32) -> Option<u32> {
+        if K > 8 {
+            return None;
+        }
+        let shape = &self.world.scene.shapes[prim as usize];
+        if matches!(shape, Shape::Triangle(_)) {
+            return None;
+        }
+        let (rays, t_max) = match self.eight {
+            Some(eight) => eight,
+            None => {
+                let lane = |l: usize| if l < K { l } else { 0 };
+                let eight = (
+                    EightRays::new(|l| self.ray(lane(l))),
+                    f32x8::from(std::array::from_fn::<f32, 8, _>(|l| {
+                        self.segments.t_max[lane(l)]
+                    })),
+                );
+                self.eight = Some(eight);
+                eight
+            }
+        };
+        let hits = shape.intersect8(&rays, 0.0, t_max)?;
+        let mut met = hits.mask & lanes;
+        let mut stopped = 0;
+        while met != 0 {
+            let l = met.trailing_zeros() as usize;
+            met &= met - 1;
+            let hit = SurfaceHit {
+                t: hits.t[l],
+                u: 0.0,
+                v: 0.0,
+            };
+            if self.met(prim, l, &hit) == AnyHit::Stop {
+                stopped |= 1 << l;
+            }
+        }
+        Some(stopped)
     }
 
     #[inline(always)]

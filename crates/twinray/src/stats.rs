@@ -57,6 +57,8 @@ pub struct TraceCounts {
     pub nodes: u64,
     pub box_tests: u64,
     pub prim_tests: u64,
+    /// Of `prim_tests`, those made eight lanes at a time.
+    pub prim_tests_in_lanes: u64,
     /// `--share-shading`: samples shaded exactly and kept for other views
     /// (`cache_entries`), of those refused for a shadow edge next to them
     /// (`cache_edge_refusals`); samples that took a kept sample's light
@@ -133,6 +135,7 @@ impl TraceCounts {
         self.nodes += t.nodes;
         self.box_tests += t.box_tests;
         self.prim_tests += t.prim_tests;
+        self.prim_tests_in_lanes += t.prim_tests_in_lanes;
     }
 }
 
@@ -234,6 +237,9 @@ pub struct Report {
     pub nodes_visited: u64,
     pub box_tests: u64,
     pub primitive_tests: u64,
+    /// Of `primitive_tests`, those made eight lanes (rays) at a time: a
+    /// packet's rays against one sphere or cone.
+    pub primitive_tests_in_lanes: u64,
     /// Section 2.3: the depth of the cut and the primitives beyond it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cut_depth: Option<f32>,
@@ -316,6 +322,7 @@ impl Report {
         self.nodes_visited = c.nodes;
         self.box_tests = c.box_tests;
         self.primitive_tests = c.prim_tests;
+        self.primitive_tests_in_lanes = c.prim_tests_in_lanes;
         self.shadow_cache_tests = c.shadow_cache_tests;
         self.shadow_cache_hits = c.shadow_cache_hits;
     }
@@ -385,8 +392,10 @@ mod tests {
             nodes: 1,
             box_tests: 2,
             prim_tests: 3,
+            prim_tests_in_lanes: 2,
         });
         assert_eq!((a.nodes, a.box_tests, a.prim_tests), (15, 2, 3));
+        assert_eq!(a.prim_tests_in_lanes, 2);
     }
 
     #[test]

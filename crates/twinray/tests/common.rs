@@ -209,3 +209,38 @@ pub fn difference(exact: &RenderOutput, out: &RenderOutput) -> (f32, usize) {
     }
     (worst, differ)
 }
+
+/// Rings of tilted cylinders joined by spheres (SPD rings' shape), opaque,
+/// over a floor; one light.
+pub fn rings(count: usize, seed: u64) -> String {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let mut text = String::from(
+        "v\nfrom 0 -12 4\nat 0 0 0\nup 0 0 1\nangle 40\nhither 0.01\nresolution 64 64\n\
+         b 0.1 0.2 0.3\nl 4 -6 9\nf 0.8 0.8 0.8 0.7 0.2 20 0 1\n\
+         p 4\n-9 -9 -2\n9 -9 -2\n9 9 -2\n-9 9 -2\nf 0.9 0.2 0.2 0.5 0.5 30 0 1\n",
+    );
+    for _ in 0..count {
+        let c = twinray::math::Vec3::new(
+            rng.f32() * 10.0 - 5.0,
+            rng.f32() * 10.0 - 5.0,
+            rng.f32() * 3.0,
+        );
+        let (a, b) = (rng.f32() * 6.3, rng.f32() * 1.5);
+        let (u, v) = (
+            twinray::math::Vec3::new(a.cos(), a.sin(), 0.0),
+            twinray::math::Vec3::new(-a.sin() * b.cos(), a.cos() * b.cos(), b.sin()),
+        );
+        let corner = |k: usize| {
+            let t = k as f32 * std::f32::consts::TAU / 5.0;
+            c + (u * t.cos() + v * t.sin()) * 0.6
+        };
+        for k in 0..5 {
+            let (p, q) = (corner(k), corner(k + 1));
+            text += &format!(
+                "c {} {} {} 0.05 {} {} {} 0.05\ns {} {} {} 0.05\n",
+                p.x, p.y, p.z, q.x, q.y, q.z, p.x, p.y, p.z
+            );
+        }
+    }
+    text
+}

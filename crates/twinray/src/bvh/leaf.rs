@@ -16,7 +16,8 @@
 
 use super::traverse::LaneHit;
 use super::{AnyHit, AnyHitTest, Bvh, NearestTest, PacketHits, TraversalStats};
-use crate::shapes::{BlockHits, LeafBlocks, Shape, Triangle4, BLOCK};
+use crate::shapes::{BlockHits, LeafBlocks, Shape, SurfaceHit, Triangle4, BLOCK};
+use wide::f32x8;
 
 /// A leaf: its primitives, and their blocks if the tree holds them so (one
 /// per `BLOCK` primitives, in order), else none.
@@ -97,6 +98,52 @@ pub(super) fn leaf_lane<T: NearestTest>(
     if leaf.blocks.is_empty() {
         scalar_lane(leaf.prims, lane, state, test);
     }
+}
+
+/// The lanes `lanes` of a packet of eight against a leaf of spheres and
+/// cones (no blocks), primitive by primitive, all the lanes at once where
+/// the test takes them (`NearestTest::test_lanes`), each lane's nearest hit
+/// improved in `best` and `out` as `leaf_lane` improves it: a lane meets the
+/// primitives in the same order with the same bounds. Returns the lane
+/// tests made together.
+#[inline(always)]
+pub(super) fn leaf_lanes<T: NearestTest>(
+    prims: &[u32],
+    lanes: u32,
+    best: &mut [f32; 8],
+    out: &mut PacketHits<8>,
+    test: &mut T,
+) -> u64 {
+    let mut in_lanes = 0;
+    for &prim in prims {
+        let bounds = f32x8::from(best.map(f32::next_up));
+        let found = test.test_lanes(prim, lanes, bounds);
+        if found.is_some() {
+            in_lanes += lanes.count_ones() as u64;
+        }
+        let mut each = lanes;
+        while each != 0 {
+            let l = each.trailing_zeros() as usize;
+            each &= each - 1;
+            let hit = match &found {
+                Some(h) if h.mask & (1 << l) != 0 => Some(SurfaceHit {
+                    t: h.t[l],
+                    u: 0.0,
+                    v: 0.0,
+                }),
+                Some(_) => None,
+                None => test.test(prim, l, best[l].next_up()),
+            };
+            if let Some(h) = hit {
+                if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
+                    best[l] = h.t;
+                    out.prim[l] = prim;
+                    out.hit[l] = h;
+                }
+            }
+        }
+    }
+    in_lanes
 }
 
 #[inline(always)]
@@ -229,7 +276,7 @@ pub(super) fn occlusion_leaf<T: AnyHitTest>(
 ) {
     if leaf.blocks.is_empty() {
         stats.prim_tests += (leaf.prims.len() * (mask & *live).count_ones() as usize) as u64;
-        occlusion_prims(leaf.prims, pair, mask, live, test);
+        stats.prim_tests_in_lanes += occlusion_prims(leaf.prims, pair, mask, live, test);
         return;
     }
     for (k, block) in leaf.blocks.iter().enumerate() {
@@ -262,7 +309,8 @@ pub(super) fn occlusion_leaf<T: AnyHitTest>(
 }
 
 /// The live lanes of `mask` against `prims` one by one (a pair's both
-/// lanes against each primitive at once).
+/// lanes against each primitive at once, and more lanes too where the test
+/// takes them, `test_lanes`). Returns the lane tests made together.
 #[inline(always)]
 fn occlusion_prims<T: AnyHitTest>(
     prims: &[u32],
@@ -270,7 +318,8 @@ fn occlusion_prims<T: AnyHitTest>(
     mask: u32,
     live: &mut u32,
     test: &mut T,
-) {
+) -> u64 {
+    let mut in_lanes = 0;
     for &prim in prims {
         if pair && mask & *live == 0b11 {
             for (l, a) in test.test_pair(prim).into_iter().enumerate() {
@@ -280,15 +329,25 @@ fn occlusion_prims<T: AnyHitTest>(
             }
             continue;
         }
-        let mut lanes = mask & *live;
-        while lanes != 0 {
-            let l = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
+        let lanes = mask & *live;
+        if lanes & lanes.wrapping_sub(1) != 0 {
+            // Two lanes or more: all at once where the test takes them.
+            if let Some(stopped) = test.test_lanes(prim, lanes) {
+                *live &= !stopped;
+                in_lanes += lanes.count_ones() as u64;
+                continue;
+            }
+        }
+        let mut each = lanes;
+        while each != 0 {
+            let l = each.trailing_zeros() as usize;
+            each &= each - 1;
             if test.test(prim, l) == AnyHit::Stop {
                 *live &= !(1 << l);
             }
         }
     }
+    in_lanes
 }
 
 #[cfg(test)]

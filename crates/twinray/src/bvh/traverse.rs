@@ -17,9 +17,9 @@
 use super::leaf::{leaf_lane, occlusion_lane, occlusion_leaf, test_leaf};
 use super::{Bvh, Node};
 use crate::math::{Aabb, Vec3};
-use crate::shapes::{BlockHits, SurfaceHit, Triangle4};
+use crate::shapes::{BlockHits, EightHits, SurfaceHit, Triangle4};
 use arrayvec::ArrayVec;
-use wide::f32x4;
+use wide::{f32x4, f32x8};
 
 /// Rays `origins[l] + t * dirs[l]`, `t_min < t < t_max[l]`, one per active
 /// lane. Lanes not in `mask` are ignored.
@@ -126,6 +126,9 @@ pub struct TraversalStats {
     pub box_tests: u64,
     /// Primitive tests, one per lane and primitive.
     pub prim_tests: u64,
+    /// Of `prim_tests`, those made with other lanes in one eight-lane test
+    /// (`test_lanes`: a packet's lanes in a leaf of spheres and cones).
+    pub prim_tests_in_lanes: u64,
 }
 
 /// The primitive test of a nearest-hit traversal.
@@ -138,6 +141,15 @@ pub trait NearestTest {
     #[inline(always)]
     fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
         [self.test(prim, 0, t_max[0]), self.test(prim, 1, t_max[1])]
+    }
+
+    /// The lanes `lanes` of a packet of eight against primitive `prim` at
+    /// once, lane `l` with the bound `t_max[l]`: bit `l` and `t[l]` are what
+    /// `test` returns for lane `l` (a sphere's or a cone's hit, whose `u`
+    /// and `v` are 0). `None`: the traversal tests the lanes one by one.
+    #[inline(always)]
+    fn test_lanes(&mut self, _prim: u32, _lanes: u32, _t_max: f32x8) -> Option<EightHits> {
+        None
     }
 
     /// Lane `lane` against a block of a leaf's triangles at once
@@ -199,6 +211,14 @@ pub trait AnyHitTest {
     /// `None`: the traversal tests them one by one.
     #[inline(always)]
     fn test_block(&mut self, _block: &Triangle4, _prims: &[u32], _lane: usize) -> Option<AnyHit> {
+        None
+    }
+
+    /// The lanes `lanes` (of a packet of at most eight) against primitive
+    /// `prim` at once: must do for each lane what `test` does, and returns
+    /// the lanes it stopped. `None`: the traversal tests them one by one.
+    #[inline(always)]
+    fn test_lanes(&mut self, _prim: u32, _lanes: u32) -> Option<u32> {
         None
     }
 

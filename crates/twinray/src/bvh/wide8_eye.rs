@@ -24,7 +24,7 @@
 //! nearest hit (ties to the lower index) is the one it gets alone, whatever
 //! the order the packet visits nodes in (see `traverse.rs`).
 
-use super::leaf::leaf_lane;
+use super::leaf::{leaf_lane, leaf_lanes};
 use super::traverse::{LaneHit, SingleRay, CULL_SLACK, ROBUST, STACK};
 use super::wide::{take_nearest, Entry};
 use super::wide8::{Node8, WIDTH8};
@@ -169,7 +169,7 @@ impl Bvh {
         let mut best = packet.t_max;
         let slack = f32x8::splat(CULL_SLACK);
         let mut bound = f32x8::from(best) * slack;
-        let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
+        let (mut nodes, mut boxes, mut prims, mut in_lanes) = (0u64, 0u64, 0u64, 0u64);
         let mut stack = ArrayVec::<EyeEntry, STACK>::new();
         let mut current = Some(EyeEntry {
             tn: rays.t_min,
@@ -199,6 +199,15 @@ impl Bvh {
             } else if lanes != 0 && e.count > 0 {
                 nodes += 1;
                 let leaf = self.leaf(e.child, e.count);
+                if leaf.blocks.is_empty() {
+                    // Spheres and cones: primitive by primitive, the lanes
+                    // at once (`leaf_lanes`).
+                    prims += (e.count * lanes.count_ones()) as u64;
+                    in_lanes += leaf_lanes(leaf.prims, lanes, &mut best, &mut out, test);
+                    bound = f32x8::from(best) * slack;
+                    current = stack.pop();
+                    continue;
+                }
                 let mut ls = lanes;
                 while ls != 0 {
                     let l = ls.trailing_zeros() as usize;
@@ -249,6 +258,7 @@ impl Bvh {
         stats.nodes += nodes;
         stats.box_tests += boxes;
         stats.prim_tests += prims;
+        stats.prim_tests_in_lanes += in_lanes;
         Some(out)
     }
 }

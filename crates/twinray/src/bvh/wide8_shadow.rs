@@ -17,7 +17,7 @@
 //! answer is what it is alone: the objects it meets are the same set (the
 //! transmittance is their sorted product), or an opaque one stops it.
 
-use super::leaf::occlusion_lane;
+use super::leaf::{occlusion_lane, occlusion_leaf};
 use super::traverse::{SingleRay, STACK};
 use super::wide8::WIDTH8;
 use super::wide8_eye::{Rays8, EYE_PACKET};
@@ -80,6 +80,16 @@ impl Bvh {
             nodes += 1;
             if count > 0 {
                 let leaf = self.leaf(child, count);
+                if leaf.blocks.is_empty() {
+                    // Primitive by primitive, the lanes that entered the leaf
+                    // together (`test_lanes`): each lane meets the primitives
+                    // in the order it meets them alone.
+                    occlusion_leaf(leaf, false, lanes, &mut live, stats, test);
+                    if live == 0 {
+                        break;
+                    }
+                    continue;
+                }
                 let mut each = lanes;
                 while each != 0 {
                     let l = each.trailing_zeros() as usize;

@@ -24,9 +24,10 @@ use crate::math::{reflect, refract, Color, Ray, Vec3};
 use crate::shading::{
     blocks, light_contribution, offset_point, shadow_packet, toward_light, SurfacePoint,
 };
-use crate::shapes::{BlockHits, Shape, SurfaceHit, Triangle4};
+use crate::shapes::{BlockHits, EightHits, EightRays, Shape, SurfaceHit, Triangle4};
 use crate::stats::TraceCounts;
 use crate::world::World;
+use wide::f32x8;
 
 /// How deep and how far the tracer follows rays.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -309,6 +310,7 @@ impl<'a> Tracer<'a> {
         let test = NearestShape {
             shapes: &world.scene.shapes,
             packet,
+            eight: None,
         };
         let (prim, hit) = world
             .bvh
@@ -346,6 +348,7 @@ impl<'a> Tracer<'a> {
         let test = NearestShape {
             shapes: &world.scene.shapes,
             packet,
+            eight: None,
         };
         let hits = world
             .bvh
@@ -644,6 +647,7 @@ impl<'a> Tracer<'a> {
         let test = NearestShape {
             shapes: &self.world.scene.shapes,
             packet,
+            eight: None,
         };
         bvh.closest(packet, &mut self.traversal, test)
     }
@@ -1180,6 +1184,8 @@ impl<'a> Tracer<'a> {
 struct NearestShape<'a, const K: usize> {
     shapes: &'a [Shape],
     packet: &'a Packet<K>,
+    /// The packet as eight rays, made at the first `test_lanes`.
+    eight: Option<EightRays>,
 }
 
 impl<const K: usize> NearestShape<'_, K> {
@@ -1199,6 +1205,25 @@ impl<const K: usize> NearestTest for NearestShape<'_, K> {
     fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
         let rays = [self.ray(0), self.ray(1 % K)];
         self.shapes[prim as usize].intersect_pair(&rays, self.packet.t_min, t_max)
+    }
+
+    /// Spheres and cones, for up to eight lanes at once (`Shape::intersect8`,
+    /// each lane bit for bit the single test).
+    #[inline(always)]
+    fn test_lanes(&mut self, prim: u32, _lanes: u32, t_max: f32x8) -> Option<EightHits> {
+        let shape = &self.shapes[prim as usize];
+        if K > 8 || matches!(shape, Shape::Triangle(_)) {
+            return None;
+        }
+        let rays = match self.eight {
+            Some(rays) => rays,
+            None => {
+                let rays = EightRays::new(|l| self.ray(if l < K { l } else { 0 }));
+                self.eight = Some(rays);
+                rays
+            }
+        };
+        shape.intersect8(&rays, self.packet.t_min, t_max)
     }
 
     /// The leaves of triangles as SIMD blocks: one routine for every method.

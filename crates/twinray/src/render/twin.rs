@@ -1161,7 +1161,7 @@ mod tests {
         assert_eq!((a.grouped_samples, b.grouped_samples), (0, 0));
         for c in [&mut a, &mut b] {
             (c.shared_secondary, c.shared_secondary_rays) = (0, 0);
-            (c.nodes, c.box_tests, c.prim_tests) = (0, 0, 0);
+            (c.nodes, c.box_tests, c.prim_tests, c.prim_tests_in_lanes) = (0, 0, 0, 0);
             (
                 c.closest_traversals,
                 c.shadow_cache_tests,

@@ -10,14 +10,14 @@ pub struct Cone {
     pub apex: Vec3,
     pub apex_radius: f32,
     /// Unit vector from base to apex.
-    axis: Vec3,
-    height: f32,
+    pub(super) axis: Vec3,
+    pub(super) height: f32,
     /// Radius change per unit of height.
-    slope: f32,
+    pub(super) slope: f32,
     pub inside: bool,
     /// `slope * slope`, computed once: the only factor of a test that does
     /// not depend on the ray (the same product, so the same bits).
-    slope_squared: f32,
+    pub(super) slope_squared: f32,
 }
 
 /// See `Cone::pieces`.

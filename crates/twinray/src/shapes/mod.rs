@@ -5,11 +5,13 @@
 //! or the per-vertex normals of its patch, so shading never sees the split.
 
 mod cone;
+mod lanes8;
 mod sphere;
 mod triangle;
 mod triangle4;
 
 pub use cone::Cone;
+pub use lanes8::{EightHits, EightRays};
 pub use sphere::Sphere;
 pub use triangle::{Corners, Triangle, TriangleNormals, Uv};
 pub use triangle4::{BlockHits, LeafBlocks, Triangle4, BLOCK};
@@ -64,6 +66,22 @@ impl Shape {
             Shape::Sphere(s) => s.intersect(ray, t_min, t_max),
             Shape::Triangle(t) => t.intersect(ray, t_min, t_max),
             Shape::Cone(c) => c.intersect(ray, t_min, t_max),
+        }
+    }
+
+    /// `intersect` for eight rays at once (`shapes::lanes8`), bit for bit
+    /// the single answers; `None` for a triangle (its leaves have blocks).
+    #[inline(always)]
+    pub fn intersect8(
+        &self,
+        rays: &EightRays,
+        t_min: f32,
+        t_max: wide::f32x8,
+    ) -> Option<EightHits> {
+        match self {
+            Shape::Sphere(s) => Some(s.intersect8(rays, t_min, t_max)),
+            Shape::Cone(c) => Some(c.intersect8(rays, t_min, t_max)),
+            Shape::Triangle(_) => None,
         }
     }
 
