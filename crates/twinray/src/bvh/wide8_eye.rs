@@ -9,8 +9,11 @@
 //! first (by the entry of the first ray that entered each); a ray is
 //! dropped at a pop when its own nearest hit is nearer than its own entry
 //! (`CULL_SLACK`), and a subtree only one ray entered is finished by that
-//! ray's single descent (`wide8_single`). Leaves are tested ray by ray
-//! (`leaf_lane`, the single descent's leaf test). The same descent serves
+//! ray's single descent (`wide8_single`). Leaves of triangle blocks are
+//! tested ray by ray (`leaf_lane`, the single descent's leaf test); leaves
+//! of spheres and cones primitive by primitive, each for all the rays that
+//! entered the leaf in one eight-lane test (`leaf_lanes`, `test_lanes`),
+//! each lane bit for bit its own test. The same descent serves
 //! the secondary rays of a shading packet of eight (`Bvh::closest`, through
 //! `closest_packet8_or_each`), whose lanes start from eight points.
 //!

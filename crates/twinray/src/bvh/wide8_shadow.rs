@@ -8,7 +8,10 @@
 //! once; a child is stacked with the segments that entered it; a segment
 //! leaves the descent when its test says stop (an opaque object: full
 //! shadow); a subtree only one segment entered is finished by that segment's
-//! own descent (`wide8_occlusion_single`).
+//! own descent (`wide8_occlusion_single`). A leaf of spheres and cones is
+//! tested primitive by primitive for all the segments that entered it, in
+//! one eight-lane test each where the test takes them (`test_lanes`); a leaf
+//! of triangle blocks segment by segment.
 //!
 //! Exactness: per lane, the slab test is the single segment's (the same
 //! planes, the same operations in the same order, `tn <= min(tf, t_max)`
