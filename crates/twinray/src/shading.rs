@@ -228,13 +228,8 @@ impl<const K: usize, const ALPHA: bool> AnyHitTest for ShadowTest<'_, K, ALPHA> 
         let (rays, t_max) = match self.eight {
             Some(eight) => eight,
             None => {
-                let lane = |l: usize| if l < K { l } else { 0 };
-                let eight = (
-                    EightRays::new(|l| self.ray(lane(l))),
-                    f32x8::from(std::array::from_fn::<f32, 8, _>(|l| {
-                        self.segments.t_max[lane(l)]
-                    })),
-                );
+                let t_max = std::array::from_fn(|l| self.segments.t_max[if l < K { l } else { 0 }]);
+                let eight = (EightRays::of_packet(K, |l| self.ray(l)), f32x8::from(t_max));
                 self.eight = Some(eight);
                 eight
             }
@@ -245,13 +240,10 @@ impl<const K: usize, const ALPHA: bool> AnyHitTest for ShadowTest<'_, K, ALPHA> 
         while met != 0 {
             let l = met.trailing_zeros() as usize;
             met &= met - 1;
-            let hit = SurfaceHit {
-                t: hits.t[l],
-                u: 0.0,
-                v: 0.0,
-            };
-            if self.met(prim, l, &hit) == AnyHit::Stop {
-                stopped |= 1 << l;
+            if let Some(hit) = hits.hit(l) {
+                if self.met(prim, l, &hit) == AnyHit::Stop {
+                    stopped |= 1 << l;
+                }
             }
         }
         Some(stopped)

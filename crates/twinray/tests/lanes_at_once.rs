@@ -123,7 +123,7 @@ fn shadow_packets_are_blocked_lanes_at_once_as_brute_force_says() {
     let world = nff_world(&rings(60, 22));
     let shapes = &world.scene.shapes;
     let mut rng = fastrand::Rng::with_seed(9);
-    let mut stats = TraversalStats::default();
+    let (mut stats, mut alone) = (TraversalStats::default(), TraversalStats::default());
     let (mut blocked, mut lit) = (0, 0);
     for n in 0..1500 {
         // Eight neighbouring points toward one light, as a mono row's samples.
@@ -143,6 +143,14 @@ fn shadow_packets_are_blocked_lanes_at_once_as_brute_force_says() {
             mask: rng.u32(1..256) | 0b11,
         };
         let (through, _) = shadow_packet(&world, &segments, &mut stats);
+        // Each lane alone, for the count of its tests.
+        for l in (0..8).filter(|&l| segments.mask & (1 << l) != 0) {
+            let one = SegmentPacket {
+                mask: 1 << l,
+                ..segments
+            };
+            shadow_packet(&world, &one, &mut alone);
+        }
         for l in (0..8).filter(|&l| segments.mask & (1 << l) != 0) {
             let ray = Ray::new(segments.origins[l], segments.dirs[l]);
             let met = shapes
@@ -161,6 +169,10 @@ fn shadow_packets_are_blocked_lanes_at_once_as_brute_force_says() {
         }
     }
     assert!(blocked > 1000 && lit > 1000, "{blocked} blocked, {lit} lit");
+    // The tests made are counted, not the leaf's size: a lane that stopped
+    // tests nothing more, in the packet as alone.
+    assert_eq!(stats.prim_tests, alone.prim_tests);
+    assert_eq!(alone.prim_tests_in_lanes, 0);
     assert!(
         stats.prim_tests_in_lanes * 3 > stats.prim_tests,
         "{} of {} primitive tests in lanes",

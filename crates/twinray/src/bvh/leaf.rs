@@ -16,7 +16,7 @@
 
 use super::traverse::LaneHit;
 use super::{AnyHit, AnyHitTest, Bvh, NearestTest, PacketHits, TraversalStats};
-use crate::shapes::{BlockHits, LeafBlocks, Shape, SurfaceHit, Triangle4, BLOCK};
+use crate::shapes::{BlockHits, LeafBlocks, Shape, Triangle4, BLOCK};
 use wide::f32x8;
 
 /// A leaf: its primitives, and their blocks if the tree holds them so (one
@@ -107,7 +107,7 @@ pub(super) fn leaf_lane<T: NearestTest>(
 /// primitives in the same order with the same bounds. Returns the lane
 /// tests made together.
 #[inline(always)]
-pub(super) fn leaf_lanes<T: NearestTest>(
+pub(super) fn leaf_lanes_at_once<T: NearestTest>(
     prims: &[u32],
     lanes: u32,
     best: &mut [f32; 8],
@@ -126,12 +126,7 @@ pub(super) fn leaf_lanes<T: NearestTest>(
             let l = each.trailing_zeros() as usize;
             each &= each - 1;
             let hit = match &found {
-                Some(h) if h.mask & (1 << l) != 0 => Some(SurfaceHit {
-                    t: h.t[l],
-                    u: 0.0,
-                    v: 0.0,
-                }),
-                Some(_) => None,
+                Some(h) => h.hit(l),
                 None => test.test(prim, l, best[l].next_up()),
             };
             if let Some(h) = hit {
@@ -275,8 +270,7 @@ pub(super) fn occlusion_leaf<T: AnyHitTest>(
     test: &mut T,
 ) {
     if leaf.blocks.is_empty() {
-        stats.prim_tests += (leaf.prims.len() * (mask & *live).count_ones() as usize) as u64;
-        stats.prim_tests_in_lanes += occlusion_prims(leaf.prims, pair, mask, live, test);
+        occlusion_prims(leaf.prims, pair, mask, live, stats, test);
         return;
     }
     for (k, block) in leaf.blocks.iter().enumerate() {
@@ -310,18 +304,24 @@ pub(super) fn occlusion_leaf<T: AnyHitTest>(
 
 /// The live lanes of `mask` against `prims` one by one (a pair's both
 /// lanes against each primitive at once, and more lanes too where the test
-/// takes them, `test_lanes`). Returns the lane tests made together.
+/// takes them, `test_lanes`), each test counted: a lane that stopped tests
+/// no further primitive, as alone (`occlusion_lane`).
 #[inline(always)]
 fn occlusion_prims<T: AnyHitTest>(
     prims: &[u32],
     pair: bool,
     mask: u32,
     live: &mut u32,
+    stats: &mut TraversalStats,
     test: &mut T,
-) -> u64 {
-    let mut in_lanes = 0;
+) {
     for &prim in prims {
-        if pair && mask & *live == 0b11 {
+        let lanes = mask & *live;
+        if lanes == 0 {
+            return;
+        }
+        stats.prim_tests += lanes.count_ones() as u64;
+        if pair && lanes == 0b11 {
             for (l, a) in test.test_pair(prim).into_iter().enumerate() {
                 if a == AnyHit::Stop {
                     *live &= !(1 << l);
@@ -329,12 +329,11 @@ fn occlusion_prims<T: AnyHitTest>(
             }
             continue;
         }
-        let lanes = mask & *live;
-        if lanes & lanes.wrapping_sub(1) != 0 {
+        if lanes & (lanes - 1) != 0 {
             // Two lanes or more: all at once where the test takes them.
             if let Some(stopped) = test.test_lanes(prim, lanes) {
                 *live &= !stopped;
-                in_lanes += lanes.count_ones() as u64;
+                stats.prim_tests_in_lanes += lanes.count_ones() as u64;
                 continue;
             }
         }
@@ -347,7 +346,6 @@ fn occlusion_prims<T: AnyHitTest>(
             }
         }
     }
-    in_lanes
 }
 
 #[cfg(test)]

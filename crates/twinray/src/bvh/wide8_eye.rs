@@ -12,7 +12,7 @@
 //! ray's single descent (`wide8_single`). Leaves of triangle blocks are
 //! tested ray by ray (`leaf_lane`, the single descent's leaf test); leaves
 //! of spheres and cones primitive by primitive, each for all the rays that
-//! entered the leaf in one eight-lane test (`leaf_lanes`, `test_lanes`),
+//! entered the leaf in one eight-lane test (`leaf_lanes_at_once`, `test_lanes`),
 //! each lane bit for bit its own test. The same descent serves
 //! the secondary rays of a shading packet of eight (`Bvh::closest`, through
 //! `closest_packet8_or_each`), whose lanes start from eight points.
@@ -27,7 +27,7 @@
 //! nearest hit (ties to the lower index) is the one it gets alone, whatever
 //! the order the packet visits nodes in (see `traverse.rs`).
 
-use super::leaf::{leaf_lane, leaf_lanes};
+use super::leaf::{leaf_lane, leaf_lanes_at_once};
 use super::traverse::{LaneHit, SingleRay, CULL_SLACK, ROBUST, STACK};
 use super::wide::{take_nearest, Entry};
 use super::wide8::{Node8, WIDTH8};
@@ -204,9 +204,9 @@ impl Bvh {
                 let leaf = self.leaf(e.child, e.count);
                 if leaf.blocks.is_empty() {
                     // Spheres and cones: primitive by primitive, the lanes
-                    // at once (`leaf_lanes`).
+                    // at once (`leaf_lanes_at_once`).
                     prims += (e.count * lanes.count_ones()) as u64;
-                    in_lanes += leaf_lanes(leaf.prims, lanes, &mut best, &mut out, test);
+                    in_lanes += leaf_lanes_at_once(leaf.prims, lanes, &mut best, &mut out, test);
                     bound = f32x8::from(best) * slack;
                     current = stack.pop();
                     continue;

@@ -1218,7 +1218,7 @@ impl<const K: usize> NearestTest for NearestShape<'_, K> {
         let rays = match self.eight {
             Some(rays) => rays,
             None => {
-                let rays = EightRays::new(|l| self.ray(if l < K { l } else { 0 }));
+                let rays = EightRays::of_packet(K, |l| self.ray(l));
                 self.eight = Some(rays);
                 rays
             }

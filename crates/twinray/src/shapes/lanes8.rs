@@ -13,7 +13,7 @@
 //! hits, at the same `t` bit for bit, exactly when `Sphere::intersect` or
 //! `Cone::intersect` of ray `l` does.
 
-use super::{Cone, Sphere};
+use super::{Cone, Sphere, SurfaceHit};
 use crate::math::{Ray, Vec3};
 use wide::f32x8;
 
@@ -32,7 +32,27 @@ pub struct EightHits {
     pub t: [f32; 8],
 }
 
+impl EightHits {
+    /// Lane `l`'s hit, as the single test returns it (a sphere's or a
+    /// cone's `u` and `v` are 0).
+    #[inline(always)]
+    pub fn hit(&self, l: usize) -> Option<SurfaceHit> {
+        (self.mask & (1 << l) != 0).then_some(SurfaceHit {
+            t: self.t[l],
+            u: 0.0,
+            v: 0.0,
+        })
+    }
+}
+
 impl EightRays {
+    /// The first `count` lanes are `ray(l)`; the lanes past them repeat
+    /// lane 0 (a packet of fewer than eight rays).
+    #[inline(always)]
+    pub fn of_packet(count: usize, ray: impl Fn(usize) -> Ray) -> EightRays {
+        EightRays::new(|l| ray(if l < count { l } else { 0 }))
+    }
+
     /// Lane `l` is `ray(l)`.
     #[inline(always)]
     pub fn new(ray: impl Fn(usize) -> Ray) -> EightRays {
@@ -175,7 +195,6 @@ impl Cone {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shapes::SurfaceHit;
 
     fn vec(g: &mut fastrand::Rng, scale: f32) -> Vec3 {
         Vec3::new(g.f32() - 0.5, g.f32() - 0.5, g.f32() - 0.5) * scale
@@ -186,7 +205,7 @@ mod tests {
     }
 
     fn lanes(h: &EightHits) -> [Option<u32>; 8] {
-        std::array::from_fn(|l| (h.mask & (1 << l) != 0).then(|| h.t[l].to_bits()))
+        std::array::from_fn(|l| bits(h.hit(l)))
     }
 
     /// Eight rays of one of several kinds: toward the shape from afar, from

@@ -98,17 +98,11 @@ impl Shape {
             Shape::Sphere(s) => s.intersect_pair(&RayPair::new(rays), t_min, t_max),
             Shape::Triangle(t) => t.intersect_pair(&RayPair::new(rays), t_min, t_max),
             Shape::Cone(c) => {
-                // Both rays in one eight-lane test (lanes 2-7 repeat ray 1).
-                let eight = EightRays::new(|l| rays[l.min(1)]);
-                let far = wide::f32x8::from(std::array::from_fn::<f32, 8, _>(|l| t_max[l.min(1)]));
-                let hits = c.intersect8(&eight, t_min, far);
-                [0, 1].map(|l| {
-                    (hits.mask & (1 << l) != 0).then_some(SurfaceHit {
-                        t: hits.t[l],
-                        u: 0.0,
-                        v: 0.0,
-                    })
-                })
+                // Both rays in one eight-lane test (lanes 2-7 repeat ray 0).
+                let eight = EightRays::of_packet(2, |l| rays[l]);
+                let far = std::array::from_fn(|l| if l < 2 { t_max[l] } else { t_max[0] });
+                let hits = c.intersect8(&eight, t_min, wide::f32x8::from(far));
+                [hits.hit(0), hits.hit(1)]
             }
         }
     }
