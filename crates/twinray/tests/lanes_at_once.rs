@@ -43,6 +43,17 @@ impl NearestTest for Nearest<'_> {
     }
 }
 
+/// More than one in `part` of the primitive tests `stats` counts were made
+/// eight lanes at a time.
+fn more_than_a_share_in_lanes(stats: &TraversalStats, part: u64) {
+    assert!(
+        stats.prim_tests_in_lanes * part > stats.prim_tests,
+        "{} of {} primitive tests in lanes",
+        stats.prim_tests_in_lanes,
+        stats.prim_tests
+    );
+}
+
 /// Packets of eight rays from one eye a little apart, toward neighbouring
 /// points of the rings' region (an eye packet's shape).
 fn eye_packets(count: usize, seed: u64) -> Vec<Packet<8>> {
@@ -110,12 +121,7 @@ fn eye_packets_meet_spheres_and_cones_lanes_at_once_as_brute_force_says() {
     // The same tests, over half of them made eight lanes at a time.
     assert_eq!((on.nodes, on.prim_tests), (off.nodes, off.prim_tests));
     assert_eq!(off.prim_tests_in_lanes, 0);
-    assert!(
-        on.prim_tests_in_lanes * 2 > on.prim_tests,
-        "{} of {} primitive tests in lanes",
-        on.prim_tests_in_lanes,
-        on.prim_tests
-    );
+    more_than_a_share_in_lanes(&on, 2);
 }
 
 #[test]
@@ -173,10 +179,5 @@ fn shadow_packets_are_blocked_lanes_at_once_as_brute_force_says() {
     // tests nothing more, in the packet as alone.
     assert_eq!(stats.prim_tests, alone.prim_tests);
     assert_eq!(alone.prim_tests_in_lanes, 0);
-    assert!(
-        stats.prim_tests_in_lanes * 3 > stats.prim_tests,
-        "{} of {} primitive tests in lanes",
-        stats.prim_tests_in_lanes,
-        stats.prim_tests
-    );
+    more_than_a_share_in_lanes(&stats, 3);
 }
