@@ -248,3 +248,50 @@ fn one_two_and_five_threads_give_the_same_images() {
         }
     }
 }
+
+/// A floor of small flat triangles (a few pixels each) under one light:
+/// `light` is the NFF light line.
+fn tiled_floor(light: &str) -> World {
+    let mut text = OPEN_FLOOR
+        .replace("l 3 2 10", light)
+        .split("f 0.8")
+        .next()
+        .expect("the view")
+        .to_string();
+    text.push_str("f 0.8 0.8 0.7 0.9 0 0 0 1\n");
+    let step = 0.5;
+    for i in -10..10 {
+        for j in -10..10 {
+            let (x, y) = (f64::from(i) * step, f64::from(j) * step);
+            let (x1, y1) = (x + step, y + step);
+            text.push_str(&format!("p 3\n{x} {y} 0\n{x1} {y} 0\n{x1} {y1} 0\n"));
+            text.push_str(&format!("p 3\n{x} {y} 0\n{x1} {y1} 0\n{x} {y1} 0\n"));
+        }
+    }
+    nff_world(&text)
+}
+
+/// On small flat triangles the few shade points of a primitive seldom have
+/// neighbours on both sides, which the bend test needs; a flat triangle's
+/// bend is bounded by its light's distance instead, so its samples take
+/// their colour: few are refused, and every view stays within E.
+#[test]
+fn small_flat_triangles_take_their_colour_without_neighbours() {
+    let world = tiled_floor("l 3 2 10");
+    let (worst, _, out) = against_exact(&world, 24, INTERAXIAL, 1);
+    let e = out.counts.epipolar;
+    assert!(worst <= E, "{worst}, {e:?}");
+    assert!(e.refused_colour * 50 < e.taken, "{e:?}");
+}
+
+/// A light just above the floor of small triangles: the light's term peaks
+/// beneath it, over a few pixels, where the bound refuses to interpolate and
+/// the bend test must judge; every view stays within E.
+#[test]
+fn a_light_close_to_flat_triangles_bends_their_colour() {
+    let world = tiled_floor("l 0.03 0.2 0.05");
+    let (worst, _, out) = against_exact(&world, 24, INTERAXIAL, 1);
+    let e = out.counts.epipolar;
+    assert!(worst <= E, "{worst}, {e:?}");
+    assert!(e.taken > 0 && e.refused_colour > 0, "{e:?}");
+}

@@ -35,7 +35,10 @@
 //!    colours differ by at most `E` per channel and each lies within `E/2`
 //!    of the line through its neighbours' colours (a peak of the diffuse
 //!    term between them, as at a sphere's brightest point, bends it; a
-//!    neighbour must be there). Else, if the two and their outer neighbours
+//!    neighbour must be there). On a flat triangle without maps under
+//!    lights without falloff, the bend is bounded by the lights' distance
+//!    instead (`flat_curvature`), and no neighbour is needed: a small
+//!    triangle seldom has shade points on both sides of the two. Else, if the two and their outer neighbours
 //!    saw each light alike (the same transmittance), it takes that light and
 //!    its secondary colour between theirs, and computes its own ambient,
 //!    diffuse and highlight terms: no ray. Where they saw only some lights
@@ -50,7 +53,8 @@
 //! the colour varies monotonically between them, it is off by at most `E`
 //! per channel. Where it does not (a smooth peak), the bend test bounds the
 //! curvature: for a parabolic profile the interpolation's error is a quarter
-//! of the half second difference, so at most `E/8`. Add the view-dependent
+//! of the half second difference, so at most `E/8`; on a flat triangle the
+//! light's distance bounds it, `κ·h² ≤ E/2` (`flat_curvature`). Add the view-dependent
 //! terms the material threshold lets through (`E` of the highlight and
 //! mirror weights). A sample that takes the light is exact where the light
 //! is what its shade points saw, with its secondary light off by at most `E`
@@ -75,9 +79,10 @@ use super::sampler::{Pattern, RowColors, SampleRow};
 use super::view_synthesis::{largest, plain_materials, rig_extent, trace_all};
 use super::{Donors, RowWorker, SecondaryRays, Tracer, TRACE_LIGHT};
 use crate::bvh::{Packet, PacketHits, RunRegion, RunStats, EYE_PACKET};
+use crate::lights::LightKind;
 use crate::math::{Color, Ray, Vec3};
 use crate::rig::{Camera, Rig};
-use crate::shapes::SurfaceHit;
+use crate::shapes::{Shape, SurfaceHit, TriangleNormals};
 use crate::world::World;
 
 /// The epipolar rows, as asked for (see the module's notes).
@@ -238,6 +243,8 @@ struct Taking {
 pub(super) struct EpiScratch {
     prims: Vec<u32>,
     sections: Vec<Section>,
+    /// Per gathered primitive: `flat_curvature`.
+    curvature: Vec<f64>,
     /// Per position, per sample: the nearest hit (index into `prims`,
     /// `u32::MAX` for none).
     best: Vec<(SurfaceHit, u32)>,
@@ -428,8 +435,62 @@ impl<'a> EpipolarPass<'a> {
                 .iter()
                 .map(|&p| plane.section(&shapes[p as usize], tol)),
         );
+        s.curvature.clear();
+        s.curvature
+            .extend(s.prims.iter().map(|&p| self.flat_curvature(p)));
         tracer.counts.epipolar.primitives += s.prims.len() as u64;
         true
+    }
+
+    /// `κ` such that between two points `h` apart on primitive `prim`, lit
+    /// alike, its colour lies within `κ·h²` of the line between theirs
+    /// (each channel); infinite where no such bound is known. A flat
+    /// triangle of a material without maps has one normal `N` and one
+    /// ambient term, so its colour changes only with each light's diffuse
+    /// term `kd·c·l·(N·L̂)`. Along the surface, `N·L̂` has a second
+    /// derivative of at most `3/ρ²` (`ρ` the light's distance; a
+    /// directional light's is constant), so a chord `h` long is off by at
+    /// most `h²/8` of that. NFF's point lights keep their intensity with
+    /// distance; other falloffs and spot cones are not bounded here.
+    fn flat_curvature(&self, prim: u32) -> f64 {
+        let scene = &self.world.scene;
+        let Shape::Triangle(tri) = &scene.shapes[prim as usize] else {
+            return f64::INFINITY;
+        };
+        let m = &scene.materials[scene.shape_material[prim as usize] as usize];
+        let mapped = m.texture.is_some()
+            || m.normal_map.is_some()
+            || m.emission_texture.is_some()
+            || m.occlusion_texture.is_some();
+        if !matches!(tri.normals, TriangleNormals::Flat) || mapped {
+            return f64::INFINITY;
+        }
+        let corners = [tri.v0, tri.v0 + tri.e1, tri.v0 + tri.e2].map(|v| v.as_dvec3());
+        let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
+        let reach = corners
+            .iter()
+            .map(|&c| c.distance(centre))
+            .fold(0.0, f64::max);
+        let diffuse = f64::from(m.kd * m.color.max_element());
+        scene.lights.iter().fold(0.0, |sum, light| {
+            let l = f64::from(light.color.unwrap_or(Color::ONE).max_element());
+            match light.kind {
+                LightKind::Directional { .. } => sum,
+                LightKind::Point {
+                    position,
+                    inverse_square: false,
+                    range: None,
+                } => {
+                    let rho = position.as_dvec3().distance(centre) - reach;
+                    if rho > 0.0 {
+                        sum + 3.0 * diffuse * l / (8.0 * rho * rho)
+                    } else {
+                        f64::INFINITY
+                    }
+                }
+                _ => f64::INFINITY,
+            }
+        })
     }
 
     /// Every view's nearest hit through every sample of the row.
@@ -606,11 +667,15 @@ impl<'a> EpipolarPass<'a> {
             // The colour must be close between the two and straight through
             // them: a peak of the diffuse term between (a sphere's brightest
             // point) bends the line at their neighbours, which must be there.
+            // On a flat triangle the bend is bounded without them.
+            let chord = (e1.a - e0.a).powi(2) + plane.ww * (e1.b - e0.b).powi(2);
+            let half = self.tolerance * 0.5;
             if largest(e1.color - e0.color) <= self.tolerance
-                && at >= 2
-                && at + 1 < points.len()
-                && bend(&points[at - 2], &e0, &e1) <= self.tolerance * 0.5
-                && bend(&e0, &e1, &points[at + 1]) <= self.tolerance * 0.5
+                && (s.curvature[local as usize] * chord <= f64::from(half)
+                    || at >= 2
+                        && at + 1 < points.len()
+                        && bend(&points[at - 2], &e0, &e1) <= half
+                        && bend(&e0, &e1, &points[at + 1]) <= half)
             {
                 out[v][i] = e0.color + (e1.color - e0.color) * w as f32;
                 stats.taken += 1;
@@ -994,6 +1059,54 @@ mod tests {
         assert!(first.is_some_and(|f| deferred[f..f + 3]
             .iter()
             .all(|d| (d.param - 0.2).abs() < 1e-9)));
+    }
+
+    /// A flat triangle's bound: `3·kd·c·l/(8ρ²)`, `ρ` the light's distance
+    /// less the triangle's reach from its centre; none (infinite) for a
+    /// sphere, a smooth patch, or a light within that reach.
+    #[test]
+    fn a_flat_triangles_curvature_falls_with_its_lights_distance() {
+        let view = "v\nfrom 0 -6 5\nat 0 0 0\nup 0 0 1\nangle 45\nhither 0.01\nresolution 8 6\n";
+        let shapes = "f 0.5 0.4 0.2 0.6 0 0 0 1\np 3\n-1 0 0\n2 0 0\n-1 3 0\n\
+            s 0 0 1 0.5\npp 3\n-1 0 0 0 0 1\n2 0 0 0 0 1\n-1 3 0 0 0 1\n";
+        let curvatures = |light: &str| {
+            let text = format!("{view}{light}{shapes}");
+            let scene = parse_nff(
+                &text,
+                std::path::Path::new("t.nff"),
+                &LoadOptions::default(),
+            )
+            .expect("test scene");
+            let world = World::new(scene);
+            let camera = Camera::new(&world.scene.viewpoint, 8, 6);
+            let rig = Rig::multi_view(&camera, 3, 0.1, None).expect("rig");
+            let pass = EpipolarPass::new(&world, &camera, &rig, EpipolarViews { tolerance: 0.01 })
+                .expect("pass");
+            // (flat triangle, sphere, patch), wherever the scene filed them.
+            let of = |kind: fn(&Shape) -> bool| {
+                let shapes = &world.scene.shapes;
+                let p = shapes.iter().position(kind).expect("the shape");
+                pass.flat_curvature(p as u32)
+            };
+            let flat =
+                |s: &Shape| matches!(s, Shape::Triangle(t) if t.normals == TriangleNormals::Flat);
+            let patch =
+                |s: &Shape| matches!(s, Shape::Triangle(t) if t.normals != TriangleNormals::Flat);
+            vec![of(flat), of(|s| matches!(s, Shape::Sphere(_))), of(patch)]
+        };
+        // Centre (0, 1, 0), reach √5; the light 10 above the centre.
+        let k = curvatures("l 0 1 10\n");
+        let rho = 10.0 - 5f64.sqrt();
+        let expected = 3.0 * 0.6 * 0.5 / (8.0 * rho * rho);
+        assert!((k[0] - expected).abs() < 1e-6 * expected, "{k:?}");
+        assert_eq!(k[1..], [f64::INFINITY; 2], "a sphere and a patch");
+        // Four times as far: a sixteenth (less the reach's share).
+        let far = curvatures("l 0 1 40\n")[0];
+        let rho_far = 40.0 - 5f64.sqrt();
+        let expected_far = 3.0 * 0.6 * 0.5 / (8.0 * rho_far * rho_far);
+        assert!((far - expected_far).abs() < 1e-6 * expected_far, "{far}");
+        // A light within the triangle's reach: no bound.
+        assert_eq!(curvatures("l 0 1 1\n")[0], f64::INFINITY);
     }
 
     /// The middle view first, then the ends, then halfway between: each
