@@ -267,7 +267,11 @@ pub(super) struct EpiScratch {
     takings: Vec<Taking>,
     /// The row's mirror, glass and highlight samples, every view's.
     deferred: Vec<Deferred>,
-    touched: Vec<u32>,
+    /// Primitives whose shade points came out of order since they were last
+    /// put in order, each with the length of its list still in order.
+    touched: Vec<(u32, u32)>,
+    /// The points that came out of order, being put back.
+    unsorted: Vec<ShadePoint>,
     /// Shade points kept since they were last put in order.
     kept: u64,
     donors: Donors,
@@ -805,18 +809,22 @@ impl<'a> EpipolarPass<'a> {
         };
         let points = &mut s.points[local as usize];
         if points.last().is_some_and(|q| q.param > param) {
-            s.touched.push(local);
+            s.touched.push((local, points.len() as u32));
         }
         points.push(point);
         s.kept += 1;
     }
 
-    /// Puts the shade points kept since the last call in order.
+    /// Puts the shade points kept since the last call in order (`merge_in`).
     fn sort_points(&self, tracer: &mut Tracer, s: &mut EpiScratch) {
         s.touched.sort_unstable();
-        s.touched.dedup();
-        for &local in &s.touched {
-            s.points[local as usize].sort_by(|a, b| a.param.total_cmp(&b.param));
+        s.touched.dedup_by_key(|t| t.0);
+        for &(local, sorted) in &s.touched {
+            merge_in(
+                &mut s.points[local as usize],
+                sorted as usize,
+                &mut s.unsorted,
+            );
         }
         s.touched.clear();
         tracer.counts.epipolar.shade_points += s.kept;
@@ -869,6 +877,29 @@ impl<'a> EpipolarPass<'a> {
             }
         }
         self.sort_points(tracer, s);
+    }
+}
+
+/// Puts `points` in order by `param` where its first `sorted` are: the
+/// others are sorted and merged in, as a stable sort of the whole would
+/// place them (on a tie the earlier point first), at the cost of the few
+/// new points; `scratch` holds them meanwhile.
+fn merge_in(points: &mut [ShadePoint], sorted: usize, scratch: &mut Vec<ShadePoint>) {
+    scratch.clear();
+    scratch.extend_from_slice(&points[sorted..]);
+    scratch.sort_by(|a, b| a.param.total_cmp(&b.param));
+    // From the back: the greater of the two ends goes last, the new point
+    // on a tie.
+    let (mut i, mut j) = (sorted, scratch.len());
+    while j > 0 {
+        let new = scratch[j - 1];
+        if i > 0 && points[i - 1].param.total_cmp(&new.param).is_gt() {
+            points[i + j - 1] = points[i - 1];
+            i -= 1;
+        } else {
+            points[i + j - 1] = new;
+            j -= 1;
+        }
     }
 }
 
@@ -1107,6 +1138,38 @@ mod tests {
         assert!((far - expected_far).abs() < 1e-6 * expected_far, "{far}");
         // A light within the triangle's reach: no bound.
         assert_eq!(curvatures("l 0 1 1\n")[0], f64::INFINITY);
+    }
+
+    /// New shade points merged into a list's ordered part land where a
+    /// stable sort of the whole puts them, ties (told apart by `light`)
+    /// included.
+    #[test]
+    fn new_shade_points_merge_as_a_stable_sort_places_them() {
+        let mut rng = fastrand::Rng::with_seed(16);
+        let mut scratch = Vec::new();
+        for _ in 0..2000 {
+            let point = |param: f64, light: u32| ShadePoint {
+                param,
+                a: 0.0,
+                b: 1.0,
+                inv_bps: 1.0,
+                color: Color::ZERO,
+                secondary: Color::ZERO,
+                light,
+            };
+            // Params on a coarse grid, so that ties are common.
+            let n = rng.usize(0..12);
+            let sorted = rng.usize(0..=n);
+            let mut points: Vec<ShadePoint> = (0..n as u32)
+                .map(|l| point(f64::from(rng.u8(0..6)), l))
+                .collect();
+            points[..sorted].sort_by(|a, b| a.param.total_cmp(&b.param));
+            let mut expected = points.clone();
+            expected.sort_by(|a, b| a.param.total_cmp(&b.param));
+            merge_in(&mut points, sorted, &mut scratch);
+            let key = |p: &[ShadePoint]| p.iter().map(|q| (q.param, q.light)).collect::<Vec<_>>();
+            assert_eq!(key(&points), key(&expected), "{sorted} of {n} in order");
+        }
     }
 
     /// The middle view first, then the ends, then halfway between: each
