@@ -550,8 +550,9 @@ impl<'a> EpipolarPass<'a> {
             // Below the section's nearest `b` by a margin for the rays'
             // rounding off the plane.
             let near = near * (1.0 - NEAR_SLACK);
+            let reach = plane.reach(section);
             for (p, &(_, offset, shift)) in self.order.iter().enumerate() {
-                let (lo, hi) = plane.samples_of(section, offset as f64, shift, n);
+                let (lo, hi) = reach.samples(offset as f64, shift, n);
                 let origin = self.camera.eye_at(offset);
                 let (base, column) = (p * n, self.first[p]);
                 for i in lo..hi {

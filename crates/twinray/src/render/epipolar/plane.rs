@@ -158,7 +158,9 @@ impl Plane {
     }
 
     /// The (fractional) sample of the view at `offset` (shift `shift`)
-    /// whose ray meets plane point `(a, b)`, `b > 0`.
+    /// whose ray meets plane point `(a, b)`, `b > 0` (`Reach` computes it
+    /// without the division; the tests compare the two).
+    #[cfg(test)]
     pub(super) fn sample_of(&self, a: f64, b: f64, offset: f64, shift: i32) -> f64 {
         (a - offset) / b / self.ps + self.cx - self.c0 - shift as f64
     }
@@ -226,51 +228,34 @@ impl Plane {
         }
     }
 
-    /// Samples `lo..hi` of `n` of the view at `offset` (shift `shift`) whose
-    /// rays may meet `section`.
-    pub(super) fn samples_of(
-        &self,
-        section: &Section,
-        offset: f64,
-        shift: i32,
-        n: usize,
-    ) -> (usize, usize) {
-        match *section {
-            Section::None => (0, 0),
-            Section::Whole => (0, n),
-            Section::Segment { a0, b0, a1, b1, .. } => {
-                let s0 = self.sample_of(a0, b0, offset, shift);
-                let s1 = self.sample_of(a1, b1, offset, shift);
-                clamp_samples(s0.min(s1), s0.max(s1), n)
+    /// Where every view sees `section`'s ends (a segment's) or its box's
+    /// corners (a circle's, any other's): `Reach::samples` gives a view's
+    /// samples without a division.
+    pub(super) fn reach(&self, section: &Section) -> Reach {
+        let mut reach = Reach {
+            points: [(0.0, 0.0); 4],
+            count: 0,
+            whole: false,
+        };
+        let corners = |a0, b0, a1, b1| [(a0, b0), (a0, b1), (a1, b0), (a1, b1)];
+        let points: &[(f64, f64)] = match *section {
+            Section::None => &[],
+            Section::Whole => {
+                reach.whole = true;
+                &[]
             }
-            Section::Circle { a, b, r } => {
-                self.samples_of_box((a - r, b - r, a + r, b + r), offset, shift, n)
-            }
-            Section::Bounds { a0, b0, a1, b1 } => {
-                self.samples_of_box((a0, b0, a1, b1), offset, shift, n)
-            }
+            Section::Segment { a0, b0, a1, b1, .. } => &[(a0, b0), (a1, b1)],
+            Section::Circle { a, b, r } => &corners(a - r, b - r, a + r, b + r),
+            Section::Bounds { a0, b0, a1, b1 } => &corners(a0, b0, a1, b1),
+        };
+        for (slot, &(a, b)) in reach.points.iter_mut().zip(points) {
+            // `sample_of` is `a·inv − offset·inv + cx − c0 − shift`.
+            let inv = 1.0 / (b * self.ps);
+            *slot = (a * inv + self.cx - self.c0, inv);
         }
+        reach.count = points.len();
+        reach
     }
-
-    /// Samples `lo..hi` of `n` whose rays may meet the box `a0..a1 × b0..b1`
-    /// (`b0 ≥ b_min`).
-    fn samples_of_box(
-        &self,
-        (a0, b0, a1, b1): (f64, f64, f64, f64),
-        offset: f64,
-        shift: i32,
-        n: usize,
-    ) -> (usize, usize) {
-        let mut lo = f64::INFINITY;
-        let mut hi = f64::NEG_INFINITY;
-        for (a, b) in [(a0, b0), (a0, b1), (a1, b0), (a1, b1)] {
-            let s = self.sample_of(a, b, offset, shift);
-            lo = lo.min(s);
-            hi = hi.max(s);
-        }
-        clamp_samples(lo, hi, n)
-    }
-
     /// Box section of points `(a, b)`, or the whole row where it reaches the
     /// camera line.
     fn bounds_section(&self, points: impl Iterator<Item = (f64, f64)>) -> Section {
@@ -314,6 +299,37 @@ impl Plane {
     }
 }
 
+/// A section's ends or corners as `Plane::reach` gives them: per point, its
+/// column at offset 0 without shift, and how far it moves per unit of offset.
+pub(super) struct Reach {
+    points: [(f64, f64); 4],
+    count: usize,
+    /// The section reaches the camera line: every sample.
+    whole: bool,
+}
+
+impl Reach {
+    /// Samples `lo..hi` of `n` of the view at `offset` (shift `shift`) whose
+    /// rays may meet the section. The columns differ from `sample_of`'s by
+    /// their rounding (millionths of a sample), far within `EDGE`.
+    pub(super) fn samples(&self, offset: f64, shift: i32, n: usize) -> (usize, usize) {
+        if self.whole {
+            return (0, n);
+        }
+        if self.count == 0 {
+            return (0, 0);
+        }
+        let mut lo = f64::INFINITY;
+        let mut hi = f64::NEG_INFINITY;
+        for &(at, inv) in &self.points[..self.count] {
+            let s = at - offset * inv - shift as f64;
+            lo = lo.min(s);
+            hi = hi.max(s);
+        }
+        clamp_samples(lo, hi, n)
+    }
+}
+
 /// Samples from `lo` to `hi` (fractional), and `EDGE` of a sample beyond
 /// (the rays' rounding off the plane is some millionths of a pixel), within
 /// `0..n`.
@@ -342,5 +358,67 @@ mod tests {
         assert_eq!(clamp_samples(2.02, 4.98, 10), (3, 5));
         assert_eq!(clamp_samples(-3.0, 20.0, 10), (0, 10));
         assert_eq!(clamp_samples(f64::NAN, 1.0, 10), (0, 10));
+    }
+
+    /// `Reach` puts a section's ends and corners in the columns `sample_of`
+    /// gives, to their rounding, for every view.
+    #[test]
+    fn a_reach_puts_points_where_sample_of_does() {
+        let plane = Plane {
+            eye: DVec3::ZERO,
+            right: DVec3::X,
+            w: DVec3::Y,
+            ww: 1.0,
+            normal: DVec3::Z,
+            c0: 3.0,
+            cx: 209.5,
+            ps: 0.002,
+            b_min: 0.01,
+        };
+        let mut rng = fastrand::Rng::with_seed(7);
+        let mut f = |lo: f64, hi: f64| lo + (hi - lo) * rng.f64();
+        for _ in 0..1000 {
+            let (a0, b0, a1, b1) = (f(-2.0, 2.0), f(0.5, 9.0), f(-2.0, 2.0), f(0.5, 9.0));
+            let sections = [
+                (Section::segment(a0, b0, a1, b1), vec![(a0, b0), (a1, b1)]),
+                (
+                    Section::Circle {
+                        a: a0,
+                        b: b0,
+                        r: 0.3,
+                    },
+                    vec![
+                        (a0 - 0.3, b0 - 0.3),
+                        (a0 - 0.3, b0 + 0.3),
+                        (a0 + 0.3, b0 - 0.3),
+                        (a0 + 0.3, b0 + 0.3),
+                    ],
+                ),
+            ];
+            for (section, points) in sections {
+                let reach = plane.reach(&section);
+                assert_eq!(reach.count, points.len());
+                let (offset, shift) = (f(-0.5, 0.5), f(-60.0, 60.0) as i32);
+                for (&(at, inv), &(a, b)) in reach.points.iter().zip(&points) {
+                    let column = at - offset * inv - shift as f64;
+                    let exact = plane.sample_of(a, b, offset, shift);
+                    assert!((column - exact).abs() < 1e-6, "{column} against {exact}");
+                }
+                // (No column of these lies within a millionth of a bound.)
+                let columns = points
+                    .iter()
+                    .map(|&(a, b)| plane.sample_of(a, b, offset, shift));
+                let (lo, hi) = columns.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), c| {
+                    (l.min(c), h.max(c))
+                });
+                assert_eq!(
+                    reach.samples(offset, shift, 420),
+                    clamp_samples(lo, hi, 420)
+                );
+            }
+        }
+        let whole = plane.reach(&Section::Whole);
+        assert_eq!(whole.samples(0.1, 4, 30), (0, 30));
+        assert_eq!(plane.reach(&Section::None).samples(0.1, 4, 30), (0, 0));
     }
 }
