@@ -38,10 +38,11 @@
 //!    neighbour must be there). On a flat triangle without maps under
 //!    lights without falloff, the bend is bounded by the lights' distance
 //!    instead (`flat_curvature`), and no neighbour is needed: a small
-//!    triangle seldom has shade points on both sides of the two. Else, if the two and their outer neighbours
-//!    saw each light alike (the same transmittance), it takes that light and
-//!    its secondary colour between theirs, and computes its own ambient,
-//!    diffuse and highlight terms: no ray. Where they saw only some lights
+//!    triangle seldom has shade points on both sides of the two. Else, if
+//!    the two and their outer neighbours saw each light alike (the same
+//!    transmittance), it takes that light and its secondary colour between
+//!    theirs, and computes its own ambient, diffuse and highlight terms: no
+//!    ray. Where they saw only some lights
 //!    alike, it takes those and traces its own shadow rays toward the
 //!    others, and becomes a shade point. Every other sample (no shade point
 //!    on one side, colour and every light apart, a mirror or glass) is
@@ -54,9 +55,9 @@
 //! per channel. Where it does not (a smooth peak), the bend test bounds the
 //! curvature: for a parabolic profile the interpolation's error is a quarter
 //! of the half second difference, so at most `E/8`; on a flat triangle the
-//! light's distance bounds it, `κ·h² ≤ E/2` (`flat_curvature`). Add the view-dependent
-//! terms the material threshold lets through (`E` of the highlight and
-//! mirror weights). A sample that takes the light is exact where the light
+//! lights' distance bounds it, `κ·h² ≤ E/2` (`flat_curvature`). Add the
+//! view-dependent terms the material threshold lets through (`E` of the
+//! highlight and mirror weights). A sample that takes the light is exact where the light
 //! is what its shade points saw, with its secondary light off by at most `E`
 //! times what its rays would bring. The assumption is that no feature
 //! narrower than the shade points' spacing lies between them. A shadow or

@@ -256,6 +256,7 @@ impl Plane {
         reach.count = points.len();
         reach
     }
+
     /// Box section of points `(a, b)`, or the whole row where it reaches the
     /// camera line.
     fn bounds_section(&self, points: impl Iterator<Item = (f64, f64)>) -> Section {
