@@ -359,3 +359,39 @@ fn a_job_reads_its_environment_once() {
     );
     assert!(std::sync::Arc::ptr_eq(a, b), "read twice");
 }
+
+/// The epipolar rows (`--epipolar-views`) take a sample that hits nothing
+/// from the environment toward its own ray, as the exact views do: the sky
+/// behind a diffuse sphere is red above the horizon and blue below in every
+/// view, and each view is the independent render's within the tolerance.
+#[test]
+fn epipolar_views_see_the_environment_where_they_hit_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let sky = red_over_blue(dir.path());
+    let scene = sphere_scene(dir.path(), "0.9 0.8 0.7 1 0 0 0 1");
+    let run = |epipolar| {
+        let mut s = spec(&scene, Some(&sky));
+        s.rig.views = Some(5);
+        s.rig.interaxial = Some("0.05".into());
+        s.rig.method = if epipolar {
+            MethodSpec::Twin
+        } else {
+            MethodSpec::Independent
+        };
+        s.approximations.epipolar_views = epipolar;
+        render(s)
+    };
+    let (rows, exact) = (run(true), run(false));
+    assert_eq!(rows.len(), 5);
+    for (v, (a, b)) in rows.iter().zip(&exact).enumerate() {
+        for x in [0, W / 2, W - 1] {
+            assert!(red(a.get(x, 0)), "view {v}, top {x}: {}", a.get(x, 0));
+            assert!(blue(a.get(x, H - 1)), "view {v}, bottom {x}");
+        }
+        let worst = (0..H)
+            .flat_map(|y| (0..W).map(move |x| (x, y)))
+            .map(|(x, y)| (a.get(x, y) - b.get(x, y)).abs().max_element())
+            .fold(0.0f32, f32::max);
+        assert!(worst <= 0.01, "view {v}: {worst}");
+    }
+}

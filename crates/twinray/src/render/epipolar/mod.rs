@@ -599,12 +599,17 @@ impl<'a> EpipolarPass<'a> {
         s.takings.clear();
         let mut cursor: Option<(u32, usize)> = None;
         let column = self.first[p];
+        let colors = &mut out[v][..n];
+        // A plain background's colour, out of the loop (most samples of a
+        // sparse scene's views hit nothing).
+        let scene = &self.world.scene;
+        let plain = scene.environment.is_none().then_some(scene.background);
         #[allow(clippy::needless_range_loop)] // `i` also indexes `best` and `dirs`
         for i in 0..n {
             let (k, c) = (p * n + i, column + i);
             let (hit, local) = s.best[k];
             if local == u32::MAX {
-                out[v][i] = self.world.scene.background_toward(s.dirs[c]);
+                colors[i] = plain.unwrap_or_else(|| scene.background_toward(s.dirs[c]));
                 stats.misses += 1;
                 continue;
             }
@@ -683,7 +688,7 @@ impl<'a> EpipolarPass<'a> {
                         && bend(&points[at - 2], &e0, &e1) <= half
                         && bend(&e0, &e1, &points[at + 1]) <= half)
             {
-                out[v][i] = e0.color + (e1.color - e0.color) * w as f32;
+                colors[i] = e0.color + (e1.color - e0.color) * w as f32;
                 stats.taken += 1;
                 continue;
             }
