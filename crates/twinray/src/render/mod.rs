@@ -961,7 +961,12 @@ impl Run<'_, '_> {
         store: impl Fn(&[Color], &mut [T]) + Sync,
     ) -> Option<(Vec<Vec<T>>, TraceCounts)> {
         let row_len = (columns * per_sample).max(1);
-        let mut grids = vec![vec![T::default(); columns * per_sample * rows]; self.views];
+        // One allocation per view (not one view's grid cloned: a copy that
+        // touched every page of every view before a row was traced; zeroed
+        // bytes come from the allocator untouched).
+        let mut grids: Vec<Vec<T>> = (0..self.views)
+            .map(|_| vec![T::default(); columns * per_sample * rows])
+            .collect();
         let mut shares: Vec<Vec<&mut [T]>> =
             (0..rows).map(|_| Vec::with_capacity(self.views)).collect();
         for grid in &mut grids {
