@@ -271,16 +271,22 @@ fn tiled_floor(light: &str) -> World {
     nff_world(&text)
 }
 
+/// 24 views of `tiled_floor(light)` by epipolar rows, each within E of the
+/// independent render; what the rows did.
+fn tiled_floor_within_e(light: &str) -> EpipolarStats {
+    let (worst, _, out) = against_exact(&tiled_floor(light), 24, INTERAXIAL, 1);
+    let e = out.counts.epipolar;
+    assert!(worst <= E, "{light}: {worst}, {e:?}");
+    e
+}
+
 /// On small flat triangles the few shade points of a primitive seldom have
 /// neighbours on both sides, which the bend test needs; a flat triangle's
 /// bend is bounded by its light's distance instead, so its samples take
 /// their colour: few are refused, and every view stays within E.
 #[test]
 fn small_flat_triangles_take_their_colour_without_neighbours() {
-    let world = tiled_floor("l 3 2 10");
-    let (worst, _, out) = against_exact(&world, 24, INTERAXIAL, 1);
-    let e = out.counts.epipolar;
-    assert!(worst <= E, "{worst}, {e:?}");
+    let e = tiled_floor_within_e("l 3 2 10");
     assert!(e.refused_colour * 50 < e.taken, "{e:?}");
 }
 
@@ -289,9 +295,6 @@ fn small_flat_triangles_take_their_colour_without_neighbours() {
 /// the bend test must judge; every view stays within E.
 #[test]
 fn a_light_close_to_flat_triangles_bends_their_colour() {
-    let world = tiled_floor("l 0.03 0.2 0.05");
-    let (worst, _, out) = against_exact(&world, 24, INTERAXIAL, 1);
-    let e = out.counts.epipolar;
-    assert!(worst <= E, "{worst}, {e:?}");
+    let e = tiled_floor_within_e("l 0.03 0.2 0.05");
     assert!(e.taken > 0 && e.refused_colour > 0, "{e:?}");
 }

@@ -678,11 +678,15 @@ impl<'a> EpipolarPass<'a> {
             // The colour must be close between the two and straight through
             // them: a peak of the diffuse term between (a sphere's brightest
             // point) bends the line at their neighbours, which must be there.
-            // On a flat triangle the bend is bounded without them.
-            let chord = (e1.a - e0.a).powi(2) + plane.ww * (e1.b - e0.b).powi(2);
+            // On a flat triangle the bend is bounded without them (the
+            // squared chord between the two: `R` is a unit vector normal to
+            // `W`).
             let half = self.tolerance * 0.5;
+            let flat = s.curvature[local as usize];
             if largest(e1.color - e0.color) <= self.tolerance
-                && (s.curvature[local as usize] * chord <= f64::from(half)
+                && (flat.is_finite()
+                    && flat * ((e1.a - e0.a).powi(2) + plane.ww * (e1.b - e0.b).powi(2))
+                        <= f64::from(half)
                     || at >= 2
                         && at + 1 < points.len()
                         && bend(&points[at - 2], &e0, &e1) <= half
@@ -975,6 +979,12 @@ mod tests {
     use crate::loaders::LoadOptions;
     use crate::render::TraceSettings;
 
+    /// The world of NFF `text`, called `name` in its errors.
+    fn world_of(name: &str, text: &str) -> World {
+        let path = std::path::Path::new(name);
+        World::new(parse_nff(text, path, &LoadOptions::default()).expect("test scene"))
+    }
+
     /// Every sample's nearest hit from the row's plane is the hierarchy's
     /// (the same primitive, the same distance and surface coordinates bit
     /// for bit, or both none), on the bundled scenes (triangles, spheres,
@@ -997,9 +1007,7 @@ mod tests {
             ("deep.nff", bundled("deep.nff"), 96, 54, 0.5),
             ("twice", twice.to_string(), 40, 30, 0.1),
         ] {
-            let scene = parse_nff(&text, std::path::Path::new(name), &LoadOptions::default())
-                .expect("test scene");
-            let world = World::new(scene);
+            let world = world_of(name, &text);
             let camera = Camera::new(&world.scene.viewpoint, width, height);
             let rig = Rig::multi_view(&camera, 9, interaxial, Some(8.0)).expect("rig");
             assert!(rig.views.iter().any(|v| v.shift != 0), "{name}: converged");
@@ -1108,14 +1116,7 @@ mod tests {
         let shapes = "f 0.5 0.4 0.2 0.6 0 0 0 1\np 3\n-1 0 0\n2 0 0\n-1 3 0\n\
             s 0 0 1 0.5\npp 3\n-1 0 0 0 0 1\n2 0 0 0 0 1\n-1 3 0 0 0 1\n";
         let curvatures = |light: &str| {
-            let text = format!("{view}{light}{shapes}");
-            let scene = parse_nff(
-                &text,
-                std::path::Path::new("t.nff"),
-                &LoadOptions::default(),
-            )
-            .expect("test scene");
-            let world = World::new(scene);
+            let world = world_of("t.nff", &format!("{view}{light}{shapes}"));
             let camera = Camera::new(&world.scene.viewpoint, 8, 6);
             let rig = Rig::multi_view(&camera, 3, 0.1, None).expect("rig");
             let pass = EpipolarPass::new(&world, &camera, &rig, EpipolarViews { tolerance: 0.01 })
