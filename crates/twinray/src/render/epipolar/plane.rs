@@ -312,7 +312,7 @@ pub(super) struct Reach {
 impl Reach {
     /// Samples `lo..hi` of `n` of the view at `offset` (shift `shift`) whose
     /// rays may meet the section. The columns differ from `sample_of`'s by
-    /// their rounding (millionths of a sample), far within `EDGE`.
+    /// their rounding (far below a millionth of a sample), within `EDGE`.
     pub(super) fn samples(&self, offset: f64, shift: i32, n: usize) -> (usize, usize) {
         if self.whole {
             return (0, n);
