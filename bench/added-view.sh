@@ -6,12 +6,12 @@
 #   added = (render_s(2N) - render_s(N)) / N / render_s(mono),
 # the same by CPU seconds (user + sys) of the whole commands, and the views'
 # check: the 2N views of every binary compared with the first's (`cmp`).
-# A binary may carry flags after commas (`target/release/twinray,--epipolar-views`).
+# A binary may carry flags after commas (`target/release/twinray,--fast`).
 #
 # usage (from the project root):
 #   bench/added-view.sh ROUNDS BIN[,FLAG...] ... -- SCENE...
-#   e.g. bench/added-view.sh 3 /tmp/before,--epipolar-views \
-#          target/release/twinray,--epipolar-views -- ../shared/scenes/spd/{mount,tetra,tree}.nff
+#   e.g. bench/added-view.sh 3 /tmp/before,--fast \
+#          target/release/twinray,--fast -- ../shared/scenes/spd/{mount,tetra,tree}.nff
 # N (default 48), SIZE (default 420x560) and INTERAXIAL (default 0.02) override.
 set -euo pipefail
 source "$(dirname "$0")/binaries.sh"

@@ -1,6 +1,6 @@
 # Sourced by the bench scripts that run several builds side by side on the
 # same scenes (`... BIN[,FLAG...] ... -- SCENE...`; a binary may carry flags
-# after commas, e.g. `target/release/twinray,--epipolar-views`).
+# after commas, e.g. `target/release/twinray,--fast`).
 
 # split_binaries ARGS...: the arguments before `--` into `bins`, those after
 # into `scenes`; fails when either is empty.

@@ -12,7 +12,7 @@
 #
 # usage (from the project root):
 #   bench/mirror-part.sh BIN[,FLAG...] -- SCENE.nff...
-#   e.g. bench/mirror-part.sh target/release/twinray,--epipolar-views -- \
+#   e.g. bench/mirror-part.sh target/release/twinray,--fast -- \
 #          ../shared/scenes/spd/{balls,rings,gears,mount,teapot}.nff
 # VIEWS, QUILT (default 8x6), SIZE (default 420x560) and INTERAXIAL (default
 # 0.02) override.

@@ -4,7 +4,7 @@
 # linear PNG, JPEG, with an exposure, anti-aliased; pairs separate, side by
 # side, crossed, top-bottom, squeezed, anaglyph, interlaced, MPO, PFM, with a
 # floating window, a tile; five views; quilts of the twin method and of the
-# epipolar rows, linear JPEG, tone-mapped), and compares every file with `cmp`.
+# fast method, linear JPEG, tone-mapped), and compares every file with `cmp`.
 # For a change that must not move a byte of any output.
 #
 # usage (from the project root):  bench/output-cmp.sh OLD_BIN NEW_BIN
@@ -47,7 +47,7 @@ run pair.pfm $S --size 160x120 --samples 1 --stereo
 run tile.png $S --size 160x120 --samples 1 --stereo --tiles 3 --tile 1
 run five.jpg $S --size 160x120 --samples 1 --views 5
 run quilt.png $T --size 105x140 --samples 1 --views 48 --layout quilt --quilt portrait
-run quilt-epi.png $T --size 105x140 --samples 1 --views 48 --layout quilt --quilt portrait --epipolar-views
+run quilt-fast.png $T --size 105x140 --samples 1 --views 48 --layout quilt --quilt portrait --fast
 run quilt.jpg $T --size 105x140 --samples 1 --views 12 --layout quilt --quilt 4x3 --linear
 run quilt-tone.png $T --size 105x140 --samples 1 --views 12 --layout quilt --quilt 4x3 --tonemap agx
 (cd "$tmp/a" && find . -type f | sort) > "$tmp/la"

@@ -2,9 +2,9 @@
 # The stereo pair's approximations against two independent renders, in CPU
 # seconds (user + sys of the whole command on THREADS threads, default 1, so
 # that other work on a shared machine does not count; views written as PFM):
-# exact twin, --share-shading, and --fast (with --samples 1, as here: the epipolar
-# rows; with other samplings the cut, merge and shared shading), with
-# each approximate pair's worst PSNR and largest difference against the exact one.
+# the exact twin method and --fast (with --samples 1, as here: the epipolar
+# rows; with other samplings the cut, merged rays and shared shading), with
+# the fast pair's worst PSNR and largest difference against the exact one.
 #
 # usage (from the project root, after cargo build --release):
 #   bench/pair-fast.sh [SIZE] [INTERAXIAL] [SCENE...]   (defaults 1024, 0.1, the SPD scenes)
@@ -32,16 +32,14 @@ worst() {
   done
   echo "$w $m"
 }
-echo "| scene | independent CPU s | exact twin | --share-shading | --fast | PSNR shared / fast (dB, worst view) | max abs shared / fast |"
-echo "|---|---:|---:|---:|---:|---:|---:|"
+echo "| scene | independent CPU s | exact twin | --fast | PSNR fast (dB, worst view) | max abs fast |"
+echo "|---|---:|---:|---:|---:|---:|"
 for scene in "${scenes[@]}"; do
   name=$(basename "$scene" .nff)
   ind=$(cpu "$bin" render "$scene" -o "$tmp/ind.pfm" "${common[@]}" --method independent)
   ex=$(cpu "$bin" render "$scene" -o "$tmp/exact.pfm" "${common[@]}")
-  sh=$(cpu "$bin" render "$scene" -o "$tmp/shared.pfm" "${common[@]}" --share-shading)
   fa=$(cpu "$bin" render "$scene" -o "$tmp/fast.pfm" "${common[@]}" --fast)
-  read -r ps ms < <(worst shared)
   read -r pf mf < <(worst fast)
   r() { python3 -c "print(f'{$1 / $ind:.2f}')"; }
-  echo "| $name | $ind | $(r "$ex") | $(r "$sh") | $(r "$fa") | $ps / $pf | $ms / $mf |"
+  echo "| $name | $ind | $(r "$ex") | $(r "$fa") | $pf | $mf |"
 done

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plots the cost of N views against one mono view from `bench/views.sh`'s CSV:
-one curve per scene, exact (solid), shared shading (dashed), the epipolar rows
-(dotted, mode epi) and any other mode (dash-dot).
+one curve per scene, exact (solid), --fast (dashed), and any other mode of an
+older run (dash-dot: shared shading, epipolar rows).
 
 usage: python3 bench/plot_views.py docs/views-bench.csv docs/images/views-cost.png
 """
@@ -25,7 +25,7 @@ def main(src, dst):
     for (scene, mode), pts in sorted(series.items()):
         pts.sort()
         color = colors.setdefault(scene, f"C{len(colors)}")
-        style = {"exact": "-", "shared": "--", "epi": ":"}.get(mode, "-.")
+        style = {"exact": "-", "fast": "--"}.get(mode, "-.")
         xs = [p[0] for p in pts]
         ax.plot(xs, [p[1] for p in pts], style, marker="o", ms=3, color=color,
                 label=f"{scene} {mode}")
@@ -42,7 +42,7 @@ def main(src, dst):
     ax2.axhline(1.0, color="0.5", ls=":")
     ax2.set_xlabel("views N")
     ax2.set_ylabel("time per view / one mono view")
-    ax2.set_title("per view (- exact, -- shared, : epipolar rows, -. other)", fontsize=10)
+    ax2.set_title("per view (- exact, -- fast, -. other)", fontsize=10)
     size = rows[0]["size"] if rows else ""
     fig.suptitle(f"Cost of N views, {size} per view, --samples 1 (bench/views.sh)")
     fig.tight_layout()

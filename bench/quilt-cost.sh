@@ -5,12 +5,12 @@
 # render --stats render_s and the CPU seconds (user + sys) of the whole
 # command, and each quilt's ratios to the same binary's mono render of that
 # round (the median of three mono renders by render_s); the quilts of every binary are compared with the first's (`cmp`).
-# A binary may carry flags after commas (`target/release/twinray,--epipolar-views`).
+# A binary may carry flags after commas (`target/release/twinray,--fast`).
 #
 # usage (from the project root):
 #   bench/quilt-cost.sh ROUNDS BIN[,FLAG...] ... -- SCENE...
-#   e.g. bench/quilt-cost.sh 3 /tmp/before,--epipolar-views \
-#          target/release/twinray,--epipolar-views -- ../shared/scenes/spd/{tetra,tree}.nff
+#   e.g. bench/quilt-cost.sh 3 /tmp/before,--fast \
+#          target/release/twinray,--fast -- ../shared/scenes/spd/{tetra,tree}.nff
 # VIEWS (default 48), QUILT (default 8x6), SIZE (default 420x560) and
 # INTERAXIAL (default 0.02) override the quilt.
 set -euo pipefail

@@ -17,7 +17,7 @@ all seven (balls gears mount rings teapot tetra tree); an entry ending in .nff i
 a path (a scene of your own, e.g. an SPD scene without its lights:
 `grep -v '^l ' ../shared/scenes/spd/tetra.nff > /tmp/tetra-unlit.nff`). A BIN
 may carry flags for its mono and twin renders after commas
-(`target/release/twinray,--epipolar-views`: the same binary with an
+(`target/release/twinray,--fast`: the same binary with an
 approximation, side by side with it plain). $SIZE
 overrides the mono size (512). Within a round every binary and method runs once,
 in turn. Mono also prints each binary's fastest run (`min`), the figure least

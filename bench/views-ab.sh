@@ -2,13 +2,13 @@
 # Two or more builds side by side on N views: for each scene, ROUNDS rounds, each
 # binary in turn, one line per render with the --stats render_s (one thread,
 # --samples 1, 420x560 per view by default). A binary may carry flags after
-# commas, as in bench/render-cpu.py (`target/release/twinray,--epipolar-views`).
+# commas, as in bench/render-cpu.py (`target/release/twinray,--fast`).
 # With CMP=1, the views of every binary are compared with the first's (`cmp`):
 # a change that must not move a pixel is checked in the same run.
 #
 # usage (from the project root):
 #   bench/views-ab.sh ROUNDS VIEWS BIN[,FLAG...] BIN[,FLAG...] ... -- SCENE...
-#   e.g. bench/views-ab.sh 2 48 /tmp/before,--epipolar-views /tmp/after,--epipolar-views \
+#   e.g. bench/views-ab.sh 2 48 /tmp/before,--fast /tmp/after,--fast \
 #          -- ../shared/scenes/spd/{balls,gears}.nff
 # SIZE (default 420x560) and INTERAXIAL (default 0.02) override the rig.
 set -euo pipefail

@@ -1,30 +1,13 @@
 #!/usr/bin/env bash
 # What does the N-th view cost? For each scene and each number of views N, the
-# CPU time of rendering N views (the twin method, exact and with the shared
-# shading cache, --share-shading) divided by that of one mono view, measured in
-# one run, mono first; and the shared views' worst PSNR and largest difference
-# against the exact views. One ray per pixel centre (--samples 1) everywhere.
-# Writes CSV; with matplotlib, the plot docs/images/views-cost.png.
-# MODES (default "exact shared") may add shared-b8: the shared shading with
-# batches of 8 views (--views-per-batch 8) instead of 4; shared-keys: the
-# shared shading with adaptive key views for mirrors and glass (--key-spacing
-# 0; the default, 1, has none); and shared-b8-keys: both. Exact modes: strip
-# (--strip), fans (the shared shadows, --shadow-fans), fans-strip (both);
-# their views are compared with the exact ones too (they must be identical).
-# A mode ending in -runs adds the eye runs (--eye-runs): exact-runs,
-# shared-runs. exact-bK (K = 1, 2, 4, 8, ...): the exact method in batches
-# of K views (--views-per-batch K; its views compared with the exact ones).
-# Mode fast: every approximation at its default (--fast; with --samples 1, as
-# here, that is the epipolar rows since the twelfth pass, the same as epi).
-# Mode interp: the interpolated views (--interpolate-views, which
-# implies the eye runs; its tolerance is --share-tolerance, default 0.01; a
-# mode interp-E sets it to E, e.g. interp-0.02); its samples interpolated and
-# shaded are the CSV's interp_ columns. Mode synth: key-view synthesis
-# (--synthesize-views, key views every 8); synth-K: every K (--synthesis-spacing
-# K); its samples synthesized and traced are the CSV's synth_ columns. Mode
-# epi: the epipolar rows (--epipolar-views). The
-# CSV's eye_pass_s is --stats eye_pass_cpu_s (thread time of the eye pass, twin
-# method only).
+# CPU time of rendering N views divided by that of one mono view, measured in
+# one run, mono first; and each approximate mode's worst PSNR and largest
+# difference against the exact views. One ray per pixel centre (--samples 1)
+# everywhere. Writes CSV; with matplotlib, the plot docs/images/views-cost.png.
+# MODES (default "exact fast"): exact (the twin method) and fast (--fast: with
+# --samples 1, as here, the epipolar rows); the CSV's cache_ columns are the
+# fast method's shading cache (`--stats`' fast.cache), its eye_pass_s the
+# --stats eye_pass_cpu_s (thread time of the eye pass).
 # ROUNDS (default 1) repeats each scene's measurements, interleaved (mono,
 # then every N and mode, then again), one CSV line per round (column round).
 # PLOT (default docs/images/views-cost.png; empty: none) is the plot written.
@@ -53,7 +36,7 @@ if [[ ${#scenes[@]} -eq 0 ]]; then
 fi
 bin=${TWINRAY:-target/release/twinray}
 threads=${THREADS:-1}
-modes=${MODES:-exact shared}
+modes=${MODES:-exact fast}
 rounds=${ROUNDS:-1}
 plot=${PLOT-docs/images/views-cost.png}
 [[ -x $bin ]] || { echo "build first: cargo build --release" >&2; exit 2; }
@@ -65,19 +48,17 @@ common=(--size "$size" --samples 1 -q --threads "$threads")
 cpu() { /usr/bin/time -f "%U %S %e" -o "$tmp/time" "$@"; read -r u s e < "$tmp/time"; echo "$e" > "$tmp/wall"; python3 -c "print($u + $s)"; }
 # A render's --stats render_s, and a counter of it.
 render_s() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time']['render_s'])" "$1"; }
-counter() { python3 -c "import json,sys; print(json.load(open(sys.argv[1])).get(sys.argv[2], 0))" "$1" "$2"; }
+counter() { python3 -c "import json,sys; print(json.load(open(sys.argv[1])).get('fast', {}).get('cache', {}).get(sys.argv[2], 0))" "$1" "$2"; }
 shadow_rays() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['rays']['shadow'])" "$1"; }
 secondary_rays() { python3 -c "import json,sys; r=json.load(open(sys.argv[1]))['rays']; print(r['reflected'] + r['refracted'])" "$1"; }
 
-synth_count() { python3 -c "import json,sys; print(json.load(open(sys.argv[1])).get('view_synthesis', {}).get(sys.argv[2], 0))" "$1" "$2"; }
-interp_count() { python3 -c "import json,sys; print(json.load(open(sys.argv[1])).get('interpolated_views', {}).get(sys.argv[2], 0))" "$1" "$2"; }
 eye_pass() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time'].get('eye_pass_cpu_s') or '')" "$1"; }
-echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals,cache_colour_hits,secondary_rays,key_view_samples,interpolated_samples,key_view_fallbacks,fan_queries,fan_free,shadow_rays_proved,round,eye_pass_s,interp_interpolated,interp_shaded,synth_synthesized,synth_traced" > "$csv"
+echo "scene,size,threads,views,mode,cpu_s,per_mono,wall_s,render_s,psnr_db_worst,max_abs,shadow_rays,cache_hits,cache_entries,cache_fallbacks,cache_edge_refusals,cache_colour_hits,secondary_rays,round,eye_pass_s" > "$csv"
 for scene in "${scenes[@]}"; do
  name=$(basename "$scene" .nff)
  for round in $(seq "$rounds"); do
   mono=$(cpu "$bin" render "$scene" -o "$tmp/mono.pfm" "${common[@]}" --stats "$tmp/mono.json" 2>/dev/null)
-  echo "$name,$size,$threads,0,mono,$mono,1,$(cat "$tmp/wall"),$(render_s "$tmp/mono.json"),,,$(shadow_rays "$tmp/mono.json"),0,0,0,0,0,$(secondary_rays "$tmp/mono.json"),0,0,0,0,0,0,$round,$(eye_pass "$tmp/mono.json"),0,0" >> "$csv"
+  echo "$name,$size,$threads,0,mono,$mono,1,$(cat "$tmp/wall"),$(render_s "$tmp/mono.json"),,,$(shadow_rays "$tmp/mono.json"),0,0,0,0,0,$(secondary_rays "$tmp/mono.json"),$round,$(eye_pass "$tmp/mono.json")" >> "$csv"
   for n in ${counts//,/ }; do
     rm -f "$tmp"/*_*.pfm
     rig=(--views "$n" --interaxial "$b")
@@ -85,19 +66,7 @@ for scene in "${scenes[@]}"; do
     for mode in $modes; do
       extra=()
       [[ $mode != exact && $n -eq 1 ]] && continue
-      [[ $mode == shared* ]] && extra=(--share-shading)
-      [[ $mode == shared-b8* ]] && extra+=(--views-per-batch 8)
-      [[ $mode == *-keys ]] && extra+=(--key-spacing 0)
-      [[ $mode == fans* ]] && extra=(--shadow-fans)
-      [[ $mode == *strip ]] && extra+=(--strip)
-      [[ $mode == *-runs ]] && extra+=(--eye-runs)
-      [[ $mode == exact-b* ]] && extra=(--views-per-batch "${mode#exact-b}")
-      [[ $mode == interp* ]] && extra=(--interpolate-views)
-      [[ $mode == interp-* ]] && extra+=(--share-tolerance "${mode#interp-}")
       [[ $mode == fast ]] && extra=(--fast)
-      [[ $mode == synth* ]] && extra=(--synthesize-views)
-      [[ $mode == synth-* ]] && extra+=(--synthesis-spacing "${mode#synth-}")
-      [[ $mode == epi ]] && extra=(--epipolar-views)
       s=$(cpu "$bin" render "$scene" -o "$tmp/$mode.pfm" "${common[@]}" "${rig[@]}" "${extra[@]}" \
         --stats "$tmp/$mode.json" 2>/dev/null)
       wall=$(cat "$tmp/wall")
@@ -111,19 +80,13 @@ for scene in "${scenes[@]}"; do
           | python3 -c "import sys; r=[l.split() for l in sys.stdin]; print(min(float(a) for a, _ in r), max(float(b) for _, b in r))")
       fi
       shadow=$(shadow_rays "$tmp/$mode.json")
-      hits=$(counter "$tmp/$mode.json" cache_hits)
-      entries=$(counter "$tmp/$mode.json" cache_entries)
-      fb=$(counter "$tmp/$mode.json" cache_fallbacks)
-      edge=$(counter "$tmp/$mode.json" cache_edge_refusals)
-      whole=$(counter "$tmp/$mode.json" cache_colour_hits)
-      keys=()
-      for k in key_view_samples interpolated_samples key_view_fallbacks fan_queries fan_free; do
-        keys+=("$(counter "$tmp/$mode.json" "$k")")
-      done
-      keys+=("$(counter "$tmp/$mode.json" shadow_rays_proved)" "$round")
-      keys_csv=$(IFS=,; echo "${keys[*]}")
+      hits=$(counter "$tmp/$mode.json" hits)
+      entries=$(counter "$tmp/$mode.json" entries)
+      fb=$(counter "$tmp/$mode.json" fallbacks)
+      edge=$(counter "$tmp/$mode.json" edge_refusals)
+      whole=$(counter "$tmp/$mode.json" colour_hits)
       ratio=$(python3 -c "print(f'{$s / $mono:.3f}')")
-      echo "$name,$size,$threads,$n,$mode,$s,$ratio,$wall,$(render_s "$tmp/$mode.json"),$worst,$maxabs,$shadow,$hits,$entries,$fb,$edge,$whole,$(secondary_rays "$tmp/$mode.json"),$keys_csv,$(eye_pass "$tmp/$mode.json"),$(interp_count "$tmp/$mode.json" interpolated),$(interp_count "$tmp/$mode.json" shaded),$(synth_count "$tmp/$mode.json" synthesized),$(synth_count "$tmp/$mode.json" traced)" >> "$csv"
+      echo "$name,$size,$threads,$n,$mode,$s,$ratio,$wall,$(render_s "$tmp/$mode.json"),$worst,$maxabs,$shadow,$hits,$entries,$fb,$edge,$whole,$(secondary_rays "$tmp/$mode.json"),$round,$(eye_pass "$tmp/$mode.json")" >> "$csv"
       printf '%-8s %4s views %-10s %7.3f CPU s %8s x mono  worst %s dB  max %s\n' "$name" "$n" "$mode" "$s" "$ratio" "$worst" "$maxabs"
     done
   done

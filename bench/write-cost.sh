@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # What writing a many-view render costs: for each binary in turn (ROUNDS
 # rounds, alternated), 48 views of 420x560 of SCENE (--samples 1,
-# --epipolar-views) written as one portrait quilt PNG and as 48 separate PNGs;
+# --fast) written as one portrait quilt PNG and as 48 separate PNGs;
 # prints --stats' render_s and write_s, the command's wall and system CPU time
 # and its peak RSS (GNU time), and checks with `cmp` that every binary wrote
 # the first one's files.
@@ -15,7 +15,7 @@ shift 2
 [[ $# -ge 1 ]] || { sed -n 2,12p "$0" >&2; exit 2; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-common=(--samples 1 --epipolar-views --quiet)
+common=(--samples 1 --fast --quiet)
 printf '%-24s %-9s %9s %8s %7s %7s %8s\n' binary output render_s write_s wall_s sys_s peak_MB
 for r in $(seq 1 "$rounds"); do
     i=0

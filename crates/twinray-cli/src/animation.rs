@@ -10,8 +10,8 @@ use anyhow::Result;
 use twinray::animation::{Animation, FrameProgress, FrameReport};
 use twinray::job::{JobSpec, Level};
 
-use crate::render_args::RenderArgs;
 use crate::{cancel_token, interrupted, print_messages, progress_bar, RENDERING};
+use twinray_args::RenderArgs;
 
 /// Bar positions per frame: the frame's own progress in thousandths.
 const STEPS: u64 = 1000;
@@ -41,7 +41,7 @@ pub fn run(spec: JobSpec, args: &RenderArgs) -> Result<Vec<PathBuf>> {
             .collect();
         bar.suspend(|| {
             print_messages(&fresh, args);
-            if args.quiet {
+            if args.output.quiet {
                 return;
             }
             if r.skipped {

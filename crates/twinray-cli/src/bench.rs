@@ -10,12 +10,12 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use twinray::job::{
-    ApproximationSpec, CameraSpec, CancelToken, Job, JobSpec, MethodSpec, OutputSpec,
-    ReprojectModeSpec, RigSpec, SamplingSpec, TraceSpec,
+    CameraSpec, CancelToken, CutSpec, Job, JobSpec, MethodName, MethodSpec, OutputSpec, RigSpec,
+    SamplingSpec, TraceSpec,
 };
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::output::compare;
-use twinray::render::{RenderOutput, Sampling};
+use twinray::render::{RenderOutput, ReprojectMode, Sampling};
 use twinray::Scene;
 
 #[derive(clap::Args)]
@@ -41,31 +41,24 @@ pub struct BenchArgs {
     /// Also write the table as CSV.
     #[arg(long)]
     csv: Option<PathBuf>,
-    /// Configurations of the twin method, comma-separated: none (exact), cut
+    /// Configurations, comma-separated: none (the exact twin method), cut
     /// (--cut-parallax, see below), merge (--merge-secondary), reproject (safe),
-    /// paper (--reproject-mode paper), shared (--share-shading), all (cut, merge,
-    /// reproject and shared: what --fast took before it took the epipolar rows), fast
-    /// (--fast itself: at this bench's one sample a pixel, the epipolar rows). Each is
-    /// timed against two independent renders, and its images compared with theirs (PSNR
-    /// and largest difference, worst view).
+    /// paper (--reproject-mode paper), fast (--fast: at this bench's one sample a
+    /// pixel, the epipolar rows). Each is timed against two independent renders,
+    /// and its images compared with theirs (PSNR and largest difference, worst
+    /// view).
     #[arg(long, value_delimiter = ',', value_enum, default_values_t = [Approx::None])]
     approx: Vec<Approx>,
-    /// Disparity error in pixels allowed to cut objects (configurations cut and all).
+    /// Disparity error in pixels allowed to cut objects (configuration cut).
     #[arg(long, default_value_t = 0.5)]
     cut_parallax: f64,
     /// Views of the rig (2: a stereo pair), spaced by each --interaxial.
     #[arg(long, default_value_t = 2)]
     views: usize,
-    /// Twin method: most views per packet (default 4).
-    #[arg(long, value_name = "N")]
-    views_per_batch: Option<usize>,
-    /// Twin method: one eye-pass descent per camera column for all views.
-    #[arg(long)]
-    strip: bool,
     /// Sampling of both methods (default here: one ray per pixel centre, as
     /// the paper's tables).
     #[command(flatten)]
-    sampling: crate::sampling::SamplingArgs,
+    sampling: twinray_args::SamplingArgs,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -75,9 +68,7 @@ pub enum Approx {
     Merge,
     Reproject,
     Paper,
-    All,
     Fast,
-    Shared,
 }
 
 impl Approx {
@@ -88,34 +79,22 @@ impl Approx {
             Approx::Merge => "merge",
             Approx::Reproject => "reproject",
             Approx::Paper => "paper",
-            Approx::All => "all",
             Approx::Fast => "fast",
-            Approx::Shared => "shared",
         }
     }
 
-    /// The spec's approximations for this configuration.
-    fn spec(self, cut_parallax: f64) -> ApproximationSpec {
-        let mut a = ApproximationSpec::default();
+    /// The spec's method for this configuration.
+    fn spec(self, cut_parallax: f64) -> MethodSpec {
+        let mut m = MethodSpec::default();
         match self {
             Approx::None => {}
-            Approx::Cut => a.cut_parallax = Some(cut_parallax),
-            Approx::Merge => a.merge_secondary = true,
-            Approx::Reproject => a.reproject = true,
-            Approx::Paper => {
-                a.reproject = true;
-                a.reproject_mode = ReprojectModeSpec::Paper;
-            }
-            Approx::All => {
-                a.cut_parallax = Some(cut_parallax);
-                a.merge_secondary = true;
-                a.reproject = true;
-                a.share_shading = true;
-            }
-            Approx::Fast => a.fast = true,
-            Approx::Shared => a.share_shading = true,
+            Approx::Cut => m.cut = Some(CutSpec::Parallax(cut_parallax)),
+            Approx::Merge => m.merge_secondary = true,
+            Approx::Reproject => m.reproject = Some(ReprojectMode::Safe),
+            Approx::Paper => m.reproject = Some(ReprojectMode::Paper),
+            Approx::Fast => m.name = MethodName::Fast,
         }
-        a
+        m
     }
 }
 
@@ -262,7 +241,7 @@ fn check_args(args: &BenchArgs) -> Result<()> {
 /// (A B C … A B C …), and compares each configuration's images with the
 /// independent ones. Each run is a job of its own on the parsed scene.
 fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Result<Vec<Row>> {
-    let spec = |method, approx: Approx| JobSpec {
+    let spec = |method: Option<MethodSpec>, approx: Approx| JobSpec {
         camera: CameraSpec {
             size: Some([size, size]),
             ..CameraSpec::default()
@@ -271,9 +250,6 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
             views: Some(args.views),
             interaxial: Some(b.to_string()),
             convergence: args.convergence.clone(),
-            method,
-            views_per_batch: args.views_per_batch,
-            strip: args.strip,
             ..RigSpec::default()
         },
         trace: TraceSpec {
@@ -282,14 +258,14 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
         },
         // The paper's tables trace one ray per pixel centre.
         sampling: if args.sampling.given() {
-            args.sampling.spec(false)
+            args.sampling.spec()
         } else {
             SamplingSpec {
                 samples: Some(1),
                 ..SamplingSpec::default()
             }
         },
-        approximations: approx.spec(args.cut_parallax),
+        method: method.unwrap_or_else(|| approx.spec(args.cut_parallax)),
         output: OutputSpec {
             path: "bench.png".into(),
             ..OutputSpec::default()
@@ -298,7 +274,7 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
     };
     // Build + render, as a user would wait for it (the file is already
     // parsed; the disparity report's depth pass is not counted).
-    let timed = |method, a: Approx| -> Result<(f64, RenderOutput)> {
+    let timed = |method: Option<MethodSpec>, a: Approx| -> Result<(f64, RenderOutput)> {
         let job = Job::check(spec(method, a))?;
         let loaded = job.prepare(scene.clone())?;
         let plan = job.plan(&loaded)?;
@@ -313,11 +289,15 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
     let mut outputs: Vec<Option<RenderOutput>> = args.approx.iter().map(|_| None).collect();
     let mut reference = None;
     for _ in 0..args.runs {
-        let (t, out) = timed(MethodSpec::Independent, Approx::None)?;
+        let independent_method = MethodSpec {
+            name: MethodName::Independent,
+            ..MethodSpec::default()
+        };
+        let (t, out) = timed(Some(independent_method), Approx::None)?;
         independent.push(t);
         reference = Some(out);
         for (k, &a) in args.approx.iter().enumerate() {
-            let (t, out) = timed(MethodSpec::Twin, a)?;
+            let (t, out) = timed(None, a)?;
             times[k].push(t);
             outputs[k] = Some(out);
         }
@@ -335,6 +315,18 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
         let Some(out) = outputs[k].take() else {
             continue;
         };
+        let mut row = Row::of(&reference, &out)?;
+        (row.scene, row.size, row.interaxial, row.approx) = (name.to_string(), size, b, approx);
+        (row.independent_s, row.twin_s) = (independent_s, median(&mut times[k]));
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+impl Row {
+    /// A configuration's row: its images against the independent ones
+    /// (worst view), and its counts; the scene, size and times to fill.
+    fn of(reference: &RenderOutput, out: &RenderOutput) -> Result<Row> {
         let (mut psnr_db, mut max_abs) = (f64::INFINITY, 0.0f32);
         for (a, b) in reference.images.iter().zip(&out.images) {
             let d = compare(a, b)?;
@@ -342,13 +334,13 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
             max_abs = max_abs.max(d.max_abs);
         }
         let c = out.counts;
-        rows.push(Row {
-            scene: name.to_string(),
-            size,
-            interaxial: b,
-            approx,
-            independent_s,
-            twin_s: median(&mut times[k]),
+        Ok(Row {
+            scene: String::new(),
+            size: 0,
+            interaxial: 0.0,
+            approx: Approx::None,
+            independent_s: 0.0,
+            twin_s: 0.0,
             psnr_db,
             max_abs,
             traversals_per_eye_ray: c.eye_traversals as f64 / c.rays.eye.max(1) as f64,
@@ -356,38 +348,33 @@ fn measure(scene: &Scene, name: &str, size: u32, b: f32, args: &BenchArgs) -> Re
             secondary_rays: c.rays.reflected + c.rays.refracted,
             grouped_samples: c.grouped_samples,
             eye_hits: c.rays.eye_hit,
-            merged_rays: c.merged_rays,
-            reprojected: c.reprojected,
-        });
+            merged_rays: c.paper.merged_rays,
+            reprojected: c.paper.reprojected,
+        })
     }
-    Ok(rows)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// `fast` is the flag as a user gives it (no cut of its own: where the
-    /// epipolar rows take the views there is none); `all` is the paper's
-    /// approximations and the shared shading together, cut at the bench's
-    /// parallax, as `--fast` was before the rows.
+    /// Each configuration is one method of the spec: `fast` the fast
+    /// method alone, the others the twin method with one of the paper's
+    /// techniques (the combinations the job's check refuses are not among
+    /// them).
     #[test]
-    fn fast_is_the_flag_and_all_is_the_old_combination() {
+    fn each_configuration_is_one_method() {
         let fast = Approx::Fast.spec(0.7);
+        assert_eq!(fast.name, MethodName::Fast);
+        assert!(fast.cut.is_none() && !fast.merge_secondary && fast.reproject.is_none());
+        let cut = Approx::Cut.spec(0.7);
         assert_eq!(
-            fast,
-            ApproximationSpec {
-                fast: true,
-                ..ApproximationSpec::default()
-            }
+            (cut.name, cut.cut),
+            (MethodName::Twin, Some(CutSpec::Parallax(0.7)))
         );
-        let all = Approx::All.spec(0.7);
-        assert!(!all.fast);
-        assert_eq!(all.cut_parallax, Some(0.7));
-        assert!(all.merge_secondary && all.reproject && all.share_shading);
         assert_eq!(
-            all.reproject_mode,
-            ApproximationSpec::default().reproject_mode
+            Approx::Paper.spec(0.7).reproject,
+            Some(ReprojectMode::Paper)
         );
     }
 }

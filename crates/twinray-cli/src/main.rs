@@ -2,10 +2,7 @@
 //! prints what they report, shows progress.
 
 mod bench;
-mod look_args;
 mod preview;
-mod render_args;
-mod sampling;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -20,7 +17,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use twinray::job::{CancelToken, Job, JobSpec, Level, Message};
 use twinray::output::{self, WriteOptions};
 
-use render_args::RenderArgs;
+use twinray_args::RenderArgs;
 
 mod animation;
 
@@ -83,9 +80,15 @@ struct CompareArgs {
 }
 
 /// A command-line error from clap as one line (`twinray: ...`), like every other
-/// error; help and version requests are printed by clap as usual.
+/// error; help and version requests are printed by clap as usual. A flag
+/// that was removed is named with what replaced it.
 fn parse_args() -> std::result::Result<Cli, ExitCode> {
     use clap::error::ErrorKind;
+    let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
+    if let Err(line) = twinray_args::refuse_removed(&args) {
+        eprintln!("twinray: {line}");
+        return Err(ExitCode::from(2));
+    }
     match Cli::try_parse() {
         Ok(cli) => Ok(cli),
         Err(e)
@@ -192,7 +195,7 @@ fn main() -> ExitCode {
     install_signal_handler();
     let result = match cli.command {
         Command::Render(args) => {
-            run_render(&args).map(|written| list_written(&written, args.quiet))
+            run_render(&args).map(|written| list_written(&written, args.output.quiet))
         }
         Command::BenchStereo(args) => bench::run(args),
         Command::Compare(args) => run_compare(&args),
@@ -274,7 +277,7 @@ pub(crate) fn cancel_token() -> &'static CancelToken {
 /// SCENE and -o on top.
 pub(crate) fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
     let flags = args.spec();
-    let Some(path) = &args.job else {
+    let Some(path) = &args.output.job else {
         return Ok(flags);
     };
     let text =
@@ -292,7 +295,7 @@ pub(crate) fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
     if let Some(scene) = &args.scene {
         spec.scene = scene.clone();
     }
-    if let Some(out) = &args.output {
+    if let Some(out) = &args.output.output {
         spec.output.path = out.clone();
     }
     Ok(spec)
@@ -303,8 +306,8 @@ pub(crate) fn print_messages(messages: &[Message], args: &RenderArgs) {
     for m in messages {
         match m.level {
             Level::Warning => eprintln!("twinray: warning: {}", m.text),
-            Level::Note if !args.quiet => eprintln!("twinray: note: {}", m.text),
-            Level::Info if args.verbose => eprintln!("{}", m.text),
+            Level::Note if !args.output.quiet => eprintln!("twinray: note: {}", m.text),
+            Level::Info if args.output.verbose => eprintln!("{}", m.text),
             Level::Note | Level::Info => {}
         }
     }
@@ -312,7 +315,7 @@ pub(crate) fn print_messages(messages: &[Message], args: &RenderArgs) {
 
 fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     let spec = render_spec(args)?;
-    if args.print_job {
+    if args.output.print_job {
         println!("{}", spec.to_json());
         return Ok(Vec::new());
     }
@@ -347,7 +350,7 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
 
 /// A progress bar on a terminal (hidden with --quiet or when stderr is not one).
 pub(crate) fn progress_bar(args: &RenderArgs, template: &str) -> ProgressBar {
-    if args.quiet || !std::io::stderr().is_terminal() {
+    if args.output.quiet || !std::io::stderr().is_terminal() {
         return ProgressBar::hidden();
     }
     let b = ProgressBar::new(1);

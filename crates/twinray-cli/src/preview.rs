@@ -6,7 +6,7 @@ use std::sync::atomic::Ordering;
 
 use anyhow::{Context, Result};
 
-use crate::render_args::RenderArgs;
+use twinray_args::RenderArgs;
 
 #[derive(clap::Args)]
 pub struct PreviewArgs {

@@ -1127,6 +1127,87 @@ fn help_and_version_exit_zero() {
     }
 }
 
+/// `render --help` is for users: its flags in named groups, no section
+/// numbers of the paper, no method's history; `render -h` fits a screen.
+#[test]
+fn render_help_is_in_groups_for_users() {
+    let long = twinray(&["render", "--help"]);
+    long.ok();
+    for group in [
+        "Output:",
+        "Camera:",
+        "Views and rig:",
+        "Sampling",
+        "Speed",
+        "Colour",
+        "Animation",
+        "Surroundings:",
+        "Limits:",
+    ] {
+        assert!(
+            long.stdout.lines().any(|l| l.starts_with(group)),
+            "render --help has no group {group}"
+        );
+    }
+    for text in ["Section 2.", "section 2", "Twin method:", "issue", "pass"] {
+        assert!(!long.stdout.contains(text), "render --help says {text:?}");
+    }
+    for flag in ["--fast", "--tolerance", "--reproject", "--merge-secondary"] {
+        assert!(long.stdout.contains(flag), "render --help lacks {flag}");
+    }
+    let short = twinray(&["render", "-h"]);
+    short.ok();
+    let lines = short.stdout.lines().count();
+    assert!(lines <= 52, "render -h is {lines} lines:\n{}", short.stdout);
+    assert!(short.stdout.contains("--fast") && short.stdout.contains("--stereo"));
+}
+
+/// A flag that was removed is refused with what replaced it, in one line,
+/// before anything is read or written; a saved job with a removed field
+/// too.
+#[test]
+fn removed_flags_are_refused_with_their_replacement() {
+    let dir = tmp();
+    let out = dir.path().join("x.png");
+    for (args, replacement) in [
+        (vec!["--stereo", "--strip"], "--fast"),
+        (vec!["--stereo", "--eye-runs"], "--fast"),
+        (vec!["--stereo", "--shadow-fans"], "--fast"),
+        (
+            vec!["--views", "8", "--views-per-batch", "8"],
+            "batches of 4",
+        ),
+        (vec!["--stereo", "--interpolate-views"], "--fast"),
+        (vec!["--views", "4", "--synthesize-views"], "--fast"),
+        (vec!["--views", "4", "--synthesis-spacing=2"], "--fast"),
+        (vec!["--stereo", "--key-spacing", "0"], "--fast"),
+        (vec!["--stereo", "--share-shading"], "--fast"),
+        (vec!["--stereo", "--epipolar-views"], "--fast"),
+        (vec!["--stereo", "--share-tolerance", "0.02"], "--tolerance"),
+    ] {
+        let run = render(&scene("example.nff"), &out, &args);
+        let line = run.one_line_error();
+        assert!(
+            line.contains("was removed") && line.contains(replacement),
+            "{args:?}: {line}"
+        );
+        assert_eq!(run.code, Some(2), "{args:?}");
+    }
+    assert_empty(dir.path(), "removed flags");
+    let job = dir.path().join("old.json");
+    std::fs::write(&job, r#"{"rig": {"stereo": true, "strip": true}}"#).unwrap();
+    let run = twinray(&[
+        "render",
+        "--job",
+        s(&job),
+        s(&scene("example.nff")),
+        "-o",
+        s(&out),
+    ]);
+    let line = run.one_line_error();
+    assert!(line.contains("rig.strip was removed"), "{line}");
+}
+
 // ---------------------------------------------------------------------------
 // OBJ and glTF scenes, camera and light from the command line
 // ---------------------------------------------------------------------------

@@ -1,14 +1,16 @@
-//! `JobSpec::to_args` is the inverse of the `render` command's flags: the
+//! `ToArgs::to_args` is the inverse of the `render` command's flags: the
 //! arguments it gives, passed to `twinray render --print-job`, describe the
 //! same spec (the preview shows them as the command reproducing its view).
 
 use std::process::Command;
 
 use twinray::job::{
-    AnaglyphSpec, FilterSpec, InterlaceSpec, JobSpec, LayoutSpec, LightSpec, MethodSpec,
-    ReprojectModeSpec, ShotRigSpec, TileSpec, TonemapSpec, UpAxisSpec,
+    AnaglyphSpec, CutSpec, InterlaceSpec, JobSpec, LayoutSpec, LightSpec, MethodName, ShotRigSpec,
+    TileSpec, TonemapSpec, UpAxisSpec,
 };
+use twinray::render::{Filter, ReprojectMode};
 use twinray::video::Codec;
+use twinray_args::ToArgs;
 
 /// The spec `twinray render ARGS --print-job` prints.
 fn printed(args: &[String]) -> JobSpec {
@@ -44,12 +46,10 @@ fn specs() -> Vec<JobSpec> {
     stereo.output.anaglyph = Some(AnaglyphSpec::GreenMagenta);
     stereo.output.srgb = true;
     stereo.sampling.samples = Some(4);
-    stereo.sampling.filter = Some(FilterSpec::Gaussian);
+    stereo.sampling.filter = Some(Filter::Gaussian);
     stereo.sampling.seed = Some(7);
-    stereo.approximations.fast = true;
-    stereo.approximations.reproject = true;
-    stereo.approximations.reproject_mode = ReprojectModeSpec::Paper;
-    stereo.approximations.reproject_threshold = 0.25;
+    stereo.method.name = MethodName::Fast;
+    stereo.method.tolerance = Some(0.005);
     stereo.trace.max_depth = 3;
     stereo.trace.min_weight = Some(0.01);
     stereo.trace.threads = Some(2);
@@ -57,8 +57,7 @@ fn specs() -> Vec<JobSpec> {
     let mut views = base.clone();
     views.rig.views = Some(8);
     views.rig.view_cone = Some(20.0);
-    views.rig.method = MethodSpec::Independent;
-    views.rig.views_per_batch = Some(2);
+    views.method.name = MethodName::Independent;
     views.output.layout = LayoutSpec::Quilt;
     views.output.quilt = Some("4x2".into());
     views.sampling.adaptive = Some(0.02);
@@ -74,7 +73,7 @@ fn specs() -> Vec<JobSpec> {
     interlaced.output.layout = LayoutSpec::Interlace;
     interlaced.output.interlace = Some(InterlaceSpec::Checker);
     interlaced.sampling.spd = true;
-    interlaced.approximations.cut_distance = Some(12.5);
+    interlaced.method.cut = Some(CutSpec::Distance(12.5));
     interlaced.camera.camera = Some("Camera.001".into());
 
     let mut depth = base.clone();
@@ -83,16 +82,15 @@ fn specs() -> Vec<JobSpec> {
     depth.rig.stereo = true;
     depth.output.layout = LayoutSpec::Sbs;
     depth.output.squeeze = true;
-    depth.approximations.merge_secondary = true;
-    depth.approximations.cut_parallax = Some(0.75);
+    depth.method.merge_secondary = true;
+    depth.method.cut = Some(CutSpec::Parallax(0.75));
+    depth.method.reproject = Some(ReprojectMode::Paper);
+    depth.method.reproject_threshold = Some(0.25);
 
-    // The look of the render, the surroundings and the shared shading.
+    // The look of the render and the surroundings.
     let mut studio = base.clone();
     studio.rig.views = Some(6);
-    studio.approximations.share_shading = true;
-    studio.rig.strip = true;
-    studio.rig.eye_runs = true;
-    studio.approximations.share_tolerance = 0.005;
+    studio.method.reproject = Some(ReprojectMode::Safe);
     studio.output.linear = true;
     studio.output.exposure = -1.5;
     studio.output.tonemap = TonemapSpec::Agx;

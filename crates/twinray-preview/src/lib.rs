@@ -47,6 +47,7 @@ use tokio::net::TcpListener;
 use tokio::sync::mpsc;
 
 use twinray::job::{CancelToken, Job, JobSpec, Loaded, Message};
+use twinray_args::ToArgs;
 
 use info::{Info, Note};
 use session::{Counts, Outgoing, Prepared, Session};

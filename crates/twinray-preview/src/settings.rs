@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use twinray::job::{JobSpec, LayoutSpec, SamplingSpec};
+use twinray::job::{JobSpec, LayoutSpec, MethodName, SamplingSpec};
 
 /// How the page shows the views.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -77,7 +77,7 @@ pub struct Settings {
     /// Samples per pixel of the final pass (`None`: the command line's
     /// sampling, adaptive by default).
     pub samples: Option<u32>,
-    /// The paper's approximations (`--fast`).
+    /// The fast method (`--fast`) instead of the exact one.
     pub fast: bool,
     /// `None`: the command line's (or the scene's) camera.
     pub camera: Option<CameraSettings>,
@@ -130,7 +130,7 @@ impl Settings {
             view,
             quilt: spec.output.quilt.clone().unwrap_or(d.quilt),
             samples: None,
-            fast: spec.approximations.fast,
+            fast: spec.method.name == MethodName::Fast,
             ..d
         }
     }
@@ -186,7 +186,18 @@ impl Settings {
                 ..SamplingSpec::default()
             };
         }
-        spec.approximations.fast = self.fast;
+        // The page's switch between the exact and the fast method; the
+        // command line's reference method stays unless the page asks for
+        // the fast one.
+        let m = &mut spec.method;
+        m.name = match (self.fast, m.name) {
+            (true, _) => MethodName::Fast,
+            (false, MethodName::Fast) => MethodName::Twin,
+            (false, name) => name,
+        };
+        if !self.fast {
+            m.tolerance = None;
+        }
         spec
     }
 

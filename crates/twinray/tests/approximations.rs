@@ -9,8 +9,8 @@ use common::*;
 use twinray::math::{Color, Vec3};
 use twinray::output::compare;
 use twinray::render::{
-    render, Approximations, Method, RenderOptions, RenderOutput, ReprojectMode, Reprojection,
-    Sampling,
+    render, PaperTechniques, RenderOptions, RenderOutput, ReprojectMode, Reprojection, Sampling,
+    ViewMethod,
 };
 use twinray::rig::Camera;
 use twinray::rig::Rig;
@@ -62,18 +62,14 @@ fn wall_scene() -> Scene {
 }
 
 fn approx(reproject: Option<ReprojectMode>, merge_secondary: bool) -> RenderOptions {
-    RenderOptions {
-        approx: Approximations {
-            merge_secondary,
-            reproject: reproject.map(|mode| Reprojection {
-                mode,
-                threshold: Reprojection::DEFAULT_THRESHOLD,
-            }),
-            shared_shading: None,
-            ..Approximations::default()
-        },
-        ..options(Method::Twin, Sampling::Centers)
-    }
+    let paper = PaperTechniques {
+        merge_secondary,
+        reproject: reproject.map(|mode| Reprojection {
+            mode,
+            threshold: Reprojection::DEFAULT_THRESHOLD,
+        }),
+    };
+    options(ViewMethod::Twin { paper }, Sampling::Centers)
 }
 
 fn stereo(
@@ -101,12 +97,14 @@ fn no_approximation_is_the_independent_render_bit_for_bit() {
             &world,
             0.4,
             convergence,
-            &options(Method::Independent, Sampling::Centers),
+            &options(ViewMethod::Independent, Sampling::Centers),
         );
         let (_, _, twin) = stereo(&world, 0.4, convergence, &approx(None, false));
         assert_eq!(reference.images, twin.images);
         assert_eq!(
-            twin.counts.reprojected + twin.counts.merged_rays + twin.counts.samples_cut,
+            twin.counts.paper.reprojected
+                + twin.counts.paper.merged_rays
+                + twin.counts.paper.samples_cut,
             0
         );
     }
@@ -135,9 +133,9 @@ fn safe_reprojection_on_a_diffuse_unoccluded_wall_is_within_rounding() {
         }
         let samples = (96 * 64) as u64;
         assert!(
-            safe.counts.reprojected * 10 >= samples * 8,
+            safe.counts.paper.reprojected * 10 >= samples * 8,
             "convergence {convergence:?}: {} of {samples} samples reprojected",
-            safe.counts.reprojected
+            safe.counts.paper.reprojected
         );
         // The paper's mode copies the colour of a point up to half a pixel away.
         let (_, _, paper) = stereo(
@@ -149,7 +147,7 @@ fn safe_reprojection_on_a_diffuse_unoccluded_wall_is_within_rounding() {
         let d = compare(&exact.images[1], &paper.images[1]).expect("same size");
         assert!(d.psnr_db >= 40.0, "paper mode: {d:?}");
         assert_eq!(
-            paper.counts.reprojected + paper.counts.hole_samples,
+            paper.counts.paper.reprojected + paper.counts.paper.hole_samples,
             samples
         );
     }
@@ -225,7 +223,7 @@ fn safe_reprojection_leaves_no_ghost_where_the_papers_does() {
             "pixel {i}: the pole in shadow"
         );
     }
-    assert!(safe.counts.reproject_rejected > 0);
+    assert!(safe.counts.paper.reproject_rejected > 0);
 
     let (_, _, paper) = stereo(&world, b, None, &approx(Some(ReprojectMode::Paper), false));
     let kept = red_pixels(&paper.images[1]).len();
@@ -251,7 +249,7 @@ fn paper_mode_traces_the_samples_that_receive_nothing() {
         Some(8.0),
         &approx(Some(ReprojectMode::Paper), false),
     );
-    assert!(paper.counts.hole_samples > 0);
+    assert!(paper.counts.paper.hole_samples > 0);
     assert_eq!(
         paper.images[0], exact.images[0],
         "view 0 is traced as usual"
@@ -271,7 +269,7 @@ fn merged_secondary_rays_serve_both_views_of_a_mirror_floor() {
     let rig = Rig::stereo(&cam, 0.3, Some(default_convergence(&world))).expect("rig");
     let exact = run(&world, &cam, &rig, &approx(None, false));
     let merged = run(&world, &cam, &rig, &approx(None, true));
-    assert!(merged.counts.merged_rays > 0);
+    assert!(merged.counts.paper.merged_rays > 0);
     // No claim on node visits: the exact pair shades four groups in one
     // eight-lane packet, while a merged ray is traced alone (a one-lane
     // packet), so here the merged pair visits about 6 % more nodes than the
@@ -333,10 +331,10 @@ fn cut_objects_keep_their_disparity_within_the_bound() {
         }),
     );
     assert_eq!(cut_world.cut_primitives(), 2);
-    let opts = options(Method::Twin, Sampling::Centers);
+    let opts = options(ViewMethod::twin(), Sampling::Centers);
     let exact = run(&exact_world, &cam, &rig, &opts);
     let cut = run(&cut_world, &cam, &rig, &opts);
-    assert!(cut.counts.samples_cut > 0);
+    assert!(cut.counts.paper.samples_cut > 0);
     // Disparity (right − left centroid) of each sphere, exact and with the cut.
     let disparity = |out: &RenderOutput, range: std::ops::Range<u32>| {
         centroid(&out.images[1], range.clone()) - centroid(&out.images[0], range)
@@ -353,15 +351,57 @@ fn cut_objects_keep_their_disparity_within_the_bound() {
     }
 }
 
+/// What no method takes is refused, not ignored: the paper's techniques
+/// for one view, the paper's reprojection with a cut of the object tree, a
+/// threshold or a tolerance out of range.
 #[test]
-fn approximations_need_the_twin_method() {
+fn options_no_method_takes_are_refused() {
     let world = World::new(wall_scene());
-    let opts = RenderOptions {
-        method: Method::Independent,
-        ..approx(Some(ReprojectMode::Safe), false)
-    };
     let vp = &world.scene.viewpoint;
     let cam = Camera::new(vp, vp.width, vp.height);
-    let rig = Rig::stereo(&cam, 0.4, None).expect("rig");
-    assert!(render(&world, &cam, &rig, &opts, &|_, _| {}).is_err());
+    let pair = Rig::stereo(&cam, 0.4, None).expect("rig");
+    let refused = |world: &World, rig: &Rig, opts: &RenderOptions| {
+        render(world, &cam, rig, opts, &|_, _| {}).is_err()
+    };
+    assert!(!refused(
+        &world,
+        &pair,
+        &approx(Some(ReprojectMode::Paper), false)
+    ));
+    assert!(refused(
+        &world,
+        &Rig::mono(),
+        &approx(Some(ReprojectMode::Safe), false)
+    ));
+    assert!(refused(
+        &world,
+        &Rig::mono(),
+        &options(ViewMethod::fast(), Sampling::Centers)
+    ));
+    let cut = World::with_cut(wall_scene(), Some(Cut::at_depth(cam.eye, cam.forward, 5.0)));
+    assert!(refused(
+        &cut,
+        &pair,
+        &approx(Some(ReprojectMode::Paper), false)
+    ));
+    assert!(!refused(
+        &cut,
+        &pair,
+        &approx(Some(ReprojectMode::Safe), false)
+    ));
+    let mut bad = approx(Some(ReprojectMode::Safe), false);
+    if let ViewMethod::Twin { paper } = &mut bad.method {
+        paper.reproject = paper.reproject.map(|r| Reprojection {
+            threshold: f32::NAN,
+            ..r
+        });
+    }
+    assert!(refused(&world, &pair, &bad));
+    let nan = options(
+        ViewMethod::Fast {
+            tolerance: f32::NAN,
+        },
+        Sampling::Centers,
+    );
+    assert!(refused(&world, &pair, &nan));
 }

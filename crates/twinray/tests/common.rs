@@ -7,7 +7,7 @@ use base64::Engine as _;
 use serde_json::json;
 
 use twinray::loaders::{load_scene, LoadOptions};
-use twinray::render::{render, Method, RenderOptions, RenderOutput, Sampling, TraceSettings};
+use twinray::render::{render, RenderOptions, RenderOutput, Sampling, TraceSettings, ViewMethod};
 use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::{Image, World};
@@ -52,7 +52,7 @@ pub fn camera(world: &World, width: u32, height: u32) -> Camera {
     Camera::new(&world.scene.viewpoint, width, height)
 }
 
-pub fn options(method: Method, sampling: Sampling) -> RenderOptions {
+pub fn options(method: ViewMethod, sampling: Sampling) -> RenderOptions {
     RenderOptions {
         trace: TraceSettings {
             spd: sampling == Sampling::Corners,
@@ -95,7 +95,7 @@ pub fn mono(world: &World, width: u32, height: u32) -> twinray::Image {
         world,
         &cam,
         &Rig::mono(),
-        &options(Method::Independent, Sampling::Centers),
+        &options(ViewMethod::Independent, Sampling::Centers),
     );
     out.images.into_iter().next().expect("one view")
 }

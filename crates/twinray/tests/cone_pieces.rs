@@ -10,7 +10,7 @@ mod common;
 use common::{brute, camera, difference, nff_world, options, rings, run};
 use twinray::bvh::{self, AnyHit, Packet, SegmentPacket, TraversalStats};
 use twinray::math::{Ray, Vec3};
-use twinray::render::{Method, Sampling};
+use twinray::render::{Sampling, ViewMethod};
 use twinray::rig::Rig;
 use twinray::shading::shadow_packet;
 use twinray::shapes::{Cone, Shape};
@@ -220,13 +220,13 @@ fn twin_views_equal_independent_renders_with_cones_in_pieces() {
             &world,
             &cam,
             &rig,
-            &options(Method::Independent, Sampling::Centers),
+            &options(ViewMethod::Independent, Sampling::Centers),
         );
         let twin = run(
             &world,
             &cam,
             &rig,
-            &options(Method::Twin, Sampling::Centers),
+            &options(ViewMethod::twin(), Sampling::Centers),
         );
         let (worst, differ) = difference(&reference, &twin);
         assert_eq!(differ, 0, "{views} views, {convergence:?}: max {worst}");

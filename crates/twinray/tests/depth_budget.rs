@@ -8,7 +8,7 @@ mod common;
 use common::*;
 use twinray::math::Vec3;
 use twinray::output::{compose_quilt, DepthChannels, QuiltLayout};
-use twinray::render::{Method, Sampling};
+use twinray::render::{Sampling, ViewMethod};
 use twinray::rig::budget::DepthBudget;
 use twinray::rig::choice::{plan_rig, Convergence, InteraxialRequest, PlannedRig, RigRequest};
 use twinray::rig::depth_pass::stride_for;
@@ -37,7 +37,12 @@ fn spheres(world: &World) -> Vec<(Vec3, f32)> {
 /// Measured disparity (adjacent views: outer views' over the gaps) of each
 /// probe sphere, by centroids in the rendered outer views; with its depth.
 fn measured_disparities(world: &World, cam: &Camera, rig: &Rig) -> Vec<(f64, f64)> {
-    let out = run(world, cam, rig, &options(Method::Twin, Sampling::Centers));
+    let out = run(
+        world,
+        cam,
+        rig,
+        &options(ViewMethod::twin(), Sampling::Centers),
+    );
     let last = rig.views.len() - 1;
     let seen = |v: usize, p: Vec3, r: f64| {
         let view = rig.views[v];
@@ -217,7 +222,7 @@ fn quilt_tiles_are_the_views_rendered_alone_in_order() {
         &world,
         &cam,
         &rig,
-        &options(Method::Twin, Sampling::Centers),
+        &options(ViewMethod::twin(), Sampling::Centers),
     );
     let layout = QuiltLayout {
         columns: 3,
@@ -239,7 +244,7 @@ fn quilt_tiles_are_the_views_rendered_alone_in_order() {
             &world,
             &cam,
             &alone,
-            &options(Method::Independent, Sampling::Centers),
+            &options(ViewMethod::Independent, Sampling::Centers),
         );
         // View 0 bottom-left, filled left to right, then upwards.
         let (x0, y0) = ((v as u32 % 3) * w, (1 - v as u32 / 3) * h);

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use serde_json::json;
-use twinray::job::{CancelToken, Job, JobSpec, MethodSpec, UpAxisSpec};
+use twinray::job::{CancelToken, Job, JobSpec, MethodName, UpAxisSpec};
 use twinray::math::Vec3;
 use twinray::Image;
 
@@ -129,10 +129,10 @@ fn twin_and_independent_views_are_the_same_under_an_environment() {
         s.rig.stereo = true;
         s.rig.interaxial = Some("0.4".into());
         s.rig.convergence = Some("6".into());
-        s.rig.method = method;
+        s.method.name = method;
         render(s)
     };
-    let (twin, independent) = (run(MethodSpec::Twin), run(MethodSpec::Independent));
+    let (twin, independent) = (run(MethodName::Twin), run(MethodName::Independent));
     assert_eq!(twin.len(), 2);
     for v in 0..2 {
         assert!(
@@ -373,12 +373,11 @@ fn epipolar_views_see_the_environment_where_they_hit_nothing() {
         let mut s = spec(&scene, Some(&sky));
         s.rig.views = Some(5);
         s.rig.interaxial = Some("0.05".into());
-        s.rig.method = if epipolar {
-            MethodSpec::Twin
+        s.method.name = if epipolar {
+            MethodName::Fast
         } else {
-            MethodSpec::Independent
+            MethodName::Independent
         };
-        s.approximations.epipolar_views = epipolar;
         render(s)
     };
     let (rows, exact) = (run(true), run(false));

@@ -1,4 +1,4 @@
-//! Epipolar rows (`--epipolar-views`, issue 16): every view's eye hits of a
+//! Epipolar rows (the fast method's first stage, alone): every view's eye hits of a
 //! row found at once from the primitives that cross the row's plane, and a
 //! diffuse surface's colour shaded once and taken by the views after, between
 //! two shade points within a pixel and a half whose colours differ by at most
@@ -11,7 +11,7 @@ mod common;
 
 use common::*;
 use twinray::render::{
-    Approximations, EpipolarStats, EpipolarViews, Method, RenderOptions, RenderOutput, Sampling,
+    EpipolarCounts, FastStages, RenderOptions, RenderOutput, Sampling, ViewMethod,
 };
 use twinray::rig::{Camera, Rig};
 use twinray::World;
@@ -21,13 +21,18 @@ const HEIGHT: u32 = 30;
 const INTERAXIAL: f32 = 0.01;
 const E: f32 = 0.01;
 
+/// The fast method's epipolar rows alone: the rows they do not take are
+/// traced exactly (no shading cache, no merged rays, no cut).
 fn epipolar(tolerance: f32, sampling: Sampling) -> RenderOptions {
     RenderOptions {
-        approx: Approximations {
-            epipolar_views: Some(EpipolarViews { tolerance }),
-            ..Approximations::default()
-        },
-        ..options(Method::Twin, sampling)
+        fast_stages: Some(FastStages {
+            epipolar_rows: true,
+            cut_parallax: None,
+            shared_cache: false,
+            merge_secondary: false,
+            tolerance,
+        }),
+        ..options(ViewMethod::Fast { tolerance }, sampling)
     }
 }
 
@@ -40,7 +45,7 @@ fn independent(world: &World, camera: &Camera, rig: &Rig) -> RenderOutput {
         world,
         camera,
         rig,
-        &options(Method::Independent, Sampling::Centers),
+        &options(ViewMethod::Independent, Sampling::Centers),
     )
 }
 
@@ -75,7 +80,7 @@ fn a_diffuse_open_floor_is_shaded_once_within_the_tolerance() {
     let world = nff_world(OPEN_FLOOR);
     for views in [3, 9, 48] {
         let (worst, differ, out) = against_exact(&world, views, INTERAXIAL, 1);
-        let e = out.counts.epipolar;
+        let e = out.counts.fast.epipolar;
         let per_view = (WIDTH * HEIGHT) as u64;
         assert!(worst <= E, "{views} views: {worst}, {e:?}");
         assert_eq!(e.rows, HEIGHT as u64, "{views} views: {e:?}");
@@ -116,7 +121,7 @@ fn a_pole_seen_by_one_view_only_is_kept() {
     assert!(!seeing.is_empty(), "the pole is in some view");
     assert!(seeing.len() < 48, "not in every view: {seeing:?}");
     let (worst, _, out) = against_exact(&world, 48, INTERAXIAL, 1);
-    assert!(worst <= E, "{worst}, {:?}", out.counts.epipolar);
+    assert!(worst <= E, "{worst}, {:?}", out.counts.fast.epipolar);
     for &v in &seeing {
         assert!(
             out.images[v].pixels != without.images[v].pixels,
@@ -134,7 +139,7 @@ fn a_shadow_edge_is_kept() {
     let world = nff_world(&format!("{OPEN_FLOOR}{bar}"));
     for views in [8, 48] {
         let (worst, _, out) = against_exact(&world, views, INTERAXIAL, 1);
-        let e = out.counts.epipolar;
+        let e = out.counts.fast.epipolar;
         assert!(worst <= E, "{views} views: {worst}, {e:?}");
         assert!(e.refused_colour > 0, "{views} views: {e:?}");
         assert!(e.taken > 0, "{views} views: {e:?}");
@@ -153,7 +158,7 @@ fn next_to_one_lights_shadow_edge_only_that_light_is_traced() {
     let world = nff_world(&format!("{lights}{bar}"));
     for views in [8, 48] {
         let (worst, _, out) = against_exact(&world, views, INTERAXIAL, 1);
-        let e = out.counts.epipolar;
+        let e = out.counts.fast.epipolar;
         assert!(worst <= E, "{views} views: {worst}, {e:?}");
         assert!(e.light_partly_taken > 0, "{views} views: {e:?}");
         // One of the two lights traced, never both.
@@ -175,7 +180,7 @@ fn floor_behind_a_ball_is_traced_where_no_view_shaded_it() {
     let ball = "f 0.9 0.2 0.2 0.9 0 0 0 1\ns 0 -3 2.5 0.3\n";
     let world = nff_world(&format!("{above}{ball}"));
     let (worst, _, out) = against_exact(&world, 9, 0.2, 1);
-    let e = out.counts.epipolar;
+    let e = out.counts.fast.epipolar;
     assert!(worst <= E, "{worst}, {e:?}");
     assert!(e.taken > 0 && e.no_bracket > 0, "{e:?}");
     // The ball's colour turns faster than E a pixel: its samples take the
@@ -191,7 +196,7 @@ fn a_mirror_whose_reflection_changes_between_views_is_traced() {
     let world = nff_world(MIRROR_FLOOR_AND_POLE);
     let camera = camera(&world);
     let (worst, _, out) = against_exact(&world, 48, INTERAXIAL, 1);
-    let e = out.counts.epipolar;
+    let e = out.counts.fast.epipolar;
     assert!(e.refused_material > 0, "{e:?}");
     assert!(worst <= E, "{worst}, {e:?}");
     let rig = Rig::multi_view(&camera, 48, INTERAXIAL, None).expect("rig");
@@ -221,11 +226,11 @@ fn other_samplings_are_traced_exactly() {
         &world,
         &camera,
         &rig,
-        &options(Method::Independent, sampling),
+        &options(ViewMethod::Independent, sampling),
     );
     let out = run(&world, &camera, &rig, &epipolar(E, sampling));
     assert_eq!(difference(&exact, &out), (0.0, 0));
-    let e: EpipolarStats = out.counts.epipolar;
+    let e: EpipolarCounts = out.counts.fast.epipolar;
     assert!(e.rows_exact > 0 && e.taken == 0, "{e:?}");
 }
 
@@ -236,11 +241,11 @@ fn one_two_and_five_threads_give_the_same_images() {
     let ball = "f 0.9 0.2 0.2 0.9 0 0 0 1\ns 0 -3 2.5 0.3\n";
     let world = nff_world(&format!("{OPEN_FLOOR}{bar}{ball}"));
     let (_, _, one) = against_exact(&world, 24, 0.05, 1);
-    assert!(one.counts.epipolar.taken > 0);
+    assert!(one.counts.fast.epipolar.taken > 0);
     for threads in [2, 5] {
         let (_, _, other) = against_exact(&world, 24, 0.05, threads);
         assert_eq!(
-            one.counts.epipolar, other.counts.epipolar,
+            one.counts.fast.epipolar, other.counts.fast.epipolar,
             "{threads} threads"
         );
         for (a, b) in one.images.iter().zip(&other.images) {
@@ -273,9 +278,9 @@ fn tiled_floor(light: &str) -> World {
 
 /// 24 views of `tiled_floor(light)` by epipolar rows, each within E of the
 /// independent render; what the rows did.
-fn tiled_floor_within_e(light: &str) -> EpipolarStats {
+fn tiled_floor_within_e(light: &str) -> EpipolarCounts {
     let (worst, _, out) = against_exact(&tiled_floor(light), 24, INTERAXIAL, 1);
-    let e = out.counts.epipolar;
+    let e = out.counts.fast.epipolar;
     assert!(worst <= E, "{light}: {worst}, {e:?}");
     e
 }

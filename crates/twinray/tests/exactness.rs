@@ -7,7 +7,7 @@
 mod common;
 
 use common::*;
-use twinray::render::{Method, Sampling};
+use twinray::render::{RenderOptions, Sampling, ViewMethod};
 use twinray::rig::Rig;
 use twinray::Image;
 
@@ -49,9 +49,14 @@ fn independent_and_twin(
         world,
         cam,
         rig,
-        &options(Method::Independent, Sampling::Centers),
+        &options(ViewMethod::Independent, Sampling::Centers),
     );
-    let twin = run(world, cam, rig, &options(Method::Twin, Sampling::Centers));
+    let twin = run(
+        world,
+        cam,
+        rig,
+        &options(ViewMethod::twin(), Sampling::Centers),
+    );
     (reference, twin)
 }
 
@@ -62,8 +67,13 @@ fn check_scene(name: &str, width: u32, height: u32, interaxials: &[f32], samplin
     for &interaxial in interaxials {
         for convergence in [None, Some(conv), Some(conv * 0.4)] {
             let rig = Rig::stereo(&cam, interaxial, convergence).unwrap();
-            let reference = run(&world, &cam, &rig, &options(Method::Independent, sampling));
-            let twin = run(&world, &cam, &rig, &options(Method::Twin, sampling));
+            let reference = run(
+                &world,
+                &cam,
+                &rig,
+                &options(ViewMethod::Independent, sampling),
+            );
+            let twin = run(&world, &cam, &rig, &options(ViewMethod::twin(), sampling));
             for v in 0..2 {
                 let what =
                     format!("{name} interaxial={interaxial} convergence={convergence:?} view {v} {sampling:?}");
@@ -132,7 +142,7 @@ fn interaxial_zero_gives_identical_eyes() {
         &world,
         &cam,
         &rig,
-        &options(Method::Twin, Sampling::Centers),
+        &options(ViewMethod::twin(), Sampling::Centers),
     );
     assert_same_pixels(&out.images[0], &out.images[1], "interaxial 0");
 }
@@ -154,7 +164,7 @@ fn multi_view_twin_equals_independent() {
         // One descent serves the eye rays of every view of a batch through a
         // sample, or of two samples (batches of 4 neighbouring views by
         // default, eight rays a descent): at most one per sample and batch.
-        let batches = count.div_ceil(twinray::render::views_per_batch(count, 0)) as u64;
+        let batches = count.div_ceil(RenderOptions::default().views_per_batch(count)) as u64;
         assert!(
             twin.counts.eye_traversals * count as u64 <= twin.counts.rays.eye * batches,
             "{count} views: at most one eye-ray descent per sample and batch"
@@ -175,7 +185,7 @@ fn views_samples_of_one_point_are_shaded_together() {
         &world,
         &cam,
         &rig,
-        &options(Method::Twin, Sampling::Centers),
+        &options(ViewMethod::twin(), Sampling::Centers),
     );
     assert!(twin.counts.shared_secondary > 0);
     assert!(
@@ -194,7 +204,7 @@ fn views_samples_of_one_point_are_shaded_together() {
         &world,
         &cam,
         &rig,
-        &options(Method::Independent, Sampling::Centers),
+        &options(ViewMethod::Independent, Sampling::Centers),
     );
     assert_eq!(reference.counts.shared_secondary, 0);
     assert_eq!(reference.counts.grouped_samples, 0);

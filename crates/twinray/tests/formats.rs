@@ -11,7 +11,7 @@ use common::*;
 use serde_json::json;
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::{load_scene, LoadOptions};
-use twinray::render::{Method, Sampling};
+use twinray::render::{Sampling, ViewMethod};
 use twinray::rig::Rig;
 use twinray::{Scene, World};
 
@@ -166,7 +166,7 @@ fn as_gltf(m: &Model, materials: serde_json::Value) -> String {
     .to_string()
 }
 
-fn render_bits(scene: Scene, method: Method, views: usize) -> Vec<Vec<u32>> {
+fn render_bits(scene: Scene, method: ViewMethod, views: usize) -> Vec<Vec<u32>> {
     let world = World::new(scene);
     let cam = camera(&world, 48, 36);
     let rig = if views == 1 {
@@ -222,22 +222,22 @@ fn matte_model_as_nff_obj_and_gltf_renders_the_same() {
     assert_eq!(obj.shapes.len(), nff.shapes.len());
     assert_eq!(gltf.shapes.len(), nff.shapes.len());
 
-    let reference = render_bits(nff.clone(), Method::Independent, 1);
+    let reference = render_bits(nff.clone(), ViewMethod::Independent, 1);
     let lit = reference[0]
         .chunks(3)
         .filter(|p| p.iter().any(|&b| b != 0))
         .count();
     assert!(lit > 48 * 36 / 2, "the model fills the image");
     assert!(
-        reference == render_bits(obj, Method::Independent, 1),
+        reference == render_bits(obj, ViewMethod::Independent, 1),
         "OBJ differs from NFF"
     );
     assert!(
-        reference == render_bits(gltf.clone(), Method::Independent, 1),
+        reference == render_bits(gltf.clone(), ViewMethod::Independent, 1),
         "glTF differs from NFF"
     );
     assert!(
-        render_bits(nff, Method::Twin, 2) == render_bits(gltf, Method::Twin, 2),
+        render_bits(nff, ViewMethod::twin(), 2) == render_bits(gltf, ViewMethod::twin(), 2),
         "stereo pairs differ"
     );
 }
@@ -263,7 +263,8 @@ fn mirror_and_glass_as_nff_and_obj_render_the_same() {
     let obj = with_view_of(load(dir.path(), "m.obj", &as_obj(&m)), &nff);
     assert_eq!(obj.materials[0], nff.materials[0]);
     assert!(
-        render_bits(nff, Method::Independent, 1) == render_bits(obj, Method::Independent, 1),
+        render_bits(nff, ViewMethod::Independent, 1)
+            == render_bits(obj, ViewMethod::Independent, 1),
         "OBJ differs from NFF"
     );
 }

@@ -11,7 +11,7 @@ use std::path::Path;
 
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::LoadOptions;
-use twinray::render::{render, Method, RenderOptions};
+use twinray::render::{render, RenderOptions, ViewMethod};
 use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::{Error, World};
@@ -123,7 +123,7 @@ fn check(text: &str) -> Result<(), String> {
         };
         render(&world, &camera, &rig, &opts, &|_, _| {}).map(|out| out.images)
     };
-    let (independent, twin) = (pair(Method::Independent), pair(Method::Twin));
+    let (independent, twin) = (pair(ViewMethod::Independent), pair(ViewMethod::twin()));
     match (independent, twin) {
         (Ok(a), Ok(b)) if a == b => Ok(()),
         (Ok(_), Ok(_)) => Err("twin differs from independent".into()),

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::LoadOptions;
-use twinray::render::{render, Method, RenderOptions, Sampling, TraceSettings, MAX_DEPTH};
+use twinray::render::{render, RenderOptions, Sampling, TraceSettings, ViewMethod, MAX_DEPTH};
 use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::{Image, World};
@@ -18,7 +18,7 @@ fn world(nff: &str) -> World {
     World::new(scene)
 }
 
-fn render_views(world: &World, views: usize, method: Method, max_depth: u32) -> Vec<Image> {
+fn render_views(world: &World, views: usize, method: ViewMethod, max_depth: u32) -> Vec<Image> {
     let vp = &world.scene.viewpoint;
     let camera = Camera::new(vp, vp.width, vp.height);
     let rig = if views == 1 {
@@ -73,7 +73,7 @@ fn mirror_box_at_the_depth_cap_does_not_overflow_the_stack() {
     // depth runs on the default worker stacks for 1, 2 and 32 views.
     let world = world(&mirror_box());
     for views in [1, 2, 32] {
-        let images = render_views(&world, views, Method::Twin, MAX_DEPTH);
+        let images = render_views(&world, views, ViewMethod::twin(), MAX_DEPTH);
         assert_eq!(images.len(), views);
     }
     let vp = &world.scene.viewpoint;
@@ -112,7 +112,8 @@ fn glass_stack(count: usize, t: f32) -> String {
 fn shadow_transmittance_keeps_multiplying_past_sixteen_objects() {
     // The attack: 17 spheres with T = 1 between a floor and its light gave a
     // black shadow (the product stopped at 16 factors).
-    let centre = |nff: &str| render_views(&world(nff), 1, Method::Independent, 5)[0].get(16, 16);
+    let centre =
+        |nff: &str| render_views(&world(nff), 1, ViewMethod::Independent, 5)[0].get(16, 16);
     let lit = centre(&glass_stack(0, 1.0));
     assert!(lit.x > 0.5, "{lit}");
     assert_eq!(centre(&glass_stack(17, 1.0)), lit);
@@ -122,8 +123,8 @@ fn shadow_transmittance_keeps_multiplying_past_sixteen_objects() {
     // Past 16 factors the product is still independent of the traversal
     // order: the twin method's packets give the same bits.
     let world = world(&glass_stack(20, 0.9));
-    let independent = render_views(&world, 2, Method::Independent, 5);
-    let twin = render_views(&world, 2, Method::Twin, 5);
+    let independent = render_views(&world, 2, ViewMethod::Independent, 5);
+    let twin = render_views(&world, 2, ViewMethod::twin(), 5);
     assert_eq!(independent, twin);
 }
 
@@ -157,15 +158,15 @@ fn many_vertex_flat_polygons_do_not_shadow_themselves() {
     for n in [2000, 20_000] {
         for tilt in [0.0, 0.3] {
             let world = world(&regular_polygon(n, tilt));
-            let independent = render_views(&world, 1, Method::Independent, 5);
+            let independent = render_views(&world, 1, ViewMethod::Independent, 5);
             let (black, total) = self_shadowed(&independent);
             assert!(total > 400, "{n}-gon covers {total} pixels");
             assert_eq!(
                 black, 0,
                 "{n}-gon tilt {tilt}: {black} of {total} pixels self-shadowed"
             );
-            let pair_independent = render_views(&world, 2, Method::Independent, 5);
-            let pair_twin = render_views(&world, 2, Method::Twin, 5);
+            let pair_independent = render_views(&world, 2, ViewMethod::Independent, 5);
+            let pair_twin = render_views(&world, 2, ViewMethod::twin(), 5);
             assert_eq!(pair_independent, pair_twin, "{n}-gon: twin = independent");
         }
     }

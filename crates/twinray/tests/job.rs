@@ -6,8 +6,8 @@ mod common;
 
 use std::sync::Arc;
 
-use twinray::job::{CancelToken, Job, JobSpec, Level, MethodSpec};
-use twinray::render::Sampling;
+use twinray::job::{CancelToken, CutSpec, Job, JobSpec, Level, MethodName};
+use twinray::render::{ReprojectMode, Sampling, ViewMethod};
 
 fn pair(interaxial: &str) -> JobSpec {
     let mut spec = JobSpec::new(common::scene_path("example.nff"), "unused.png");
@@ -68,6 +68,41 @@ fn a_cancelled_render_stops_with_cancelled() {
     assert!(traced < 30, "{traced} rows traced after the cancel");
 }
 
+/// At a huge sample count a band of rows holds millions of samples: the
+/// render stops within a row of samples of the token raised, counted by the
+/// progress (a step per row of samples), not after the band.
+#[test]
+fn a_render_of_many_samples_stops_within_a_row_of_samples() {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let mut spec = pair("0.1");
+    spec.camera.size = Some([16, 16]);
+    spec.sampling.samples = Some(4096);
+    spec.trace.threads = Some(2);
+    let job = Job::check(spec).unwrap();
+    let loaded = job.load().unwrap();
+    let plan = job.plan(&loaded).unwrap();
+    let cancel = CancelToken::new();
+    let (last, total) = (AtomicU64::new(0), AtomicU64::new(0));
+    const AT: u64 = 10;
+    let progress = |done: u64, all: u64| {
+        last.fetch_max(done, Ordering::Relaxed);
+        total.store(all, Ordering::Relaxed);
+        if done >= AT {
+            cancel.cancel();
+        }
+    };
+    let err = job.render(&plan, &progress, &cancel).err();
+    assert!(matches!(err, Some(twinray::Error::Cancelled)), "{err:?}");
+    // A step per row of 16 samples of each view: 16 rows of 4096.
+    assert_eq!(total.load(Ordering::Relaxed), 16 * 4096);
+    // Each of the two threads finishes at most the row it was tracing.
+    let last = last.load(Ordering::Relaxed);
+    assert!(
+        last <= AT + 2,
+        "{last} rows of samples traced, cancelled at {AT}"
+    );
+}
+
 #[test]
 fn the_stages_report_as_data() {
     let mut spec = pair("0.1");
@@ -109,84 +144,110 @@ fn specs_read_back_and_refuse_unknown_fields() {
     );
 }
 
-/// `--key-spacing` belongs to the shared shading: alone it says so; with
-/// `--share-shading` or `--fast` it is taken without a word.
+/// The fast method is one choice, its tolerance its one setting; an option
+/// of another method with it (or without the method it belongs to) is
+/// refused with a message naming both, not ignored.
 #[test]
-fn key_spacing_without_shared_shading_is_said_to_do_nothing() {
-    let warned = |share: bool, fast: bool| {
-        let mut spec = pair("0.1");
-        spec.approximations.key_spacing = 0;
-        spec.approximations.share_shading = share;
-        spec.approximations.fast = fast;
-        Job::check(spec)
-            .unwrap()
-            .messages()
-            .iter()
-            .any(|m| m.level == Level::Warning && m.text.contains("--key-spacing"))
-    };
-    assert!(warned(false, false));
-    assert!(!warned(true, false));
-    assert!(!warned(false, true));
-    // At its default, nothing to say.
-    assert!(!Job::check(pair("0.1"))
-        .unwrap()
-        .messages()
-        .iter()
-        .any(|m| m.text.contains("--key-spacing")));
-}
-
-/// `--fast` takes the approximations that measured faster than the exact
-/// batches (the epipolar rows, and for the rows they do not take the shared
-/// shading, merged secondary rays, the reprojection), not the interpolated
-/// views, which measured slower (benchmarks.md, "Issue 16, eighth pass");
-/// `--interpolate-views` still asks for them.
-#[test]
-fn fast_at_many_views_shares_shading_but_does_not_interpolate_views() {
-    let options = |fast: bool, interpolate: bool| {
+fn the_fast_method_is_one_choice_and_options_of_others_are_refused() {
+    let check = |edit: &dyn Fn(&mut JobSpec)| {
         let mut spec = pair("0.1");
         spec.rig.stereo = false;
         spec.rig.views = Some(8);
-        spec.approximations.fast = fast;
-        spec.approximations.interpolate_views = interpolate;
-        Job::check(spec).unwrap().render_options().approx
+        edit(&mut spec);
+        Job::check(spec).map(|j| j.render_options().method)
     };
-    let fast = options(true, false);
-    assert!(fast.epipolar_views.is_some());
-    assert!(options(false, false).epipolar_views.is_none());
-    // With the adaptive sampling (the default) most rows are refined ones,
-    // traced view by view: `--fast` leaves the epipolar rows out.
-    let mut adaptive = pair("0.1");
-    adaptive.sampling.samples = None;
-    adaptive.approximations.fast = true;
-    let adaptive = *Job::check(adaptive).unwrap().render_options();
-    assert!(matches!(adaptive.sampling, Sampling::Adaptive { .. }));
-    assert!(adaptive.approx.epipolar_views.is_none());
-    assert!(adaptive.approx.shared_shading.is_some());
-    assert!(fast.shared_shading.is_some());
-    assert!(fast.merge_secondary);
-    assert!(fast.reproject.is_some());
-    assert!(fast.interpolate_views.is_none());
-    assert!(options(false, true).interpolate_views.is_some());
-    assert!(options(true, true).interpolate_views.is_some());
+    let fast = check(&|s| s.method.name = MethodName::Fast).unwrap();
+    assert_eq!(fast, ViewMethod::fast());
+    let tight = check(&|s| {
+        s.method.name = MethodName::Fast;
+        s.method.tolerance = Some(0.002);
+    });
+    assert_eq!(tight.unwrap(), ViewMethod::Fast { tolerance: 0.002 });
+    assert_eq!(check(&|_| {}).unwrap(), ViewMethod::twin());
+    for (what, edit, fragment) in [
+        (
+            "fast and merged rays",
+            &(|s: &mut JobSpec| {
+                s.method.name = MethodName::Fast;
+                s.method.merge_secondary = true;
+            }) as &dyn Fn(&mut JobSpec),
+            "--merge-secondary",
+        ),
+        (
+            "fast and a cut",
+            &|s: &mut JobSpec| {
+                s.method.name = MethodName::Fast;
+                s.method.cut = Some(CutSpec::Parallax(0.5));
+            },
+            "--cut-*",
+        ),
+        (
+            "a tolerance without fast",
+            &|s: &mut JobSpec| s.method.tolerance = Some(0.02),
+            "--tolerance",
+        ),
+        (
+            "a threshold without the reprojection",
+            &|s: &mut JobSpec| s.method.reproject_threshold = Some(0.2),
+            "--reproject-threshold",
+        ),
+        (
+            "the reference and the reprojection",
+            &|s: &mut JobSpec| {
+                s.method.name = MethodName::Independent;
+                s.method.reproject = Some(ReprojectMode::Safe);
+            },
+            "--method independent",
+        ),
+        (
+            "a negative tolerance",
+            &|s: &mut JobSpec| {
+                s.method.name = MethodName::Fast;
+                s.method.tolerance = Some(-0.1);
+            },
+            "--tolerance",
+        ),
+    ] {
+        let err = check(edit).err().map(|e| e.to_string());
+        assert!(
+            err.as_deref().is_some_and(|e| e.contains(fragment)),
+            "{what}: {err:?}"
+        );
+    }
 }
 
-/// `--fast` cuts the object tree only where the epipolar rows cannot take
-/// the views (they need the whole tree); a cut asked for is made.
+/// The fast method cuts the object tree only where its epipolar rows cannot
+/// take the views (they need the whole tree): not with one sample a pixel,
+/// at its half pixel of disparity with the adaptive sampling; the twin
+/// method cuts it where asked.
 #[test]
 fn fast_does_not_cut_the_tree_the_epipolar_rows_need() {
-    let cut = |fast: bool, parallax: Option<f64>| {
+    let cut = |edit: &dyn Fn(&mut JobSpec)| {
         let mut spec = pair("0.1");
-        spec.approximations.fast = fast;
-        spec.approximations.cut_parallax = parallax;
+        edit(&mut spec);
         let job = Job::check(spec).unwrap();
         let loaded = job.load().unwrap();
         job.plan(&loaded).unwrap().cut
     };
-    // The rig has a depth beyond which the parallax is below `--fast`'s half
-    // pixel: asked for, the cut is made there.
-    assert!(cut(false, Some(0.5)).is_some());
-    assert!(cut(true, Some(0.5)).is_some());
-    assert!(cut(true, None).is_none());
+    assert!(cut(&|s| s.method.cut = Some(CutSpec::Parallax(0.5))).is_some());
+    assert!(cut(&|_| {}).is_none());
+    assert!(cut(&|s| s.method.name = MethodName::Fast).is_none());
+    let adaptive = cut(&|s| {
+        s.method.name = MethodName::Fast;
+        s.sampling.samples = None;
+    });
+    assert!(adaptive.is_some());
+    assert!(twinray::render::fast_stages(
+        0.01,
+        Sampling::Adaptive {
+            threshold: Sampling::DEFAULT_THRESHOLD,
+            max_samples: 16
+        },
+        2,
+        Default::default()
+    )
+    .cut_parallax
+    .is_some());
 }
 
 /// Where the epipolar rows cannot take the views (a material whose alpha
@@ -207,7 +268,7 @@ fn fast_cuts_the_tree_where_the_epipolar_rows_do_not_apply() {
         spec.rig.stereo = true;
         spec.rig.interaxial = Some("0.1".into());
         spec.sampling.samples = Some(1);
-        spec.approximations.fast = true;
+        spec.method.name = MethodName::Fast;
         let job = Job::check(spec).unwrap();
         let loaded = job.load().unwrap();
         assert_eq!(loaded.scene.has_alpha(), alpha != "OPAQUE", "{alpha}");
@@ -215,25 +276,4 @@ fn fast_cuts_the_tree_where_the_epipolar_rows_do_not_apply() {
     };
     assert!(cut("BLEND").is_some());
     assert!(cut("OPAQUE").is_none());
-}
-
-/// `--eye-runs` and `--shadow-fans` share work between the twin method's
-/// views: with `--method independent` each says it does nothing.
-#[test]
-fn view_sharing_flags_with_independent_renders_are_said_to_do_nothing() {
-    for flag in ["--eye-runs", "--shadow-fans"] {
-        let warned = |method: MethodSpec| {
-            let mut spec = pair("0.1");
-            spec.rig.method = method;
-            spec.rig.eye_runs = flag == "--eye-runs";
-            spec.rig.shadow_fans = flag == "--shadow-fans";
-            Job::check(spec)
-                .unwrap()
-                .messages()
-                .iter()
-                .any(|m| m.level == Level::Warning && m.text.contains(flag))
-        };
-        assert!(warned(MethodSpec::Independent), "{flag}");
-        assert!(!warned(MethodSpec::Twin), "{flag}");
-    }
 }

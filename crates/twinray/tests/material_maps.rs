@@ -11,7 +11,7 @@ use std::path::Path;
 use serde_json::json;
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::math::{Color, Vec3};
-use twinray::render::{render, Method, RenderOptions, Sampling};
+use twinray::render::{render, RenderOptions, Sampling, ViewMethod};
 use twinray::rig::{Camera, Rig};
 use twinray::scene::{AngleSpan, Light, Material, Viewpoint};
 use twinray::{Image, Scene, World};
@@ -44,7 +44,7 @@ fn between() -> Camera {
     camera(Vec3::new(0.0, 0.0, -0.2), Vec3::new(0.0, 0.0, -1.0), 90.0)
 }
 
-fn options(method: Method) -> RenderOptions {
+fn options(method: ViewMethod) -> RenderOptions {
     RenderOptions {
         method,
         sampling: Sampling::Centers,
@@ -52,7 +52,7 @@ fn options(method: Method) -> RenderOptions {
     }
 }
 
-fn render_with(scene: &Scene, camera: &Camera, rig: &Rig, method: Method) -> Vec<Image> {
+fn render_with(scene: &Scene, camera: &Camera, rig: &Rig, method: ViewMethod) -> Vec<Image> {
     let world = World::new(scene.clone());
     render(&world, camera, rig, &options(method), &|_, _| {})
         .expect("render")
@@ -60,7 +60,7 @@ fn render_with(scene: &Scene, camera: &Camera, rig: &Rig, method: Method) -> Vec
 }
 
 fn mono(scene: &Scene, camera: &Camera) -> Image {
-    render_with(scene, camera, &Rig::mono(), Method::Independent).remove(0)
+    render_with(scene, camera, &Rig::mono(), ViewMethod::Independent).remove(0)
 }
 
 fn centre(img: &Image) -> Color {
@@ -326,8 +326,8 @@ fn with_cut_outs_and_blending_twin_equals_independent() {
     for (cam, interaxial) in [(front(), 0.3), (front(), 0.05), (between(), 0.2)] {
         for views in [2, 5] {
             let rig = Rig::multi_view(&cam, views, interaxial, Some(2.0)).unwrap();
-            let twin = render_with(&scene, &cam, &rig, Method::Twin);
-            let independent = render_with(&scene, &cam, &rig, Method::Independent);
+            let twin = render_with(&scene, &cam, &rig, ViewMethod::twin());
+            let independent = render_with(&scene, &cam, &rig, ViewMethod::Independent);
             for (v, (a, b)) in twin.iter().zip(&independent).enumerate() {
                 let bits = |i: &Image| -> Vec<u32> {
                     i.pixels

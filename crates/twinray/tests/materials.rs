@@ -34,7 +34,7 @@ fn front_camera() -> Camera {
 fn render(scene: Scene) -> Image {
     let world = World::new(scene);
     let opts = common::options(
-        twinray::render::Method::Independent,
+        twinray::render::ViewMethod::Independent,
         twinray::render::Sampling::Centers,
     );
     let out = common::run(&world, &front_camera(), &Rig::mono(), &opts);

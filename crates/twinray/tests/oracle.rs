@@ -38,7 +38,7 @@ use twinray::bvh::Packet;
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::LoadOptions;
 use twinray::render::{
-    render, Filter, Method, RenderOptions, RenderOutput, Sampling, TraceSettings, Tracer,
+    render, Filter, RenderOptions, RenderOutput, Sampling, TraceSettings, Tracer, ViewMethod,
 };
 use twinray::rig::{Camera, Rig, View};
 use twinray::{Image, World};
@@ -203,7 +203,7 @@ fn world(seed: u64, width: u32, height: u32, huge_sphere: bool) -> World {
     World::new(scene)
 }
 
-fn options(method: Method, sampling: Sampling, views_per_batch: usize) -> RenderOptions {
+fn options(method: ViewMethod, sampling: Sampling, views_per_batch: usize) -> RenderOptions {
     RenderOptions {
         trace: TraceSettings::default(),
         method,
@@ -236,7 +236,7 @@ fn mono_render_of(world: &World, camera: &Camera, view: View, sampling: Sampling
         world,
         &moved,
         &one_view,
-        &options(Method::Independent, sampling, 0),
+        &options(ViewMethod::Independent, sampling, 0),
     );
     out.images.into_iter().next().expect("one view")
 }
@@ -282,7 +282,7 @@ fn check_views_against_mono(
             &world,
             &camera,
             &rig,
-            &options(Method::Twin, sampling, views_per_batch),
+            &options(ViewMethod::twin(), sampling, views_per_batch),
         );
         assert_eq!(twin.images.len(), case.views);
         for (v, view) in rig.views.iter().enumerate() {
@@ -414,12 +414,17 @@ fn adaptive_twin_equals_independent_with_joint_refinement() {
             case.convergence.map(|c| c * at),
         )
         .expect("rig");
-        let twin = run(&world, &camera, &rig, &options(Method::Twin, sampling, 0));
+        let twin = run(
+            &world,
+            &camera,
+            &rig,
+            &options(ViewMethod::twin(), sampling, 0),
+        );
         let independent = run(
             &world,
             &camera,
             &rig,
-            &options(Method::Independent, sampling, 0),
+            &options(ViewMethod::Independent, sampling, 0),
         );
         assert!(
             twin.refined_pixels > 0,
@@ -481,7 +486,7 @@ fn every_view_at_pixel_centres_equals_its_rays_traced_one_by_one() {
             &world,
             &camera,
             &rig,
-            &options(Method::Twin, Sampling::Centers, 0),
+            &options(ViewMethod::twin(), Sampling::Centers, 0),
         );
         for (v, view) in rig.views.iter().enumerate() {
             let traced = traced_one_by_one(&world, &camera, *view);

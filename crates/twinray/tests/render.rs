@@ -12,7 +12,7 @@ use common::*;
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::LoadOptions;
 use twinray::output::{compare, read_image, write_image, WriteOptions};
-use twinray::render::{Method, Sampling};
+use twinray::render::{Sampling, ViewMethod};
 use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::World;
@@ -38,7 +38,7 @@ fn diffuse_square_facing_a_head_on_light_has_the_closed_form_radiance() {
         &w,
         &cam,
         &Rig::mono(),
-        &options(Method::Independent, Sampling::Centers),
+        &options(ViewMethod::Independent, Sampling::Centers),
     );
     let c = out.images[0].get(16, 16);
     assert!(
@@ -71,13 +71,13 @@ fn shadow_of_an_opaque_sphere_is_ambient_only_and_glass_lets_t_through() {
         &opaque,
         &cam,
         &Rig::mono(),
-        &options(Method::Independent, Sampling::Centers),
+        &options(ViewMethod::Independent, Sampling::Centers),
     );
     let g = run(
         &glass,
         &cam,
         &Rig::mono(),
-        &options(Method::Independent, Sampling::Centers),
+        &options(ViewMethod::Independent, Sampling::Centers),
     );
     let pixel = |p: twinray::math::Vec3| {
         let (x, y) = cam.project(p, 0.0).expect("visible");
@@ -105,7 +105,7 @@ fn check_reference(name: &str, scene: &str, width: u32, height: u32, sampling: S
         &world,
         &cam,
         &Rig::mono(),
-        &options(Method::Independent, sampling),
+        &options(ViewMethod::Independent, sampling),
     );
     let path = reference_dir().join(format!("{name}.png"));
     if std::env::var_os("TWINRAY_BLESS").is_some() {
@@ -165,7 +165,7 @@ fn same_image_for_any_thread_count() {
     let world = world("example.nff");
     let cam = camera(&world, 80, 60);
     let rig = Rig::stereo(&cam, 0.3, Some(default_convergence(&world))).unwrap();
-    for method in [Method::Independent, Method::Twin] {
+    for method in [ViewMethod::Independent, ViewMethod::twin()] {
         let opts = options(method, Sampling::Centers);
         let render_with = |threads| run_on_threads(threads, &world, &cam, &rig, &opts);
         let one = render_with(1);
@@ -173,7 +173,7 @@ fn same_image_for_any_thread_count() {
             let many = render_with(threads);
             assert_eq!(one.images, many.images, "{method:?}, {threads} threads");
             // Everything counted but the passes' clock times.
-            let counts = |c: &twinray::stats::TraceCounts| twinray::stats::TraceCounts {
+            let counts = |c: &twinray::render::TraceCounts| twinray::render::TraceCounts {
                 eye_pass_ns: 0,
                 shading_pass_ns: 0,
                 ..*c
@@ -200,7 +200,7 @@ fn spd_procedure_spawns_every_secondary_ray() {
         &w,
         &cam,
         &Rig::mono(),
-        &options(Method::Independent, Sampling::Corners),
+        &options(ViewMethod::Independent, Sampling::Corners),
     );
     let r = spd.counts.rays;
     assert_eq!(r.eye, 17 * 17);
@@ -213,7 +213,7 @@ fn spd_procedure_spawns_every_secondary_ray() {
         &w,
         &cam,
         &Rig::mono(),
-        &options(Method::Independent, Sampling::Centers),
+        &options(ViewMethod::Independent, Sampling::Centers),
     );
     assert!(normal.counts.rays.reflected < normal.counts.rays.eye_hit);
 }
@@ -238,7 +238,7 @@ fn polygons_are_shaded_from_the_side_the_ray_comes_from() {
             &w,
             &cam,
             &Rig::mono(),
-            &options(Method::Independent, Sampling::Centers),
+            &options(ViewMethod::Independent, Sampling::Centers),
         )
         .images[0]
             .get(4, 4)
@@ -268,10 +268,10 @@ fn hits_are_counted_and_reported_for_every_one_of_48_views() {
         &world,
         &cam,
         &rig,
-        &options(Method::Twin, Sampling::Centers),
+        &options(ViewMethod::twin(), Sampling::Centers),
     );
     let mut report = twinray::stats::Report::default();
-    report.fill_counts(&twin.counts, rig.views.len());
+    report.fill_counts(&twin.counts, rig.views.len(), ViewMethod::twin());
     assert_eq!(report.hits_per_view.len(), 48);
     for (v, view) in rig.views.iter().enumerate() {
         // Each view's hits are those of the view rendered alone.
@@ -284,7 +284,7 @@ fn hits_are_counted_and_reported_for_every_one_of_48_views() {
             &world,
             &cam,
             &alone,
-            &options(Method::Independent, Sampling::Centers),
+            &options(ViewMethod::Independent, Sampling::Centers),
         );
         assert!(mono.counts.rays.eye_hit > 0);
         assert_eq!(

@@ -12,7 +12,7 @@ use std::path::Path;
 use common::*;
 use twinray::loaders::nff::parse_nff;
 use twinray::loaders::LoadOptions;
-use twinray::render::{Filter, Method, RenderOptions, RenderOutput, Sampling};
+use twinray::render::{Filter, RenderOptions, RenderOutput, Sampling, ViewMethod};
 use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::World;
@@ -27,7 +27,7 @@ const ADAPTIVE: Sampling = Sampling::Adaptive {
     max_samples: 16,
 };
 
-fn with_sampling(method: Method, sampling: Sampling) -> RenderOptions {
+fn with_sampling(method: ViewMethod, sampling: Sampling) -> RenderOptions {
     RenderOptions {
         sampling,
         ..options(method, Sampling::Centers)
@@ -54,9 +54,14 @@ fn check_exact(world: &World, cam: &Camera, rig: &Rig, what: &str) {
             world,
             cam,
             rig,
-            &with_sampling(Method::Independent, sampling),
+            &with_sampling(ViewMethod::Independent, sampling),
         );
-        let twin = run(world, cam, rig, &with_sampling(Method::Twin, sampling));
+        let twin = run(
+            world,
+            cam,
+            rig,
+            &with_sampling(ViewMethod::twin(), sampling),
+        );
         assert_equal(&reference, &twin, &format!("{what} {sampling:?}"));
         assert_eq!(
             reference.counts.rays, twin.counts.rays,
@@ -158,7 +163,12 @@ fn every_view_samples_the_same_positions_of_its_pixels() {
     let cam = camera(&world, 48, 36);
     let rig = Rig::multi_view(&cam, 3, 0.0, None).expect("rig");
     for sampling in [FOUR_GAUSSIAN, ADAPTIVE] {
-        let out = run(&world, &cam, &rig, &with_sampling(Method::Twin, sampling));
+        let out = run(
+            &world,
+            &cam,
+            &rig,
+            &with_sampling(ViewMethod::twin(), sampling),
+        );
         assert_eq!(out.images[0], out.images[1], "{sampling:?}");
         assert_eq!(out.images[0], out.images[2], "{sampling:?}");
     }
@@ -173,7 +183,7 @@ fn every_view_samples_the_same_positions_of_its_pixels() {
             &world,
             &cam,
             &Rig::mono(),
-            &with_sampling(Method::Twin, sampling),
+            &with_sampling(ViewMethod::twin(), sampling),
         )
         .images
     };
@@ -191,7 +201,7 @@ fn more_samples_approach_the_many_samples_image() {
             &world,
             &cam,
             &Rig::mono(),
-            &with_sampling(Method::Twin, sampling),
+            &with_sampling(ViewMethod::twin(), sampling),
         );
         out.images.into_iter().next().expect("one view")
     };
@@ -236,7 +246,7 @@ fn adaptive_sampling_refines_edges_only() {
         &world,
         &cam,
         &Rig::mono(),
-        &with_sampling(Method::Twin, ADAPTIVE),
+        &with_sampling(ViewMethod::twin(), ADAPTIVE),
     );
     // The square spans 2.06 / (2 tan 10°) x 32 = 18.7 pixels: its outline
     // crosses 4 x 19 pixels, give or take the corners.
@@ -274,7 +284,7 @@ fn same_images_for_any_thread_count_with_every_sampling() {
     let cam = camera(&world, 40, 30);
     let rig = Rig::stereo(&cam, 0.3, Some(default_convergence(&world))).expect("rig");
     for sampling in [FOUR_GAUSSIAN, ADAPTIVE] {
-        for method in [Method::Independent, Method::Twin] {
+        for method in [ViewMethod::Independent, ViewMethod::twin()] {
             let opts = with_sampling(method, sampling);
             let render_with = |threads| run_on_threads(threads, &world, &cam, &rig, &opts);
             let one = render_with(1);
@@ -301,7 +311,7 @@ fn more_samples_keep_the_views_grouped() {
         &world,
         &cam,
         &rig,
-        &with_sampling(Method::Twin, FOUR_GAUSSIAN),
+        &with_sampling(ViewMethod::twin(), FOUR_GAUSSIAN),
     );
     let hits = out.counts.rays.eye_hit;
     assert!(
@@ -324,11 +334,11 @@ fn views_beyond_one_packet_are_traced_in_batches_and_stay_exact() {
             &world,
             &cam,
             &rig,
-            &options(Method::Independent, Sampling::Centers),
+            &options(ViewMethod::Independent, Sampling::Centers),
         );
         let twin_opts = RenderOptions {
             views_per_batch: batch,
-            ..options(Method::Twin, Sampling::Centers)
+            ..options(ViewMethod::twin(), Sampling::Centers)
         };
         let twin = run(&world, &cam, &rig, &twin_opts);
         assert_eq!(twin.images.len(), count);
@@ -339,7 +349,7 @@ fn views_beyond_one_packet_are_traced_in_batches_and_stay_exact() {
         );
         // At most one eye-ray descent per sample and batch (a descent
         // serves every view of its batch, for one sample or a few).
-        let size = twinray::render::views_per_batch(count, batch);
+        let size = twin_opts.views_per_batch(count);
         let batches = count.div_ceil(size) as u64;
         assert!(
             twin.counts.eye_traversals <= batches * u64::from(cam.width * cam.height),
@@ -358,14 +368,24 @@ fn adaptive_stereo_refines_a_pixel_for_every_view_or_none() {
     let world = world("example.nff");
     let cam = camera(&world, 48, 36);
     let rig = Rig::stereo(&cam, 0.3, Some(default_convergence(&world))).expect("rig");
-    let pair = run(&world, &cam, &rig, &with_sampling(Method::Twin, ADAPTIVE));
+    let pair = run(
+        &world,
+        &cam,
+        &rig,
+        &with_sampling(ViewMethod::twin(), ADAPTIVE),
+    );
     assert_eq!(pair.counts.rays.eye, 2 * pair.samples_per_view);
     for view in &rig.views {
         let alone = Rig {
             views: vec![*view],
             ..rig.clone()
         };
-        let one = run(&world, &cam, &alone, &with_sampling(Method::Twin, ADAPTIVE));
+        let one = run(
+            &world,
+            &cam,
+            &alone,
+            &with_sampling(ViewMethod::twin(), ADAPTIVE),
+        );
         assert!(
             pair.refined_pixels > one.refined_pixels,
             "pair {}, one view {}",

@@ -1,4 +1,4 @@
-//! The multi-view shading cache (`--share-shading`, issue 16) on scenes built
+//! The fast method's shading cache shared by the views, alone, on scenes built
 //! here whose answer is known: exact where it provably is (diffuse, nothing
 //! between the surfaces and the light), within its tolerance where secondary
 //! light is shared, thin features kept (a pole one view sees, a shadow edge
@@ -11,9 +11,7 @@ use common::*;
 use twinray::lights::LightKind;
 use twinray::math::{Color, Vec3};
 use twinray::output::compare;
-use twinray::render::{
-    Approximations, Method, RenderOptions, RenderOutput, Sampling, SharedShading,
-};
+use twinray::render::{FastStages, RenderOptions, RenderOutput, Sampling, ViewMethod};
 use twinray::rig::{Camera, Rig};
 use twinray::scene::{Light, Material, Viewpoint};
 use twinray::{Image, Scene, World};
@@ -79,13 +77,18 @@ fn open_scene() -> Scene {
     scene
 }
 
+/// The fast method's batches sharing the shading cache alone (no epipolar
+/// rows, merged rays or cut).
 fn shared(tolerance: f32) -> RenderOptions {
     RenderOptions {
-        approx: Approximations {
-            shared_shading: Some(SharedShading { tolerance }),
-            ..Approximations::default()
-        },
-        ..options(Method::Twin, Sampling::Centers)
+        fast_stages: Some(FastStages {
+            epipolar_rows: false,
+            cut_parallax: None,
+            shared_cache: true,
+            merge_secondary: false,
+            tolerance,
+        }),
+        ..options(ViewMethod::Fast { tolerance }, Sampling::Centers)
     }
 }
 
@@ -98,12 +101,17 @@ fn rig(world: &World, views: usize, spacing: f32, convergence: Option<f64>) -> (
 }
 
 /// The default tolerance, and what the tests allow beyond it (rounding).
-const E: f32 = SharedShading::DEFAULT_TOLERANCE;
+const E: f32 = ViewMethod::DEFAULT_TOLERANCE;
 const ROUNDING: f32 = 1e-6;
 
 /// The exact twin render and the shared-shading one (default tolerance).
 fn exact_and_shared(world: &World, cam: &Camera, rig: &Rig) -> (RenderOutput, RenderOutput) {
-    let exact = run(world, cam, rig, &options(Method::Twin, Sampling::Centers));
+    let exact = run(
+        world,
+        cam,
+        rig,
+        &options(ViewMethod::twin(), Sampling::Centers),
+    );
     let shared = run(world, cam, rig, &shared(E));
     (exact, shared)
 }
@@ -112,7 +120,12 @@ fn exact_and_shared(world: &World, cam: &Camera, rig: &Rig) -> (RenderOutput, Re
 /// equals the exact one; with colours taken whole too (the default
 /// tolerance), each is within the tolerance of it. The default run's output.
 fn assert_kept(world: &World, cam: &Camera, rig: &Rig, what: &str) -> RenderOutput {
-    let exact = run(world, cam, rig, &options(Method::Twin, Sampling::Centers));
+    let exact = run(
+        world,
+        cam,
+        rig,
+        &options(ViewMethod::twin(), Sampling::Centers),
+    );
     let light_only = run(world, cam, rig, &shared(0.0));
     for (v, (a, b)) in exact.images.iter().zip(&light_only.images).enumerate() {
         assert!(max_diff(a, b) <= ROUNDING, "view {v}, tolerance 0: {what}");
@@ -122,7 +135,7 @@ fn assert_kept(world: &World, cam: &Camera, rig: &Rig, what: &str) -> RenderOutp
         let d = max_diff(a, b);
         assert!(d <= E + ROUNDING, "view {v}: {what}, {d} off");
     }
-    assert!(out.counts.cache_hits > 0, "{what}: nothing shared");
+    assert!(out.counts.fast.cache.hits > 0, "{what}: nothing shared");
     out
 }
 
@@ -143,17 +156,17 @@ fn diffuse_light_with_nothing_in_its_way_is_shared_exactly() {
             &world,
             &cam,
             &rig,
-            &options(Method::Independent, Sampling::Centers),
+            &options(ViewMethod::Independent, Sampling::Centers),
         );
         let out = run(&world, &cam, &rig, &shared(0.0));
         assert_eq!(out.images, reference.images, "{views} views");
-        assert_eq!(out.counts.cache_colour_hits, 0);
+        assert_eq!(out.counts.fast.cache.colour_hits, 0);
         // Every view but the first could take view 0's light.
         let samples = (96 * 64 * (views - 1)) as u64;
         assert!(
-            out.counts.cache_hits * 10 >= samples * 8,
+            out.counts.fast.cache.hits * 10 >= samples * 8,
             "{views} views: {} of {samples} samples took a kept sample's light",
-            out.counts.cache_hits
+            out.counts.fast.cache.hits
         );
         // About one view's shadow rays, not one per view.
         assert!(
@@ -188,16 +201,16 @@ fn colours_taken_whole_are_exact_where_the_colour_is_constant() {
             &world,
             &cam,
             &rig,
-            &options(Method::Independent, Sampling::Centers),
+            &options(ViewMethod::Independent, Sampling::Centers),
         );
         let out = run(&world, &cam, &rig, &shared(E));
         assert_eq!(out.images, reference.images, "{views} views");
         // Nearly every other view's sample took a colour and computed nothing.
         let samples = (96 * 64 * (views - 1)) as u64;
         assert!(
-            out.counts.cache_colour_hits * 10 >= samples * 8,
+            out.counts.fast.cache.colour_hits * 10 >= samples * 8,
             "{views} views: {} of {samples} samples took a colour whole",
-            out.counts.cache_colour_hits
+            out.counts.fast.cache.colour_hits
         );
     }
 }
@@ -213,11 +226,14 @@ fn colours_taken_whole_stay_within_the_tolerance() {
         &world,
         &cam,
         &rig,
-        &options(Method::Twin, Sampling::Centers),
+        &options(ViewMethod::twin(), Sampling::Centers),
     );
     for tolerance in [0.002, E, 0.05] {
         let out = run(&world, &cam, &rig, &shared(tolerance));
-        assert!(out.counts.cache_colour_hits > 0, "tolerance {tolerance}");
+        assert!(
+            out.counts.fast.cache.colour_hits > 0,
+            "tolerance {tolerance}"
+        );
         let mut differing = 0;
         for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
             let d = compare(a, b).expect("same size");
@@ -251,7 +267,7 @@ fn a_highlight_is_each_views_own() {
     let world = World::new(highlight_scene());
     let (cam, rig) = rig(&world, 8, 0.3, Some(10.0));
     let out = assert_kept(&world, &cam, &rig, "the wall's highlight");
-    assert!(out.counts.cache_colour_hits > 0, "the floor's colours");
+    assert!(out.counts.fast.cache.colour_hits > 0, "the floor's colours");
 }
 
 /// The open scene with a faintly mirroring floor (weight `mirror`) facing
@@ -277,11 +293,11 @@ fn shared_secondary_light_stays_within_the_tolerance() {
         &world,
         &cam,
         &rig,
-        &options(Method::Twin, Sampling::Centers),
+        &options(ViewMethod::twin(), Sampling::Centers),
     );
     let tolerance = 0.01;
     let out = run(&world, &cam, &rig, &shared(tolerance));
-    assert!(out.counts.cache_hits > 0);
+    assert!(out.counts.fast.cache.hits > 0);
     let mut differing = 0;
     for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
         let d = max_diff(a, b);
@@ -358,7 +374,7 @@ fn a_pole_seen_by_some_views_only_keeps_its_own_shading() {
         &world,
         &cam,
         &rig,
-        &options(Method::Twin, Sampling::Centers),
+        &options(ViewMethod::twin(), Sampling::Centers),
     );
     let seen: Vec<usize> = exact.images.iter().map(red_pixels).collect();
     assert_eq!(seen[0], 0, "view 0 does not see the pole: {seen:?}");
@@ -391,7 +407,10 @@ fn a_shadow_edge_between_the_views_samples_is_kept() {
     let world = World::new(shadow_edge_scene());
     let (cam, rig) = rig(&world, 8, 0.07, Some(10.0));
     let out = assert_kept(&world, &cam, &rig, "the shadow stripe");
-    assert!(out.counts.cache_edge_refusals > 0, "the edges are seen");
+    assert!(
+        out.counts.fast.cache.edge_refusals > 0,
+        "the edges are seen"
+    );
 }
 
 #[test]
@@ -408,15 +427,18 @@ fn the_same_image_for_1_2_and_5_threads() {
     ] {
         let opts = RenderOptions {
             sampling,
-            ..shared(SharedShading::DEFAULT_TOLERANCE)
+            ..shared(ViewMethod::DEFAULT_TOLERANCE)
         };
         let one = run_on_threads(1, &world, &cam, &rig, &opts);
         for threads in [2, 5] {
             let many = run_on_threads(threads, &world, &cam, &rig, &opts);
             assert_eq!(one.images, many.images, "{threads} threads, {sampling:?}");
-            assert_eq!(one.counts.cache_hits, many.counts.cache_hits);
-            assert_eq!(one.counts.cache_colour_hits, many.counts.cache_colour_hits);
-            assert!(one.counts.cache_colour_hits > 0);
+            assert_eq!(one.counts.fast.cache.hits, many.counts.fast.cache.hits);
+            assert_eq!(
+                one.counts.fast.cache.colour_hits,
+                many.counts.fast.cache.colour_hits
+            );
+            assert!(one.counts.fast.cache.colour_hits > 0);
         }
     }
 }
@@ -461,199 +483,10 @@ fn a_scene_with_shadows_mirrors_and_glass_stays_close() {
     let world = World::new(busy_scene());
     let (cam, rig) = rig(&world, 12, 0.06, Some(7.0));
     let (exact, out) = exact_and_shared(&world, &cam, &rig);
-    assert!(out.counts.cache_hits > 0 && out.counts.cache_edge_refusals > 0);
+    assert!(out.counts.fast.cache.hits > 0 && out.counts.fast.cache.edge_refusals > 0);
     assert!(out.counts.rays.shadow < exact.counts.rays.shadow);
     for (v, (a, b)) in exact.images.iter().zip(&out.images).enumerate() {
         let d = compare(a, b).expect("same size");
         assert!(d.psnr_db >= 40.0, "view {v}: {d:?}");
-    }
-}
-
-/// The shadow-stripe scene with a strong mirror for a floor, and a thin pole
-/// standing on it: its reflection, and the stripe's, move from view to view
-/// and fall between key views.
-fn mirror_floor_scene() -> Scene {
-    let mut scene = shadow_edge_scene();
-    let floor = scene.materials.len() - 2;
-    scene.materials[floor].mirror = 0.8;
-    scene.materials[floor].kd = 0.2;
-    scene.add_material(diffuse(Color::new(1.0, 0.1, 0.1)));
-    scene.add_cone(
-        Vec3::new(0.5, 5.0, -2.0),
-        0.04,
-        Vec3::new(0.5, 5.0, 3.0),
-        0.04,
-        "pole",
-    );
-    scene
-}
-
-/// A strong mirror floor reflecting the wall, on which a light with an
-/// inverse-square falloff, close to it, makes a bright spot.
-fn spot_on_the_wall_in_a_mirror() -> Scene {
-    let mut scene = open_scene();
-    let floor = scene.materials.len() - 1;
-    scene.materials[floor].mirror = 0.8;
-    scene.materials[floor].kd = 0.2;
-    scene.lights.push(Light {
-        kind: LightKind::Point {
-            position: Vec3::new(0.0, 9.6, 0.0),
-            inverse_square: true,
-            range: None,
-        },
-        color: Some(Color::splat(0.2)),
-    });
-    scene
-}
-
-/// A strong mirror floor reflecting a red ball with a sharp highlight.
-fn shiny_ball_in_a_mirror() -> Scene {
-    let mut scene = faint_mirror_scene(0.8);
-    let ball = scene.materials.len() - 1;
-    scene.materials[ball].ks = 0.9;
-    scene.materials[ball].shine = 300.0;
-    scene
-}
-
-/// `shared(tolerance)` in batches of `per_batch` views, key views every
-/// `spacing`-th (1: no key views, every view traces its own).
-fn keyed(tolerance: f32, per_batch: usize, spacing: usize) -> RenderOptions {
-    RenderOptions {
-        views_per_batch: per_batch,
-        approx: Approximations {
-            key_spacing: spacing,
-            ..shared(tolerance).approx
-        },
-        ..shared(tolerance)
-    }
-}
-
-/// Key views on the mirror floor: views between two key views take their
-/// reflection, interpolated, only where it is close. The pole's reflection
-/// and the stripe's, narrower than the key views' spacing, are kept: the
-/// probe sees the pole, the shadow fan the bar. Against the same render
-/// without key views (spacing 1: every view traces its own) a view
-/// differs only by interpolation: within twice the tolerance (the two key
-/// views' colours agree within it). With tolerance 0 nothing is interpolated
-/// and every view is exact.
-#[test]
-fn views_between_key_views_keep_what_their_own_reflection_shows() {
-    // (scene, views, batch, whether a probe or a fan must refuse somewhere)
-    for (scene, views, per_batch, refusals) in [
-        (mirror_floor_scene(), 8, 4, true),
-        (mirror_floor_scene(), 16, 8, true),
-        // The reflection of a red ball with a sharp highlight: it moves
-        // across the ball from view to view, which only the key views'
-        // colours (not their chains) tell apart.
-        (shiny_ball_in_a_mirror(), 16, 8, false),
-        // The spot's reflection: both key views may see it dim and the views
-        // between bright; the bound on the light's curvature refuses.
-        (spot_on_the_wall_in_a_mirror(), 16, 8, false),
-    ] {
-        let world = World::new(scene);
-        let (cam, rig) = rig(&world, views, 0.1, Some(8.0));
-        let exact = run(
-            &world,
-            &cam,
-            &rig,
-            &options(Method::Twin, Sampling::Centers),
-        );
-        let every = run(&world, &cam, &rig, &keyed(E, per_batch, 1));
-        assert_eq!(every.counts.interpolated_samples, 0);
-        for spacing in [0, 2] {
-            let out = run(&world, &cam, &rig, &keyed(E, per_batch, spacing));
-            let c = &out.counts;
-            let what = format!("{views} views, batches of {per_batch}, spacing {spacing}");
-            assert!(
-                c.key_view_samples > 0 && c.interpolated_samples > 0,
-                "{what}: {c:?}"
-            );
-            assert!(
-                !refusals || c.key_view_fallbacks > 0 && c.fan_queries > c.fan_free,
-                "{what}: {c:?}"
-            );
-            assert!(c.rays.reflected < every.counts.rays.reflected, "{what}");
-            for (v, (a, b)) in every.images.iter().zip(&out.images).enumerate() {
-                let d = max_diff(a, b);
-                assert!(
-                    d <= 2.0 * E + ROUNDING,
-                    "{what}, view {v}: {d} from every view keyed"
-                );
-                let d = compare(&exact.images[v], b).expect("same size");
-                assert!(d.psnr_db >= 40.0, "{what}, view {v}: {d:?}");
-            }
-        }
-        // Tolerance 0: no key views, every mirror sample traced by its view.
-        let strict = run(&world, &cam, &rig, &keyed(0.0, per_batch, 0));
-        assert_eq!(strict.counts.key_view_samples, 0);
-        assert_eq!(strict.counts.interpolated_samples, 0);
-        assert_eq!(strict.counts.rays.reflected, exact.counts.rays.reflected);
-    }
-}
-
-/// Key views give the same image for any number of threads.
-#[test]
-fn key_views_give_the_same_image_for_1_2_and_5_threads() {
-    let world = World::new(mirror_floor_scene());
-    let (cam, rig) = rig(&world, 8, 0.1, Some(8.0));
-    let opts = keyed(E, 4, 0);
-    let one = run_on_threads(1, &world, &cam, &rig, &opts);
-    assert!(one.counts.interpolated_samples > 0);
-    for threads in [2, 5] {
-        let many = run_on_threads(threads, &world, &cam, &rig, &opts);
-        assert_eq!(one.images, many.images, "{threads} threads");
-        assert_eq!(
-            one.counts.interpolated_samples,
-            many.counts.interpolated_samples
-        );
-    }
-}
-
-/// A mirror ball, alone under an environment of eight vertical black and
-/// white stripes (45° each): every view's reflection leaves the scene, and
-/// the stripe it sees changes from view to view near the ball's rim.
-fn mirror_ball_under_stripes() -> Scene {
-    let mut scene = Scene::new();
-    scene.viewpoint = viewpoint();
-    scene
-        .lights
-        .push(Light::point(Vec3::new(-3.0, 2.0, 6.0), Some(Color::ONE)));
-    let texels = (0..128)
-        .map(|i| Color::splat(if (i % 64) / 8 % 2 == 0 { 1.0 } else { 0.0 }))
-        .collect();
-    let env = twinray::environment::Environment::from_texels(64, 2, texels, true);
-    scene.environment = Some(std::sync::Arc::new(env));
-    scene.add_material(Material {
-        mirror: 0.9,
-        kd: 0.1,
-        ..diffuse(Color::new(0.8, 0.8, 0.8))
-    });
-    scene.add_sphere(Vec3::new(0.0, 8.0, 0.0), 2.5, "ball");
-    scene
-}
-
-/// A curved mirror under an environment image: the key views' reflections
-/// leave the scene in directions that differ, and the stripe each sees can
-/// change between them (and change back: the key views' colours may agree
-/// across two edges). So a view between takes the key views' reflection
-/// only where they look the same way; every view stays within twice the
-/// tolerance of its own traced reflection (interpolated across a stripe,
-/// it was off by the whole contrast, 0.9).
-#[test]
-fn a_curved_mirror_under_an_environment_is_not_interpolated_across_stripes() {
-    let world = World::new(mirror_ball_under_stripes());
-    let (cam, rig) = rig(&world, 16, 0.1, Some(8.0));
-    let every = run(&world, &cam, &rig, &keyed(E, 8, 1));
-    for spacing in [0, 2] {
-        let out = run(&world, &cam, &rig, &keyed(E, 8, spacing));
-        let c = &out.counts;
-        assert!(c.interpolated_samples > 0, "spacing {spacing}: {c:?}");
-        for (v, (a, b)) in every.images.iter().zip(&out.images).enumerate() {
-            let d = max_diff(a, b);
-            assert!(
-                d <= 2.0 * E + ROUNDING,
-                "spacing {spacing}, view {v}: {d} from every view keyed"
-            );
-        }
     }
 }

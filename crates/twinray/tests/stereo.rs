@@ -5,7 +5,7 @@ mod common;
 
 use common::*;
 use twinray::math::Vec3;
-use twinray::render::{Method, Sampling};
+use twinray::render::{Sampling, ViewMethod};
 use twinray::rig::Camera;
 use twinray::rig::Rig;
 use twinray::shapes::Shape;
@@ -52,7 +52,7 @@ fn measure(b: f32, convergence: Option<f64>) -> (Vec<Measured>, Rig, Camera) {
         &world,
         &cam,
         &rig,
-        &options(Method::Twin, Sampling::Centers),
+        &options(ViewMethod::twin(), Sampling::Centers),
     );
     let mut m = Vec::new();
     for p in probes(&world) {

@@ -12,12 +12,10 @@
 pub(crate) mod brute_force;
 mod build;
 mod leaf;
-mod run;
+mod region;
 mod splice;
 mod stack_bound;
-mod strip;
 mod traverse;
-mod wedge;
 mod wide;
 mod wide8;
 mod wide8_eye;
@@ -25,15 +23,13 @@ mod wide8_pair;
 mod wide8_shadow;
 
 pub use build::{build_pieces, primitive_box, BuildOptions, PAD};
-pub use run::{ray_reaches, RunRegion, RunStats, FILL_REACH, RUN_REACH};
+pub use region::Region;
 pub use splice::{splice, Placed};
 pub use stack_bound::stack_need;
-pub use strip::{Cover, Family, FamilyTest, Interval, StripScratch, StripStats, FAMILY_EPS};
 pub use traverse::{
     segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
     TraversalStats,
 };
-pub use wedge::{distance_to_segment, distance_to_triangle, FanWork, ShadowFan};
 pub use wide::{collapse, collapse_sah, collapse_to, Node4, WideNode, WIDTH};
 pub use wide8::{collapse8, Node8, WIDTH8};
 pub use wide8_eye::EYE_PACKET;

@@ -4,7 +4,8 @@
 //!
 //! Every field has the command line's default (`#[serde(default)]`), so a
 //! spec names only what differs, and unknown fields are refused (a typo in a
-//! saved job is an error, not a silent default). Values that the command line
+//! saved job is an error, not a silent default; a field that was removed is
+//! refused with what replaced it, [`removed_field`]). Values that the command line
 //! takes as text with a grammar of their own (an interaxial of `auto` or a
 //! distance, a convergence of `near`, a depth budget `-1%,+2%`, a quilt `8x6`)
 //! stay that text here and are parsed by [`Job::check`](super::Job::check),
@@ -13,6 +14,9 @@
 use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
+
+use crate::named::named_values;
+use crate::render::{Filter, ReprojectMode};
 
 /// A whole render: what to load, how to look at it, which views, how to
 /// sample and trace them, and what to write.
@@ -24,7 +28,8 @@ pub struct JobSpec {
     pub camera: CameraSpec,
     pub rig: RigSpec,
     pub sampling: SamplingSpec,
-    pub approximations: ApproximationSpec,
+    /// How the views are computed, and the method's options.
+    pub method: MethodSpec,
     pub trace: TraceSpec,
     pub output: OutputSpec,
     pub limits: LimitSpec,
@@ -87,6 +92,12 @@ pub enum UpAxisSpec {
     Auto,
 }
 
+named_values!(UpAxisSpec {
+    Y = "y",
+    Z = "z",
+    Auto = "auto",
+});
+
 /// The viewpoint and the image size; `None` keeps the file's.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -124,21 +135,6 @@ pub struct RigSpec {
     pub screen_width: f64,
     /// Black bars where objects in front of the screen touch the frame's edges.
     pub floating_window: bool,
-    pub method: MethodSpec,
-    /// Twin method: most views traced as one packet (default 4).
-    pub views_per_batch: Option<usize>,
-    /// Twin method: the eye pass of every view in one descent per camera
-    /// column (`--strip`); the same images.
-    pub strip: bool,
-    /// Twin method: the strip's families resolved by eye runs (`--eye-runs`:
-    /// a few views traced alone, the views between proved); the same images.
-    #[serde(default)]
-    pub eye_runs: bool,
-    /// Twin method: shadow rays of runs of views' hits on one primitive
-    /// proved free by one shadow fan per light (`--shadow-fans`); the same
-    /// images.
-    #[serde(default)]
-    pub shadow_fans: bool,
 }
 
 impl Default for RigSpec {
@@ -152,24 +148,8 @@ impl Default for RigSpec {
             view_cone: None,
             screen_width: crate::rig::report::DEFAULT_SCREEN_WIDTH_M,
             floating_window: false,
-            method: MethodSpec::Twin,
-            views_per_batch: None,
-            strip: false,
-            eye_runs: false,
-            shadow_fans: false,
         }
     }
-}
-
-/// How the views are computed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum MethodSpec {
-    /// Every view a render of its own: the reference.
-    Independent,
-    /// Twin objects (the paper's method): exact, and faster.
-    #[default]
-    Twin,
 }
 
 /// Anti-aliasing. The default is the paper's adaptive refinement.
@@ -180,7 +160,7 @@ pub struct SamplingSpec {
     pub spd: bool,
     /// N stratified samples per pixel (1: the pixel centre).
     pub samples: Option<u32>,
-    pub filter: Option<FilterSpec>,
+    pub filter: Option<Filter>,
     /// Pattern of `samples` (default 0).
     pub seed: Option<u32>,
     /// Adaptive threshold (default 1/32).
@@ -189,80 +169,58 @@ pub struct SamplingSpec {
     pub max_samples: Option<u32>,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FilterSpec {
-    Box,
-    Tent,
-    Gaussian,
-}
-
-/// The paper's approximations (sections 2.3–2.5); none by default.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// How the views are computed (`twin`, the default: exact), and the options
+/// of the method chosen. Options of another method are refused by
+/// [`Job::check`](super::Job::check), not ignored.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
-pub struct ApproximationSpec {
-    /// Section 2.4: merged reflected/refracted rays of one planar surface.
+pub struct MethodSpec {
+    pub name: MethodName,
+    /// `fast`: the error it may add per channel, in image values (1 =
+    /// white; default 0.01).
+    pub tolerance: Option<f32>,
+    /// `twin`: the paper's merged secondary rays.
     pub merge_secondary: bool,
-    /// Section 2.5: shading reprojected from view 0.
-    pub reproject: bool,
-    pub reproject_mode: ReprojectModeSpec,
-    pub reproject_threshold: f32,
-    /// Section 2.3: no twins beyond this depth.
-    pub cut_distance: Option<f32>,
-    /// Section 2.3, the depth chosen for at most this disparity error (pixels).
-    pub cut_parallax: Option<f64>,
-    /// All three at their defaults.
-    pub fast: bool,
-    /// Issue 16: the multi-view shading cache (also under `fast`).
-    pub share_shading: bool,
-    /// Its tolerance, in image values (see `render::SharedShading`).
-    pub share_tolerance: f32,
-    /// Key views for mirrors and glass under the shared shading: every K-th
-    /// view of a group traced in full, 0 = adaptive, 1 (default) = none (see
-    /// `render::Approximations`).
-    pub key_spacing: usize,
-    /// Issue 16: the views between proved key views of a camera column
-    /// interpolated (`--interpolate-views`; not under `fast`, where it
-    /// measured slower), within `share_tolerance`.
-    pub interpolate_views: bool,
-    /// Issue 16: only every `synthesis_spacing`-th view traced, the views
-    /// between synthesized from them where that is plain and proved free
-    /// (`--synthesize-views`), within `share_tolerance`.
-    pub synthesize_views: bool,
-    pub synthesis_spacing: usize,
-    /// Issue 16: every view's eye hits of a row from the primitives that
-    /// cross its plane, and diffuse colours shaded once for the views that
-    /// see them (`--epipolar-views`), within `share_tolerance`.
-    pub epipolar_views: bool,
+    /// `twin`: the paper's reprojection, `safe` or `paper`.
+    pub reproject: Option<ReprojectMode>,
+    /// `twin`, with `reproject`: the largest mirror, highlight or
+    /// transmission weight treated as diffuse (default 0.1).
+    pub reproject_threshold: Option<f32>,
+    /// `twin`: the paper's cut of the object tree.
+    pub cut: Option<CutSpec>,
 }
 
-impl Default for ApproximationSpec {
-    fn default() -> Self {
-        ApproximationSpec {
-            merge_secondary: false,
-            reproject: false,
-            reproject_mode: ReprojectModeSpec::Safe,
-            reproject_threshold: crate::render::Reprojection::DEFAULT_THRESHOLD,
-            cut_distance: None,
-            cut_parallax: None,
-            fast: false,
-            share_shading: false,
-            share_tolerance: crate::render::SharedShading::DEFAULT_TOLERANCE,
-            key_spacing: 1,
-            interpolate_views: false,
-            synthesize_views: false,
-            synthesis_spacing: crate::render::ViewSynthesis::DEFAULT_SPACING,
-            epipolar_views: false,
-        }
-    }
-}
-
+/// The view methods by name (see `render::ViewMethod`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
-pub enum ReprojectModeSpec {
+pub enum MethodName {
+    /// Each view rendered alone: the reference.
+    Independent,
+    /// Twin objects (the paper's method): exact, and faster.
     #[default]
-    Safe,
-    Paper,
+    Twin,
+    /// The one approximate method, within `tolerance`.
+    Fast,
+}
+
+named_values!(MethodName {
+    Independent = "independent",
+    Twin = "twin",
+    Fast = "fast",
+});
+
+/// Where the paper's cut of the object tree lies: objects entirely beyond
+/// it are seen by every view as the rig's centre sees them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", deny_unknown_fields)]
+pub enum CutSpec {
+    /// At this depth (scene units, along the view direction from the rig's
+    /// centre).
+    Distance(f32),
+    /// At the depth where a cut object's disparity is off by at most this
+    /// many pixels (depth = focal length in pixels × the outer views'
+    /// distance / pixels).
+    Parallax(f64),
 }
 
 /// Limits of the ray tree, and the worker threads.
@@ -332,6 +290,12 @@ pub enum TonemapSpec {
     Agx,
 }
 
+named_values!(TonemapSpec {
+    Clamp = "clamp",
+    Aces = "aces",
+    Agx = "agx",
+});
+
 /// How the views are delivered.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -348,22 +312,17 @@ pub enum LayoutSpec {
     Quilt,
 }
 
-impl LayoutSpec {
-    /// The command line's name of the layout.
-    pub fn name(self) -> &'static str {
-        match self {
-            LayoutSpec::Separate => "separate",
-            LayoutSpec::Sbs => "sbs",
-            LayoutSpec::Cross => "cross",
-            LayoutSpec::Tb => "tb",
-            LayoutSpec::Anaglyph => "anaglyph",
-            LayoutSpec::Interlace => "interlace",
-            LayoutSpec::Mpo => "mpo",
-            LayoutSpec::Multiview => "multiview",
-            LayoutSpec::Quilt => "quilt",
-        }
-    }
-}
+named_values!(LayoutSpec {
+    Separate = "separate",
+    Sbs = "sbs",
+    Cross = "cross",
+    Tb = "tb",
+    Anaglyph = "anaglyph",
+    Interlace = "interlace",
+    Mpo = "mpo",
+    Multiview = "multiview",
+    Quilt = "quilt",
+});
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -375,6 +334,14 @@ pub enum AnaglyphSpec {
     YellowBlue,
 }
 
+named_values!(AnaglyphSpec {
+    Dubois = "dubois",
+    Color = "color",
+    Gray = "gray",
+    GreenMagenta = "green-magenta",
+    YellowBlue = "yellow-blue",
+});
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum InterlaceSpec {
@@ -382,6 +349,12 @@ pub enum InterlaceSpec {
     Columns,
     Checker,
 }
+
+named_values!(InterlaceSpec {
+    Rows = "rows",
+    Columns = "columns",
+    Checker = "checker",
+});
 
 /// Caps on what a scene file may ask for.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -425,9 +398,16 @@ impl JobSpec {
         serde_json::to_string_pretty(self).unwrap_or_default()
     }
 
-    /// A spec from JSON, with the position of the first error.
+    /// A spec from JSON, with the position of the first error; a field
+    /// that was removed is refused with what replaced it.
     pub fn from_json(text: &str) -> crate::Result<JobSpec> {
-        serde_json::from_str(text).map_err(|e| crate::Error::Invalid(format!("job spec: {e}")))
+        let invalid = |e: String| crate::Error::Invalid(format!("job spec: {e}"));
+        if let Ok(value) = serde_json::from_str::<serde_json::Value>(text) {
+            if let Some(removed) = removed_field(&value) {
+                return Err(invalid(removed));
+            }
+        }
+        serde_json::from_str(text).map_err(|e| invalid(e.to_string()))
     }
 }
 
@@ -496,6 +476,11 @@ pub enum ShotRigSpec {
     PerFrame,
 }
 
+named_values!(ShotRigSpec {
+    PerShot = "per-shot",
+    PerFrame = "per-frame",
+});
+
 /// One horizontal band of a still, for rendering across machines: tile
 /// `index` of `count`, merged by `twinray merge` into the one-machine image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -503,4 +488,136 @@ pub enum ShotRigSpec {
 pub struct TileSpec {
     pub index: u32,
     pub count: u32,
+}
+
+/// A field a saved job may still have that the spec no longer takes, and
+/// what replaced it.
+#[derive(Clone, Copy, Debug)]
+pub struct RemovedField {
+    /// Its path, `section.field`.
+    pub path: &'static str,
+    pub instead: &'static str,
+}
+
+const EXACT: &str = "the twin method computes every view exactly and measured faster; for speed set \"method\": {\"name\": \"fast\"}";
+
+/// Every removed field of a saved job.
+pub const REMOVED_FIELDS: &[RemovedField] = &[
+    RemovedField {
+        path: "rig.method",
+        instead: "the method is \"method\": {\"name\": \"twin\" | \"independent\" | \"fast\"} now",
+    },
+    RemovedField {
+        path: "rig.views_per_batch",
+        instead: "the views are traced in batches of 4 neighbours, which measured fastest",
+    },
+    RemovedField {
+        path: "rig.strip",
+        instead: EXACT,
+    },
+    RemovedField {
+        path: "rig.eye_runs",
+        instead: EXACT,
+    },
+    RemovedField {
+        path: "rig.shadow_fans",
+        instead: EXACT,
+    },
+    RemovedField {
+        path: "approximations",
+        instead: "the method and its options are \"method\" now: {\"name\": \"fast\", \"tolerance\": E} for the approximate method (it takes the shared shading and the epipolar rows), or the twin method's \"merge_secondary\", \"reproject\" (\"safe\" or \"paper\"), \"reproject_threshold\" and \"cut\" ({\"distance\": D} or {\"parallax\": PX})",
+    },
+];
+
+/// The first removed field of a job's JSON, as `PATH was removed: ...`.
+pub fn removed_field(json: &serde_json::Value) -> Option<String> {
+    REMOVED_FIELDS.iter().find_map(|r| {
+        let pointer = format!("/{}", r.path.replace('.', "/"));
+        json.pointer(&pointer)
+            .map(|_| format!("{} was removed: {}", r.path, r.instead))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::named::serde_names_agree;
+
+    /// Each named value is spelt alike by a saved job and the command line.
+    #[test]
+    fn named_values_are_their_serde_names() {
+        assert!(serde_names_agree(&[
+            MethodName::Independent,
+            MethodName::Twin,
+            MethodName::Fast
+        ]));
+        assert!(serde_names_agree(&[
+            UpAxisSpec::Y,
+            UpAxisSpec::Z,
+            UpAxisSpec::Auto
+        ]));
+        assert!(serde_names_agree(&[
+            TonemapSpec::Clamp,
+            TonemapSpec::Aces,
+            TonemapSpec::Agx
+        ]));
+        let layouts = LayoutSpec::NAMES
+            .iter()
+            .map(|n| n.parse::<LayoutSpec>().unwrap());
+        assert!(serde_names_agree(&layouts.collect::<Vec<_>>()));
+        let anaglyphs = AnaglyphSpec::NAMES
+            .iter()
+            .map(|n| n.parse::<AnaglyphSpec>().unwrap());
+        assert!(serde_names_agree(&anaglyphs.collect::<Vec<_>>()));
+        let patterns = InterlaceSpec::NAMES
+            .iter()
+            .map(|n| n.parse::<InterlaceSpec>().unwrap());
+        assert!(serde_names_agree(&patterns.collect::<Vec<_>>()));
+        assert!(serde_names_agree(&[
+            ShotRigSpec::PerShot,
+            ShotRigSpec::PerFrame
+        ]));
+        assert!(serde_names_agree(&[
+            Filter::Box,
+            Filter::Tent,
+            Filter::Gaussian
+        ]));
+        assert!(serde_names_agree(&[
+            ReprojectMode::Safe,
+            ReprojectMode::Paper
+        ]));
+        assert!("hologram".parse::<LayoutSpec>().is_err());
+    }
+
+    /// A saved job with a field that was removed is refused with what
+    /// replaced it, not serde's list of expected fields.
+    #[test]
+    fn removed_fields_are_refused_with_their_replacement() {
+        for (json, fragment) in [
+            (
+                r#"{"rig": {"strip": true}}"#,
+                "rig.strip was removed: the twin method",
+            ),
+            (r#"{"rig": {"method": "twin"}}"#, "\"method\": {\"name\""),
+            (
+                r#"{"approximations": {"fast": true}}"#,
+                "\"name\": \"fast\"",
+            ),
+            (r#"{"rig": {"views_per_batch": 8}}"#, "batches of 4"),
+        ] {
+            let err = JobSpec::from_json(json).err().map(|e| e.to_string());
+            assert!(
+                err.as_deref().is_some_and(|e| e.contains(fragment)),
+                "{json}: {err:?}"
+            );
+        }
+        let fast = JobSpec::from_json(r#"{"method": {"name": "fast", "tolerance": 0.02}}"#);
+        let fast = fast.expect("the fast method");
+        assert_eq!(
+            (fast.method.name, fast.method.tolerance),
+            (MethodName::Fast, Some(0.02))
+        );
+        let cut = JobSpec::from_json(r#"{"method": {"cut": {"parallax": 0.5}}}"#).expect("a cut");
+        assert_eq!(cut.method.cut, Some(CutSpec::Parallax(0.5)));
+    }
 }

@@ -1,20 +1,21 @@
 //! The reference method, the paper's "traditional algorithm": every view a
 //! complete mono render of its own camera, its rays traced one at a time.
 
+use super::batch::{RenderInputs, RowWorker, ViewBatch};
 use super::sampler::{RowColors, SampleRow};
-use super::{RenderInputs, RowWorker, Tracer, ViewBatch};
+use super::tracer::Tracer;
 use crate::bvh::Packet;
 use crate::rig::Camera;
 use crate::rig::View;
 
 /// Every view of the rig, each traced on its own.
-pub(super) struct Independent<'a> {
+pub(in crate::render) struct Independent<'a> {
     camera: &'a Camera,
     views: Vec<View>,
 }
 
 impl<'a> Independent<'a> {
-    pub(super) fn new(job: &RenderInputs<'a>) -> Independent<'a> {
+    pub(in crate::render) fn new(job: &RenderInputs<'a>) -> Independent<'a> {
         Independent {
             camera: job.camera,
             views: job.rig.views.clone(),

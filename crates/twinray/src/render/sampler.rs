@@ -13,6 +13,7 @@
 //! sparse rows of the points it adds.
 
 use crate::math::Color;
+use crate::named::named_values;
 
 /// How many samples a pixel gets and how they make its colour.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,7 +110,8 @@ impl Sampling {
 /// The reconstruction filter of `--samples N`: how much a sample at offset
 /// (dx, dy) from a pixel's centre counts in that pixel. Samples reach the
 /// pixels within `radius` of them, also across pixel borders.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Filter {
     /// The pixel's own area (radius 0.5): the mean of its samples, the
     /// integral the adaptive sampling approximates. The default.
@@ -153,15 +155,13 @@ impl Filter {
             }
         }
     }
-
-    pub fn name(&self) -> &'static str {
-        match self {
-            Filter::Box => "box",
-            Filter::Tent => "tent",
-            Filter::Gaussian => "gaussian",
-        }
-    }
 }
+
+named_values!(Filter {
+    Box = "box",
+    Tent = "tent",
+    Gaussian = "gaussian",
+});
 
 /// Mixed into every pixel's seed: the pattern is fixed, so renders repeat exactly.
 const SEED: u32 = 0x7c1d_5eed;

@@ -111,7 +111,7 @@ pub fn depth_pass(world: &World, camera: &Camera, view: View, stride: u32) -> De
 /// `f32::INFINITY` if there is none.
 pub fn nearest_hit(world: &World, ray: &Ray, t_min: f32, stats: &mut TraversalStats) -> f32 {
     let mut from = t_min;
-    for _ in 0..=crate::render::MAX_CUTOUT_LAYERS {
+    for _ in 0..=crate::world::MAX_CUTOUT_LAYERS {
         let mut nearest = nearest_in(world, &world.bvh, ray, from, f32::INFINITY, stats);
         if let Some(far) = &world.far {
             let beyond = nearest_in(

@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::World;
+use super::hierarchy::{build_options, into_leaf_order, InstanceCounts, World};
 use crate::bvh::{self, Bvh, Placed};
 use crate::math::Aabb;
 use crate::scene::Scene;
@@ -23,19 +23,6 @@ use crate::scene::Scene;
 pub struct Instance {
     pub shapes: Range<usize>,
     pub key: Option<Vec<u32>>,
-}
-
-/// What a two-level build rebuilt: the test hook and `-v` line of an
-/// animation's frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct InstanceCounts {
-    pub instances: usize,
-    pub rebuilt_instances: usize,
-    pub primitives: usize,
-    pub rebuilt_primitives: usize,
-    /// Primitives made from the file for this frame (an animated glTF file's
-    /// moving instances), set by the caller; the others were kept.
-    pub made_primitives: usize,
 }
 
 /// The instances' trees kept from one frame to the next.
@@ -84,7 +71,7 @@ impl World {
                 (!reuse).then(|| {
                     let shapes = &scene.shapes[run.shapes.clone()];
                     let boxes: Vec<Aabb> = shapes.iter().map(|s| s.bounds()).collect();
-                    let mut tree = bvh::build(&boxes, &super::build_options(shapes.iter()));
+                    let mut tree = bvh::build(&boxes, &build_options(shapes.iter()));
                     // Only the joined tree is traversed: its wide form is
                     // made after the splice.
                     tree.wide = Vec::new();
@@ -114,7 +101,7 @@ impl World {
             })
             .collect();
         let mut joined = bvh::splice(&parts);
-        super::into_leaf_order(&mut scene, std::iter::once(&mut joined));
+        into_leaf_order(&mut scene, std::iter::once(&mut joined));
         World {
             pieces: Default::default(),
             has_alpha: scene.has_alpha(),

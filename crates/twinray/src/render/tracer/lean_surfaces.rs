@@ -61,8 +61,9 @@ pub(super) mod tests {
     use crate::loaders::{nff::parse_nff, LoadOptions};
     use crate::math::{Color, Vec3};
     use crate::render::tracer::tests::pixel_ray;
+    use crate::render::tracer::Tracer;
     use crate::render::tracer::{SecondaryRays, ShadingTree};
-    use crate::render::{TraceSettings, Tracer};
+    use crate::render::TraceSettings;
     use crate::rig::Camera;
     use crate::scene::{MeshPolygon, NormalMap, NormalMapKind, Uv};
     use crate::texture::Texture;
