@@ -8,6 +8,7 @@
 pub mod animation;
 pub mod bvh;
 pub mod environment;
+pub mod ground_truth;
 pub mod error;
 pub mod image;
 pub mod job;

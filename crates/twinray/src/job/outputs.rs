@@ -78,7 +78,7 @@ pub(super) fn check_display(o: &OutputSpec) -> Result<Vec<Message>> {
 }
 
 /// The display transform of 8-bit outputs.
-pub(super) fn display_transform(o: &OutputSpec) -> DisplayTransform {
+pub fn display_transform(o: &OutputSpec) -> DisplayTransform {
     DisplayTransform {
         exposure: o.exposure,
         tonemap: match o.tonemap {
@@ -105,7 +105,7 @@ pub(super) fn displayed<'a>(o: &OutputSpec, images: &'a [Image]) -> Cow<'a, [Ima
 }
 
 /// How 8-bit outputs are encoded: sRGB unless `--linear`.
-pub(super) fn write_options(o: &OutputSpec) -> WriteOptions {
+pub fn write_options(o: &OutputSpec) -> WriteOptions {
     WriteOptions { srgb: !o.linear }
 }
 

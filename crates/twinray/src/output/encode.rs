@@ -202,7 +202,7 @@ impl Srgb8 {
 
 /// The image as interleaved 8-bit RGB, top row first. Runs of pixels go to
 /// the current thread pool: a 48-view quilt has 11 M pixels.
-pub(crate) fn to_rgb8(img: &Image, opts: &WriteOptions) -> Vec<u8> {
+pub fn to_rgb8(img: &Image, opts: &WriteOptions) -> Vec<u8> {
     use rayon::prelude::*;
     const RUN: usize = 1 << 14;
     let mut bytes = vec![0u8; img.pixels.len() * 3];

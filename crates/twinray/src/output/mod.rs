@@ -50,7 +50,8 @@ pub use depth_channels::{stage_exr_with_depth, DepthChannels};
 pub use display::{DisplayTransform, Tonemap};
 pub(crate) use encode::rgb8_into;
 pub use encode::{
-    png_bytes, read_image, stage_image, stage_rgb8_image, write_image, ImageFormat, WriteOptions,
+    png_bytes, read_image, stage_image, stage_rgb8_image, to_rgb8, write_image, ImageFormat,
+    WriteOptions,
 };
 pub use floating_window::{apply_floating_window, mask_edges};
 pub use layouts::{

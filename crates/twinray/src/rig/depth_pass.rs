@@ -110,7 +110,19 @@ pub fn depth_pass(world: &World, camera: &Camera, view: View, stride: u32) -> De
 /// the cut-away parts of MASK materials as the renderer's rays do;
 /// `f32::INFINITY` if there is none.
 pub fn nearest_hit(world: &World, ray: &Ray, t_min: f32, stats: &mut TraversalStats) -> f32 {
+    nearest_surface(world, ray, t_min, stats).map_or(f32::INFINITY, |(_, hit)| hit.t)
+}
+
+/// The primitive and hit of [`nearest_hit`]: the surface the renderer's ray
+/// shades (past the last cut-out layer it reaches, the hit there).
+pub fn nearest_surface(
+    world: &World,
+    ray: &Ray,
+    t_min: f32,
+    stats: &mut TraversalStats,
+) -> Option<(u32, SurfaceHit)> {
     let mut from = t_min;
+    let mut last = None;
     for _ in 0..=crate::world::MAX_CUTOUT_LAYERS {
         let mut nearest = nearest_in(world, &world.bvh, ray, from, f32::INFINITY, stats);
         if let Some(far) = &world.far {
@@ -125,15 +137,16 @@ pub fn nearest_hit(world: &World, ray: &Ray, t_min: f32, stats: &mut TraversalSt
             nearest = beyond.or(nearest);
         }
         match nearest {
-            None => return f32::INFINITY,
+            None => return None,
             Some((prim, hit)) if world.has_alpha && world.scene.cut_away(prim as usize, &hit) => {
-                from = hit.t
+                from = hit.t;
+                last = nearest;
             }
-            Some((_, hit)) => return hit.t,
+            found => return found,
         }
     }
     // As the renderer's rays, stop at the last layer reached.
-    from
+    last
 }
 
 /// The nearest primitive and hit along `ray` in `bvh` within (`t_min`, `t_max`).

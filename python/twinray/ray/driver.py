@@ -208,7 +208,7 @@ def _why(err: Exception) -> str:
     return text[-1] if text else type(err).__name__
 
 
-def _gather(
+def gather(
     tasks: dict,
     total: int,
     progress: bool,
@@ -276,7 +276,7 @@ def _run_shares(
         ref = render_share.options(**options).remote(twinray, args, journal, fault, log)
         tasks[ref] = (label, units)
     try:
-        results, failures = _gather(
+        results, failures = gather(
             tasks, sum(u for _, u, _ in shares), progress, unit, log, on_progress
         )
     finally:

@@ -1,0 +1,43 @@
+"""Type hints of the native module (the Rust library through PyO3)."""
+
+from os import PathLike
+from typing import Any, Callable, Dict, List, Optional, Tuple, Union
+
+import numpy as np
+
+__version__: str
+
+class Scene:
+    """A scene file read once, ready for any number of jobs."""
+
+    @staticmethod
+    def load(path: Union[str, PathLike], **flags: Any) -> "Scene": ...
+    @property
+    def path(self) -> str: ...
+    @property
+    def shapes(self) -> int: ...
+    @property
+    def lights(self) -> int: ...
+
+class Job:
+    """A render of a loaded scene, checked and planned."""
+
+    def __init__(self, scene: Scene, spec: Optional[Dict[str, Any]] = None, **flags: Any) -> None: ...
+    @property
+    def spec(self) -> Dict[str, Any]: ...
+    @property
+    def rig(self) -> Dict[str, Any]: ...
+    @property
+    def views(self) -> int: ...
+    @property
+    def size(self) -> Tuple[int, int]: ...
+    @property
+    def messages(self) -> List[Tuple[str, str]]: ...
+    def render(
+        self,
+        progress: Optional[Callable[[int, int], Any]] = None,
+        ground_truth: bool = True,
+    ) -> Dict[str, Any]: ...
+
+def display(images: np.ndarray, spec: Dict[str, Any]) -> np.ndarray: ...
+def write_image(path: Union[str, PathLike], image: np.ndarray, spec: Dict[str, Any]) -> None: ...
