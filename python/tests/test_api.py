@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 import subprocess
 import threading
+import time
 import _thread
 from pathlib import Path
 
@@ -228,9 +229,13 @@ def test_progress_is_reported_and_ctrl_c_stops_the_render(example):
     with pytest.raises(Stop):
         job.render(progress=stop)
 
-    # SIGINT, as Ctrl-C sends it, while the GIL is released.
-    timer = threading.Timer(0.15, _thread.interrupt_main)
+    # SIGINT, as Ctrl-C sends it, while the GIL is released: the render (a
+    # minute of work) stops within a row of samples, not at its end.
+    big = twinray.Job(example, size=(1280, 960), stereo=True, samples=64)
+    timer = threading.Timer(0.2, _thread.interrupt_main)
+    start = time.monotonic()
     timer.start()
     with pytest.raises(KeyboardInterrupt):
-        twinray.Job(example, size=(1280, 960), stereo=True, samples=64).render()
+        big.render()
     timer.cancel()
+    assert time.monotonic() - start < 10

@@ -88,3 +88,23 @@ def test_a_killed_run_resumes_to_the_same_bytes(tmp_path):
     whole = [sys.executable, "-m", "twinray.dataset", "--out", str(tmp_path / "whole"), *args]
     subprocess.run(whole, env=env, check=True)
     assert tree(tmp_path / "killed") == tree(tmp_path / "whole")
+
+
+def test_models_under_assets_are_placed_among_the_shapes(tmp_path):
+    models = tmp_path / "models"
+    models.mkdir()
+    corners = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+    faces = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
+    stl = ["solid tetra"]
+    for f in faces:
+        stl += ["facet normal 0 0 0", "outer loop"]
+        stl += ["vertex %g %g %g" % corners[i] for i in f]
+        stl += ["endloop", "endfacet"]
+    (models / "tetra.stl").write_text("\n".join(stl + ["endsolid tetra"]) + "\n")
+    opts = Options(size=(48, 32), samples=1, objects=(3, 4), assets=str(models), asset_rate=1.0)
+    manifest = json.loads(generate(tmp_path / "out", 2, seed=1, opts=opts).read_text())
+    for s in manifest["samples"]:
+        assert s["assets"] and set(s["assets"]) == {"tetra.stl"}
+        obj = (tmp_path / "out" / s["spec"]["scene"]).read_text()
+        # Every object a tetrahedron of four triangles; the wall one quad.
+        assert obj.count("\nf ") == 4 * len(s["assets"]) + 1

@@ -3,8 +3,9 @@
     python -m twinray.dataset --out DIR --pairs N --seed S
 
 Each sample is a random scene: procedural shapes (boxes, spheres,
-cylinders) with procedural textures (stripes, checkers, smooth noise,
-rings) in front of a textured back wall, under random point lights, with
+cylinders) and any models under ``--assets`` (glTF, OBJ, STL, PLY), with
+procedural textures (stripes, checkers, smooth noise, rings) in front of a
+textured back wall, under random point lights, with
 mirrors and glass at a set rate. The stereo rig (parallel cameras, as
 SceneFlow's) is drawn so that every visible disparity lies within
 ``--disparity MIN,MAX`` pixels. Written per sample:
@@ -60,6 +61,9 @@ class Options:
     format: str = "sceneflow"
     threads: Optional[int] = None
     fov: float = 50.0
+    #: A folder of models (glTF, OBJ, STL, PLY) placed among the shapes.
+    assets: Optional[str] = None
+    asset_rate: float = 0.3
 
 
 # ---------------------------------------------------------------------------
@@ -211,6 +215,39 @@ def shape(rng: np.random.Generator) -> Tuple[np.ndarray, np.ndarray, List[Tuple[
     return _grid(np.linspace(0, 2 * np.pi, 25), np.linspace(-hgt, hgt, 2), cylinder)
 
 
+#: The model files `--assets` takes.
+ASSET_TYPES = (".gltf", ".glb", ".obj", ".stl", ".ply")
+
+_asset_triangles: Dict[str, np.ndarray] = {}
+
+
+def asset_files(folder: Optional[str]) -> List[Path]:
+    """The models under `folder`, in a fixed order (their draw depends on it)."""
+    if not folder:
+        return []
+    return sorted(p for p in Path(folder).rglob("*") if p.suffix.lower() in ASSET_TYPES and p.is_file())
+
+
+def asset_shape(path: Path, rng: np.random.Generator):
+    """A model's triangles centred and scaled to a unit radius, with texture
+    coordinates projected on two of its axes (its own materials are left
+    for a procedural texture, as FlyingThings3D textures its models)."""
+    import twinray
+
+    key = str(path)
+    if key not in _asset_triangles:
+        _asset_triangles[key] = twinray.Scene.load(path).triangles()
+    tris = _asset_triangles[key].astype(np.float64)
+    if len(tris) == 0:
+        return None
+    lo, hi = tris.reshape(-1, 3).min(0), tris.reshape(-1, 3).max(0)
+    pts = (tris.reshape(-1, 3) - (lo + hi) / 2) / max(float((hi - lo).max()) / 2, 1e-9)
+    axes = rng.permutation(3)[:2]
+    uvs = (pts[:, axes] + 1) / 2
+    faces = [(3 * i, 3 * i + 1, 3 * i + 2) for i in range(len(tris))]
+    return pts, uvs, faces
+
+
 @dataclass
 class SceneSpec:
     """What a sample's scene is, beside its files: the depths it spans and
@@ -220,6 +257,7 @@ class SceneSpec:
     far: float
     lights: List[Tuple[Tuple[float, float, float], Tuple[float, float, float]]] = field(default_factory=list)
     background: Tuple[float, float, float] = (0.0, 0.0, 0.0)
+    assets: List[str] = field(default_factory=list)
 
 
 def make_scene(rng: np.random.Generator, folder: Path, opts: Options) -> SceneSpec:
@@ -240,13 +278,21 @@ def make_scene(rng: np.random.Generator, folder: Path, opts: Options) -> SceneSp
     textures = {"wall": texture(rng)}
     mtl.append("newmtl wall\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd wall.png\n")
     near = wall_z
+    models = asset_files(opts.assets)
+    used: List[str] = []
     count = int(rng.integers(opts.objects[0], opts.objects[1] + 1))
     for k in range(count):
         z = float(rng.uniform(3.5, wall_z - 2))
         x = float(rng.uniform(-0.9, 0.9)) * z * tan_x
         y = float(rng.uniform(-0.9, 0.9)) * z * tan_y
         scale = float(rng.uniform(0.3, 0.9)) * (1 + z / 10)
-        pts, uvs, quads = shape(rng)
+        made = None
+        if models and rng.uniform() < opts.asset_rate:
+            model = models[int(rng.integers(len(models)))]
+            made = asset_shape(model, rng)
+            if made is not None:
+                used.append(str(model.relative_to(opts.assets)))
+        pts, uvs, quads = made if made is not None else shape(rng)
         pts = pts @ _rotation(rng).T * scale + [x, y, -z]
         near = min(near, float(-pts[:, 2].max()))
         name = f"m{k}"
@@ -271,7 +317,7 @@ def make_scene(rng: np.random.Generator, folder: Path, opts: Options) -> SceneSp
         col = tuple(float(c) for c in rng.uniform(0.5, 1.0, 3) * rng.uniform(0.6, 1.0))
         lights.append((pos, col))
     return SceneSpec(near=max(near, 0.5), far=wall_z, lights=lights,
-                     background=tuple(float(c) for c in rng.uniform(0, 0.3, 3)))
+                     background=tuple(float(c) for c in rng.uniform(0, 0.3, 3)), assets=used)
 
 
 def draw_interaxial(rng: np.random.Generator, scene: SceneSpec, focal_px: float, opts: Options) -> float:
@@ -323,6 +369,7 @@ def make_sample(out: Path, seed: int, index: int, opts: Options) -> Dict:
         "seed": s,
         "interaxial": round(b, 6),
         "focal_px": r.rig["focal_px"],
+        "assets": scene_spec.assets,
         "files": files,
         "spec": spec,
     }
@@ -369,7 +416,7 @@ def write_manifest(out: Path, seed: int, entries: List[Dict], opts: Options) -> 
     manifest = {
         "format_version": FORMAT_VERSION,
         "seed": seed,
-        "options": {k: v for k, v in asdict(opts).items() if k != "threads"},
+        "options": {k: v for k, v in asdict(opts).items() if k not in ("threads", "assets")},
         "samples": sorted(entries, key=lambda e: e["index"]),
     }
     path = out / "manifest.json"
@@ -448,6 +495,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--mirror-rate", type=float, default=0.1, help="share of objects that are mirrors")
     p.add_argument("--glass-rate", type=float, default=0.1, help="share of objects that are glass")
     p.add_argument("--format", choices=["sceneflow", "npy"], default="sceneflow")
+    p.add_argument("--assets", help="a folder of glTF, OBJ, STL or PLY models placed among the shapes")
+    p.add_argument("--asset-rate", type=float, default=0.3,
+                   help="share of objects drawn from --assets (default 0.3)")
     p.add_argument("--threads", type=int, help="worker threads per sample (default: all cores)")
     p.add_argument("--address", help="Ray cluster ('auto': the one this machine joined)")
     p.add_argument("--cpus-per-task", type=float, default=1, help="CPUs a Ray task reserves")
@@ -465,7 +515,11 @@ def main(argv: Optional[List[str]] = None) -> int:
         print("twinray.dataset: --disparity MIN,MAX with 0 < MIN < MAX", file=sys.stderr)
         return 2
     opts = Options(size=a.size, samples=a.samples, disparity=a.disparity, mirror_rate=a.mirror_rate,
-                   glass_rate=a.glass_rate, format=a.format, threads=a.threads)
+                   glass_rate=a.glass_rate, format=a.format, threads=a.threads,
+                   assets=a.assets and str(Path(a.assets).resolve()), asset_rate=a.asset_rate)
+    if a.assets and not asset_files(opts.assets):
+        print(f"twinray.dataset: no .gltf, .glb, .obj, .stl or .ply file under {a.assets}", file=sys.stderr)
+        return 2
     start = time.monotonic()
     try:
         if a.address:

@@ -5,7 +5,7 @@
 use clap::Parser;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList, PyString, PyTuple};
+use pyo3::types::{PyBool, PyDict, PyList, PyTuple};
 
 use twinray::JobSpec;
 use twinray_args::RenderArgs;
@@ -58,13 +58,11 @@ fn command_line(flags: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
         if value.is_none() {
             continue;
         }
-        if let Ok(b) = value.extract::<bool>() {
-            if value.cast::<PyString>().is_err() && value.is_instance_of::<pyo3::types::PyBool>() {
-                if b {
-                    args.push(flag);
-                }
-                continue;
+        if value.is_instance_of::<PyBool>() {
+            if value.is_truthy()? {
+                args.push(flag);
             }
+            continue;
         }
         if let Ok(list) = value.cast::<PyList>() {
             for v in list.iter() {

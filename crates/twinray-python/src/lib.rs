@@ -10,6 +10,7 @@ mod rig;
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use numpy::IntoPyArray;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -110,6 +111,26 @@ impl Scene {
     #[getter]
     fn lights(&self) -> usize {
         self.loaded.scene.lights.len()
+    }
+
+    /// The scene's triangles as float32 `(N, 3, 3)`: each one's corners
+    /// (spheres and cones are left out).
+    fn triangles<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray3<f32>> {
+        let corners: Vec<f32> = self
+            .loaded
+            .scene
+            .shapes
+            .iter()
+            .filter_map(|s| match s {
+                twinray::shapes::Shape::Triangle(t) => Some([t.v0, t.v0 + t.e1, t.v0 + t.e2]),
+                _ => None,
+            })
+            .flat_map(|c| c.into_iter().flat_map(|v| v.to_array()))
+            .collect();
+        let n = corners.len() / 9;
+        numpy::ndarray::Array3::from_shape_vec((n, 3, 3), corners)
+            .unwrap_or_else(|_| numpy::ndarray::Array3::zeros((0, 3, 3)))
+            .into_pyarray(py)
     }
 
     fn __repr__(&self) -> String {
@@ -233,7 +254,7 @@ impl Job {
             self.job.views(),
             self.plan.width,
             self.plan.height,
-            self.loaded.scene.shapes.len()
+            self.job.spec().scene.display().to_string()
         )
     }
 }

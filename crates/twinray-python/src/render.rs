@@ -85,10 +85,7 @@ pub fn render<'py>(
                 stopped = Some(e);
                 continue;
             }
-            let now = (
-                done.load(Ordering::Relaxed),
-                total.load(Ordering::Relaxed),
-            );
+            let now = (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed));
             if let (Some(cb), true) = (&progress, now != last && now.1 > 0) {
                 last = now;
                 if let Err(e) = cb.call1(now) {
@@ -209,7 +206,11 @@ pub fn display<'py>(
 }
 
 /// See `twinray.write_image`.
-pub fn write_image(path: PathBuf, image: PyReadonlyArray3<'_, f32>, spec: &Bound<'_, PyAny>) -> PyResult<()> {
+pub fn write_image(
+    path: PathBuf,
+    image: PyReadonlyArray3<'_, f32>,
+    spec: &Bound<'_, PyAny>,
+) -> PyResult<()> {
     let spec = spec_of(spec)?;
     let img = image_of(image.as_array())?;
     let format = twinray::output::ImageFormat::from_path(&path).map_err(py_error)?;

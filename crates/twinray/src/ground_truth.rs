@@ -166,11 +166,8 @@ fn pixel(
     let first = nearest_surface(world, &ray, camera.hither, stats);
     let depth = first.map_or(f32::INFINITY, |(_, hit)| hit.t * cosine);
     let layer2_depth = match first {
-        Some((prim, hit)) => {
-            second_layer(world, &ray, prim, hit, max_depth, stats).map_or(f32::NAN, |length| {
-                length * cosine
-            })
-        }
+        Some((prim, hit)) => second_layer(world, &ray, prim, hit, max_depth, stats)
+            .map_or(f32::NAN, |length| length * cosine),
         None => f32::NAN,
     };
     let Some(nb) = neighbour else {
@@ -199,7 +196,8 @@ fn pixel(
                 let to = point - eye;
                 let distance = to.length();
                 let back = Ray::new(eye, to / distance);
-                nearest_hit(world, &back, camera.hither, stats) < distance * (1.0 - OCCLUSION_MARGIN)
+                nearest_hit(world, &back, camera.hither, stats)
+                    < distance * (1.0 - OCCLUSION_MARGIN)
             }
         }
         // The background, at infinity, along the same direction from the neighbour.
@@ -276,7 +274,11 @@ fn next_ray(world: &World, prim: u32, ray: &Ray, hit: &SurfaceHit) -> Ray {
     let off = if unbent.dot(d) < 0.0 { unbent } else { -unbent };
     if material.t > 0.0 {
         let entering = scene.shapes[prim as usize].geometric_normal(point).dot(d) < 0.0;
-        let ior = if material.ior > 0.0 { material.ior } else { 1.0 };
+        let ior = if material.ior > 0.0 {
+            material.ior
+        } else {
+            1.0
+        };
         let eta = if entering { 1.0 / ior } else { ior };
         if let Some(dir) = refract(d, facing, eta) {
             return Ray::new(offset_point(point, -off, hit.t), dir);

@@ -8,8 +8,8 @@
 pub mod animation;
 pub mod bvh;
 pub mod environment;
-pub mod ground_truth;
 pub mod error;
+pub mod ground_truth;
 pub mod image;
 pub mod job;
 pub mod lights;

@@ -12,7 +12,10 @@ import argparse
 import sys
 from typing import List, Optional
 
-import ray
+try:
+    import ray
+except ImportError:  # Ray is the package's `ray` extra
+    sys.exit("twinray-ray needs Ray: pip install 'twinray[ray]'")
 
 from .driver import RenderFailed, find_twinray, run_frames, run_tiles
 
