@@ -157,7 +157,6 @@ impl Scene {
 #[pyclass(frozen, module = "twinray._native")]
 struct Job {
     job: twinray::Job,
-    loaded: Arc<Loaded>,
     plan: Plan,
     messages: Vec<(String, String)>,
 }
@@ -186,12 +185,11 @@ impl Job {
         args::take_scene_settings(&mut spec, &scene.spec)?;
         args::default_output(&mut spec);
         let job = twinray::Job::check(spec).map_err(py_error)?;
-        let loaded = Arc::clone(&scene.loaded);
-        let plan = py.detach(|| job.plan(&loaded)).map_err(py_error)?;
+        let loaded = &scene.loaded;
+        let plan = py.detach(|| job.plan(loaded)).map_err(py_error)?;
         let messages = messages(py, &[job.messages(), &plan.messages[..]].concat())?;
         Ok(Job {
             job,
-            loaded,
             plan,
             messages,
         })
