@@ -122,8 +122,8 @@ class Job:
         depth, disparity, occlusion, out-of-frame and second-layer arrays.
 
         The GIL is released while rendering. ``progress(done, total)`` is
-        called on this thread about ten times a second (``tqdm``'s
-        ``update`` fits). Ctrl-C, or an exception raised by ``progress``,
+        called on this thread about ten times a second, and once at the
+        end with ``done == total``. Ctrl-C, or an exception raised by ``progress``,
         stops the render within a row of samples and is raised here.
         """
         out = self._job.render(progress, ground_truth)
