@@ -29,8 +29,9 @@ type Socket =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
 
 fn chromium() -> Option<PathBuf> {
+    // TWINRAY_CHROMIUM names the browser (and only it).
     if let Ok(p) = std::env::var("TWINRAY_CHROMIUM") {
-        return Some(PathBuf::from(p));
+        return Some(PathBuf::from(p)).filter(|p| p.exists());
     }
     ["/usr/bin/chromium", "/usr/bin/chromium-browser"]
         .iter()
