@@ -20,6 +20,9 @@ use common::*;
 
 const EVIL: &str = "http://evil.example";
 
+/// A request another site's page makes: method, path, headers and body.
+type Attempt<'a> = (&'a str, &'a str, Vec<(&'a str, &'a str)>, Option<String>);
+
 #[tokio::test]
 async fn foreign_origins_are_refused_on_the_upgrade_and_on_every_post() {
     let server = serve(base(&example())).await;
@@ -36,7 +39,7 @@ async fn foreign_origins_are_refused_on_the_upgrade_and_on_every_post() {
     let settings = json!({ "samples": 1 }).to_string();
     let form = ("content-type", "application/x-www-form-urlencoded");
     let refused_before = server.preview.refused();
-    let requests: Vec<(&str, &str, Vec<(&str, &str)>, Option<String>)> = vec![
+    let requests: Vec<Attempt> = vec![
         // The plain cross-site form of the attack.
         (
             "POST",
