@@ -437,6 +437,16 @@ async fn reload(State(app): State<Arc<App>>) -> Response {
     }
 }
 
+/// A random id for a `what`, or the answer saying why there is none.
+fn new_id(what: &str) -> Result<String, Box<Response>> {
+    ids::random_id().map_err(|e| {
+        Box::new(refuse(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("no random id for the {what}: {e}"),
+        ))
+    })
+}
+
 async fn open_session(State(app): State<Arc<App>>, ws: WebSocketUpgrade) -> Response {
     let Ok(page) = Arc::clone(&app.pages).try_acquire_owned() else {
         return refuse(
@@ -444,14 +454,9 @@ async fn open_session(State(app): State<Arc<App>>, ws: WebSocketUpgrade) -> Resp
             format!("{MAX_PAGES} pages are open: close one to open another"),
         );
     };
-    let id = match ids::random_id() {
+    let id = match new_id("page") {
         Ok(id) => id,
-        Err(e) => {
-            return refuse(
-                StatusCode::INTERNAL_SERVER_ERROR,
-                format!("no random id for the page: {e}"),
-            )
-        }
+        Err(answer) => return *answer,
     };
     ws.max_message_size(MAX_PAGE_MESSAGE)
         .max_frame_size(MAX_PAGE_MESSAGE)
@@ -627,14 +632,9 @@ async fn render_full(
             "a full-size render of this page is running: wait for it",
         );
     };
-    let render = match ids::random_id() {
+    let render = match new_id("render") {
         Ok(id) => id,
-        Err(e) => {
-            return refuse(
-                StatusCode::INTERNAL_SERVER_ERROR,
-                format!("no random id for the render: {e}"),
-            )
-        }
+        Err(answer) => return *answer,
     };
     let dir = app.dir.path().join(&render);
     if let Err(e) = std::fs::create_dir(&dir) {

@@ -103,13 +103,7 @@ async fn rebinding_hosts_are_refused() {
     let (_socket, session) = server.connect().await;
     let port = server.address.port();
     // A full-size render whose file a rebinding page would download.
-    let (status, done) = server
-        .json(
-            "POST",
-            &format!("/api/session/{session}/render"),
-            Some(json!({ "samples": 1 })),
-        )
-        .await;
+    let (status, done) = server.render_full(&session).await;
     assert_eq!(status, StatusCode::OK, "{done}");
     let download = done["files"][0]["url"].as_str().unwrap().to_string();
     let (status, _) = server.request("GET", &download, None).await;
@@ -178,13 +172,7 @@ async fn session_and_render_ids_are_random_128_bit_numbers() {
     let session = &sessions[0];
     let mut renders = Vec::new();
     for _ in 0..3 {
-        let (status, done) = server
-            .json(
-                "POST",
-                &format!("/api/session/{session}/render"),
-                Some(json!({ "samples": 1 })),
-            )
-            .await;
+        let (status, done) = server.render_full(session).await;
         assert_eq!(status, StatusCode::OK, "{done}");
         let url = done["files"][0]["url"].as_str().unwrap();
         renders.push(url.split('/').nth(3).unwrap().to_string());
@@ -269,13 +257,7 @@ async fn full_renders_are_pruned_and_removed_when_the_server_stops() {
     let (_socket, session) = server.connect().await;
     let mut urls = Vec::new();
     for _ in 0..KEPT_RENDERS + 2 {
-        let (status, done) = server
-            .json(
-                "POST",
-                &format!("/api/session/{session}/render"),
-                Some(json!({ "samples": 1 })),
-            )
-            .await;
+        let (status, done) = server.render_full(&session).await;
         assert_eq!(status, StatusCode::OK, "{done}");
         urls.push(done["files"][0]["url"].as_str().unwrap().to_string());
     }
@@ -357,13 +339,7 @@ async fn a_page_gone_stops_its_full_size_render() {
     let (mut socket, session) = server.connect().await;
     let task = start_slow_full_render(&server, &mut socket, &session).await;
     // One at a time per page.
-    let (status, _) = server
-        .json(
-            "POST",
-            &format!("/api/session/{session}/render"),
-            Some(json!({ "samples": 1 })),
-        )
-        .await;
+    let (status, _) = server.render_full(&session).await;
     assert_eq!(status, StatusCode::CONFLICT);
     let gone = Instant::now();
     drop(socket);

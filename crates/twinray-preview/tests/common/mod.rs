@@ -164,6 +164,17 @@ impl Server {
         .await
     }
 
+    /// A full-size render of `session` at one sample a pixel: the status
+    /// and the answer.
+    pub async fn render_full(&self, session: &str) -> (StatusCode, Value) {
+        self.json(
+            "POST",
+            &format!("/api/session/{session}/render"),
+            Some(json!({ "samples": 1 })),
+        )
+        .await
+    }
+
     /// Waits until `done` holds, for at most `seconds`.
     pub async fn wait_until(&self, seconds: u64, what: &str, done: impl Fn(&Preview) -> bool) {
         let start = Instant::now();
