@@ -173,6 +173,28 @@ def test_flags_the_driver_sets_are_refused(tmp_path, capsys):
     assert "--only: twinray-ray sets the share of each task itself" in capsys.readouterr().err
 
 
+def test_no_more_twinray_processes_run_than_cpus(tmp_path):
+    """The cluster has 2 CPUs and a task reserves 1: at most 2 twinray
+    processes at once. (A task that waited on Ray while twinray ran, to
+    report a frame, would give its CPU to the next task meanwhile.)"""
+    spans = tmp_path / "spans"
+    timed = wrapper(
+        tmp_path / "twinray-timed",
+        f'[[ " $* " == *" --print-job "* ]] && exec "$BIN" "$@"\n'
+        f'echo "start $(date +%s%N)" >> {spans}\n"$BIN" "$@"\ncode=$?\n'
+        f'echo "end $(date +%s%N)" >> {spans}\nexit $code',
+    )
+    out = tmp_path / "out"
+    flags = [*FRAMES[:-2], "--size", "96x72"]
+    assert cli.main(["render", SCENE, "--twinray", timed, "-q", "-o", str(out / "f_####.png"), "--chunk", "2", *flags]) == 0
+    running, most = 0, 0
+    events = sorted((int(t), what) for what, t in (l.split() for l in spans.read_text().splitlines()))
+    for _, what in events:
+        running += 1 if what == "start" else -1
+        most = max(most, running)
+    assert len(events) == 8 and most <= 2, events
+
+
 def test_progress_advances_per_frame_while_the_task_runs(tmp_path):
     """One task renders all 8 frames; twinray is held after its first frame
     until the driver has reported that frame (30 s at most). Progress per

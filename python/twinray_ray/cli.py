@@ -74,7 +74,7 @@ def _say(message: str) -> None:
 def _reachable(address: str) -> Optional[str]:
     """None if something listens at HOST:PORT, else why not."""
     host, _, port = address.rpartition(":")
-    if not host or not port.isdigit():
+    if "://" in address or not host or not port.isdigit():
         return None  # Ray's own forms (ray://...): Ray says what is wrong
     try:
         socket.create_connection((host.strip("[]"), int(port)), timeout=5).close()
@@ -83,10 +83,9 @@ def _reachable(address: str) -> Optional[str]:
     return None
 
 
-NO_CLUSTER = (
-    "no Ray cluster is running on this machine: start one with `ray start --head` "
-    "(other machines join it with `ray start --address=HOST:6379`), or leave out --address "
-    "to start a local one for this run"
+START_ONE = (
+    "start one with `ray start --head` (other machines join it with "
+    "`ray start --address=HOST:6379`), or leave out --address to start a local one for this run"
 )
 
 
@@ -120,7 +119,7 @@ def connect(address: Optional[str], num_cpus: Optional[int]) -> None:
             if why and address == "auto":
                 raise RenderFailed(
                     f"--address auto: the Ray cluster last started on this machine ({target}) "
-                    f"does not answer ({why}); {NO_CLUSTER.split(': ', 1)[1]}"
+                    f"does not answer ({why}); {START_ONE}"
                 )
             if why:
                 raise RenderFailed(
@@ -130,7 +129,9 @@ def connect(address: Optional[str], num_cpus: Optional[int]) -> None:
                 )
         ray.init(address=address, **quiet)
     except ConnectionError:
-        raise RenderFailed(f"--address {address}: {NO_CLUSTER}") from None
+        raise RenderFailed(
+            f"--address {address}: no Ray cluster is running on this machine: {START_ONE}"
+        ) from None
 
 
 def main(argv: Optional[List[str]] = None) -> int:

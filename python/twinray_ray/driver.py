@@ -50,8 +50,8 @@ FAULT_ENV = "TWINRAY_RAY_FAULT"
 # How often the driver asks the progress log for news (seconds).
 POLL_S = 0.2
 
-# How long the driver waits for a reply of the progress log or for stopped
-# tasks, and a task for twinray to stop (seconds).
+# How long an interrupted driver waits for its tasks to stop and for the
+# progress log's last news, and a task for twinray to stop (seconds).
 STOP_S = 10
 
 FRAME_LINE = re.compile(r"frame (\d+): wrote (.*)")
@@ -74,7 +74,7 @@ class RenderFailed(Exception):
 class Interrupted(Exception):
     """The run was interrupted (Ctrl-C); what was done is recorded."""
 
-    def __init__(self, done: int, total: int, unit: str, record: Path):
+    def __init__(self, done: int, total: int, unit: str, record: str):
         super().__init__(f"{done} of {total} {unit}s done")
         self.done, self.total, self.unit, self.record = done, total, unit, record
 
@@ -241,7 +241,7 @@ def _die_on_purpose(
     attempt reported it, so the retry makes it again."""
     marker, record = fault
     reporter.flush()
-    for _ in range(int(STOP_S / POLL_S)):
+    for _ in range(int(60 / POLL_S)):  # a loaded machine's driver may be slow
         if unit in _done_in_record(record, None):
             break
         time.sleep(POLL_S)
@@ -355,6 +355,10 @@ def _run_shares(
 
     fault = os.environ.get(FAULT_ENV)
     done_before = [u for u in units if u in record.done]
+    if not shares:
+        for u in done_before if on_progress else []:
+            on_progress(u)
+        return []
     log = ProgressLog.remote()
     options = dict(
         num_cpus=cpus_per_task, max_retries=max_retries, retry_exceptions=[TwinrayStopped]
@@ -381,9 +385,9 @@ def _run_shares(
                     if on_progress:
                         on_progress(u)
 
-        def poll() -> None:
+        def poll(timeout: Optional[float] = None) -> None:
             nonlocal heard
-            news = ray.get(log.since.remote(heard), timeout=STOP_S)
+            news = ray.get(log.since.remote(heard), timeout=timeout)
             for u, path in news:
                 record.add(u, path)
             record.save()
@@ -410,11 +414,11 @@ def _run_shares(
                 ray.cancel(ref, force=True)
             ray.wait(pending, num_returns=len(pending), timeout=STOP_S)
             try:
-                poll()
+                poll(STOP_S)
             except Exception:
-                pass
+                pass  # what did not come in time is rendered again
             done = len([u for u in units if u in record.done])
-            raise Interrupted(done, len(units), unit, record.path) from None
+            raise Interrupted(done, len(units), unit, record.name) from None
         finally:
             ray.kill(log)
     if failures:

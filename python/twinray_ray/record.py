@@ -115,8 +115,12 @@ class Record:
     """The job's key and the units (``frame N``, ``tile K``) it has done,
     each with the files it wrote."""
 
-    def __init__(self, path: Path, key: str, job: dict, done: Dict[str, List[str]], saved: bool):
+    def __init__(
+        self, path: Path, name: str, key: str, job: dict, done: Dict[str, List[str]], saved: bool
+    ):
+        # Where it is, and as the user named the outputs (for messages).
         self.path = path
+        self.name = name
         self.key = key
         self.job = job
         self.done = done
@@ -130,6 +134,7 @@ class Record:
         what changed since the record on disk."""
         path = cwd / (output + RECORD_SUFFIX)
         key = key_of(job)
+        name = output + RECORD_SUFFIX
         note = None
         try:
             old = json.loads(path.read_text(encoding="utf-8"))
@@ -137,17 +142,17 @@ class Record:
             old = None
         except (OSError, ValueError) as e:
             old = None
-            note = f"{path} is unreadable ({e}): the outputs are made again"
+            note = f"{name} is unreadable ({e}): the outputs are made again"
         if isinstance(old, dict) and old.get("format") == FORMAT and old.get("key") == key:
             done = {str(u): [str(f) for f in files] for u, files in (old.get("done") or {}).items()}
-            return cls(path, key, job, done, True), None
+            return cls(path, name, key, job, done, True), None
         if isinstance(old, dict):
             what = differences(old.get("job") or {}, job)
             note = (
                 f"the outputs at {output} were made by another job ({what or 'another record format'}): "
                 "they are made again"
             )
-        return cls(path, key, job, {}, False), note
+        return cls(path, name, key, job, {}, False), note
 
     def files_there(self, unit: str, cwd: Path) -> bool:
         """Whether `unit` is done and every file it wrote is still there."""
@@ -156,7 +161,8 @@ class Record:
 
     def keep(self, units: Sequence[str]) -> None:
         """Forgets every unit but `units`."""
-        kept = {u: f for u, f in self.done.items() if u in set(units)}
+        keep = set(units)
+        kept = {u: f for u, f in self.done.items() if u in keep}
         if kept != self.done:
             self.done, self.saved = kept, False
 
