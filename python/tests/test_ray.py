@@ -23,7 +23,12 @@ from twinray_ray.record import RECORD_SUFFIX
 
 @pytest.fixture(scope="module", autouse=True)
 def cluster():
-    ray.init(address="local", num_cpus=2, log_to_driver=False, include_dashboard=False)
+    start = dict(address="local", num_cpus=2, log_to_driver=False, include_dashboard=False)
+    try:
+        ray.init(**start)
+    except Exception:  # Ray gives its node 30 s to start: a busy machine may need two tries
+        ray.shutdown()
+        ray.init(**start)
     yield
     ray.shutdown()
 

@@ -110,7 +110,10 @@ def connect(address: Optional[str], num_cpus: Optional[int]) -> None:
         address = os.environ.get("RAY_ADDRESS") or None
     quiet = dict(log_to_driver=False, logging_level=logging.WARNING)
     if address is None:
-        ray.init(address="local", num_cpus=num_cpus, include_dashboard=False, **quiet)
+        try:
+            ray.init(address="local", num_cpus=num_cpus, include_dashboard=False, **quiet)
+        except Exception as e:  # Ray's start-up failed (a machine too busy, no /dev/shm, ...)
+            raise RenderFailed(f"cannot start a local Ray cluster: {_first_line(e)}") from None
         return
     try:
         target = _auto_address() if address == "auto" else address
@@ -132,6 +135,15 @@ def connect(address: Optional[str], num_cpus: Optional[int]) -> None:
         raise RenderFailed(
             f"--address {address}: no Ray cluster is running on this machine: {START_ONE}"
         ) from None
+    except RenderFailed:
+        raise
+    except Exception as e:
+        raise RenderFailed(f"--address {address}: cannot join the Ray cluster: {_first_line(e)}") from None
+
+
+def _first_line(err: Exception) -> str:
+    lines = [l for l in str(err).splitlines() if l.strip()]
+    return lines[0] if lines else type(err).__name__
 
 
 def main(argv: Optional[List[str]] = None) -> int:
