@@ -23,12 +23,7 @@ from twinray_ray.record import RECORD_SUFFIX
 
 @pytest.fixture(scope="module", autouse=True)
 def cluster():
-    start = dict(address="local", num_cpus=2, log_to_driver=False, include_dashboard=False)
-    try:
-        ray.init(**start)
-    except Exception:  # Ray gives its node 30 s to start: a busy machine may need two tries
-        ray.shutdown()
-        ray.init(**start)
+    cli.connect(None, 2)  # a local cluster of 2 CPUs, as twinray-ray starts one
     yield
     ray.shutdown()
 

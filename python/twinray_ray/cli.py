@@ -110,11 +110,15 @@ def connect(address: Optional[str], num_cpus: Optional[int]) -> None:
         address = os.environ.get("RAY_ADDRESS") or None
     quiet = dict(log_to_driver=False, logging_level=logging.WARNING)
     if address is None:
-        try:
-            ray.init(address="local", num_cpus=num_cpus, include_dashboard=False, **quiet)
-        except Exception as e:  # Ray's start-up failed (a machine too busy, no /dev/shm, ...)
-            raise RenderFailed(f"cannot start a local Ray cluster: {_first_line(e)}") from None
-        return
+        # Ray gives a node 30 s to start: a busy machine may need a second try.
+        for attempt in (1, 2):
+            try:
+                ray.init(address="local", num_cpus=num_cpus, include_dashboard=False, **quiet)
+                return
+            except Exception as e:  # Ray's start-up failed (a busy machine, no /dev/shm, ...)
+                ray.shutdown()
+                if attempt == 2:
+                    raise RenderFailed(f"cannot start a local Ray cluster: {_first_line(e)}") from None
     try:
         target = _auto_address() if address == "auto" else address
         if target:
