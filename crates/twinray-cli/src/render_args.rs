@@ -108,6 +108,11 @@ pub struct RenderArgs {
     /// Most triangles an OBJ or glTF file may have.
     #[arg(long, default_value_t = 100_000_000)]
     pub max_triangles: u64,
+    /// Let the scene read files in DIR and below, beside its own folder
+    /// (textures kept elsewhere); repeatable. A scene reads no file outside
+    /// its folder without it.
+    #[arg(long, value_name = "DIR")]
+    pub allow_dir: Vec<PathBuf>,
 
     /// Which of a glTF file's cameras to use: its name or its index (default: the first).
     #[arg(long)]
@@ -243,7 +248,7 @@ pub struct AnimationArgs {
     pub animation: Option<String>,
     /// Split the still into N bands of rows, written as NAME_tileKofN, for
     /// `twinray merge` to assemble (all N, or only --tile K).
-    #[arg(long, value_name = "N", conflicts_with = "frames")]
+    #[arg(long, value_name = "N", conflicts_with = "frames", value_parser = clap::value_parser!(u32).range(1..))]
     pub tiles: Option<u32>,
     /// Render only tile K (0 to N-1) of --tiles N.
     #[arg(long, value_name = "K", requires = "tiles")]
@@ -521,8 +526,10 @@ impl RenderArgs {
                 max_resolution: self.max_resolution,
                 max_vertices: self.max_vertices,
                 max_triangles: self.max_triangles,
+                allow_dirs: self.allow_dir.clone(),
             },
             studio: self.studio.spec(),
+            read_files: Vec::new(),
         }
     }
 }

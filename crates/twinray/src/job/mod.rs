@@ -30,7 +30,7 @@ pub mod spec;
 mod studio;
 pub mod tiles;
 
-pub use outputs::numbered;
+pub use outputs::{job_inputs, numbered};
 pub use preflight::{
     available_memory, check_memory, check_threads, estimate_render_memory, human_bytes,
     lights_warning, ViewsKeptAs, MANY_LIGHTS, MAX_THREADS,
@@ -333,6 +333,8 @@ impl Job {
             max_triangles: limits.max_triangles,
             animation_time: time,
             animation: self.spec.animation.clip.clone(),
+            allow_dirs: limits.allow_dirs.clone(),
+            memory_limit: None,
         }
     }
 
@@ -522,12 +524,19 @@ impl Job {
             None => 0..height,
         };
         let written = (width, rows.len() as u32);
-        let mut files = self
-            .targets(&rig, interaxial)
-            .plan(written, &self.spec.scene)?;
+        let inputs = outputs::job_inputs(&self.spec, &loaded.scene);
+        let mut files = self.targets(&rig, interaxial).plan(written, &inputs)?;
         // As `render_for_writing` keeps the views (`Job::render`, which keeps
         // floats, checks again).
-        let memory = self.check_memory(width, height, self.kept_for_writing(&rig, interaxial))?;
+        // The hierarchy is built after this check (again, with a cut): its
+        // copy of the scene and its nodes count too.
+        let building = if loaded.built_world().is_none() || self.is_approximate() {
+            preflight::build_memory(&loaded.scene)
+        } else {
+            0
+        };
+        let kept = self.kept_for_writing(&rig, interaxial);
+        let memory = self.check_memory(width, height, kept, building)?;
 
         let mut build_seconds = 0.0;
         // `--fast` cuts the object tree only where the epipolar rows cannot
@@ -550,9 +559,7 @@ impl Job {
             // MPO's interaxial), and the cut that depends on it made now.
             rig = s.rig.clone();
             (interaxial, convergence) = (s.choice.interaxial, s.choice.convergence);
-            files = self
-                .targets(&rig, interaxial)
-                .plan(written, &self.spec.scene)?;
+            files = self.targets(&rig, interaxial).plan(written, &inputs)?;
             let fitted = self.cut(&camera, &rig, epipolar)?;
             if fitted.is_some() {
                 cut = fitted;
@@ -629,7 +636,14 @@ impl Job {
 
     /// The memory a render needs with its views kept as `kept` (bytes);
     /// refused where the machine has less.
-    fn check_memory(&self, width: u32, height: u32, kept: ViewsKeptAs) -> Result<u64> {
+    /// `building`: the bytes of a hierarchy still to build.
+    fn check_memory(
+        &self,
+        width: u32,
+        height: u32,
+        kept: ViewsKeptAs,
+        building: u64,
+    ) -> Result<u64> {
         let quilt_tiles = self.quilt.map_or(0, |q| q.layout.tiles());
         let needed = estimate_render_memory(width, height, self.views, self.options.sampling, kept)
             .saturating_add(outputs::extra_memory(
@@ -639,11 +653,17 @@ impl Job {
                 quilt_tiles,
                 outputs::quilt_pixel_bytes(&self.spec.output.path),
                 self.spec.output.depth,
-            ));
+            ))
+            .saturating_add(building);
+        let build = if building > 0 {
+            "building the scene's hierarchy and "
+        } else {
+            ""
+        };
         check_memory(
             needed,
             available_memory(),
-            &format!("rendering {} view(s) of {width}x{height}", self.views),
+            &format!("{build}rendering {} view(s) of {width}x{height}", self.views),
         )?;
         Ok(needed)
     }
@@ -695,7 +715,7 @@ impl Job {
         // The plan checked the memory for views kept as bytes where the
         // files allow it; floats take up to four times as much.
         if self.kept_for_writing(&plan.rig, plan.interaxial) == ViewsKeptAs::Bytes {
-            self.check_memory(plan.width, plan.height, ViewsKeptAs::Floats)?;
+            self.check_memory(plan.width, plan.height, ViewsKeptAs::Floats, 0)?;
         }
         self.render_with(plan, &self.options, ViewStorage::Float, progress, cancel)
     }
@@ -1072,6 +1092,11 @@ fn invalid(message: impl Into<String>) -> Error {
 impl Checked {
     fn of(spec: &JobSpec) -> Result<Checked> {
         let (rig, out) = (&spec.rig, &spec.output);
+        if let Some([w, h]) = spec.camera.size.filter(|[w, h]| *w == 0 || *h == 0) {
+            return Err(invalid(format!(
+                "--size {w}x{h}: width and height must be at least 1"
+            )));
+        }
         let quilt_layout = out.layout == LayoutSpec::Quilt;
         let several_views =
             rig.stereo || rig.views.is_some_and(|n| n > 1) || (quilt_layout && rig.views.is_none());
