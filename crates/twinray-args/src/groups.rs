@@ -426,6 +426,7 @@ pub struct AnimationArgs {
         long,
         value_name = "N",
         conflicts_with = "frames",
+        value_parser = clap::value_parser!(u32).range(1..),
         hide_short_help = true
     )]
     pub tiles: Option<u32>,
@@ -512,6 +513,11 @@ pub struct LimitArgs {
     #[arg(long, value_name = "N", default_value_t = LimitSpec::default().max_triangles,
           hide_short_help = true)]
     pub max_triangles: u64,
+    /// Let the scene read files in DIR and below, beside its own folder
+    /// (textures kept elsewhere); repeatable. A scene reads no file outside
+    /// its folder without it.
+    #[arg(long, value_name = "DIR", hide_short_help = true)]
+    pub allow_dir: Vec<std::path::PathBuf>,
 }
 
 impl RenderArgs {
@@ -568,8 +574,10 @@ impl RenderArgs {
                 max_resolution: self.limits.max_resolution,
                 max_vertices: self.limits.max_vertices,
                 max_triangles: self.limits.max_triangles,
+                allow_dirs: self.limits.allow_dir.clone(),
             },
             studio: self.studio.spec(),
+            read_files: Vec::new(),
         }
     }
 }

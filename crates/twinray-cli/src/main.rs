@@ -280,10 +280,10 @@ pub(crate) fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
     let Some(path) = &args.output.job else {
         return Ok(flags);
     };
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("--job {}", path.display()))?;
+    let text = twinray::loaders::files::read_user_text(path, "--job")?;
     let mut spec =
         JobSpec::from_json(&text).with_context(|| format!("--job {}", path.display()))?;
+    spec.read_files.push(path.clone());
     // Everything but SCENE and -o comes from the file: other flags would be
     // ignored, so they are refused.
     let mut rest = flags.clone();

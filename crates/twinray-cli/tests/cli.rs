@@ -1221,16 +1221,27 @@ fn model(name: &str) -> PathBuf {
 #[test]
 fn obj_and_glb_render_framed_and_lit_saying_so_in_one_verbose_line() {
     let dir = tmp();
+    // The torus's MTL names `../cube.png`, beside its folder.
+    let textures = model("pybullet");
     for name in ["pybullet/torus/torus_textured.obj", "gltf/torus.glb"] {
         let out = dir.path().join("m.png");
         // The defaults at work are nothing to warn about: silence.
-        let run = twinray(&["render", s(&model(name)), "-o", s(&out), "--size", SIZE]);
+        let run = twinray(&[
+            "render",
+            s(&model(name)),
+            "-o",
+            s(&out),
+            "--size",
+            SIZE,
+            "--allow-dir",
+            s(&textures),
+        ]);
         run.ok();
         assert_eq!(png_size(&out), (W, H));
         assert!(!run.stderr.contains("no camera"), "{}", run.stderr);
         assert!(!run.stderr.contains("warning"), "{}", run.stderr);
         // -v says what the job supplied, in one line.
-        let run = render(&model(name), &out, &["--size", SIZE, "-v"]);
+        let run = render(&model(name), &out, &["--size", SIZE, "-v", "--allow-dir", s(&textures)]);
         run.ok();
         let lines: Vec<&str> = run
             .stderr

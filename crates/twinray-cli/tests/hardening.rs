@@ -1,6 +1,7 @@
-//! Regression tests of the attack on the `twinray` command (issue 11): every
-//! abuse is refused at once with one `twinray: ...` line and nothing written,
-//! files are never clobbered, and the messages a new user meets say what to do.
+//! Regression tests of the attacks on the `twinray` command: every abuse is
+//! refused at once with one `twinray: ...` line and nothing written, files
+//! are never clobbered (no output replaces an input), and the messages a
+//! new user meets say what to do.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -423,4 +424,295 @@ fn sigterm_leaves_no_temporary_file() {
     let status = child.wait().expect("wait");
     assert_eq!(status.code(), Some(130), "{status:?}");
     assert!(entries(dir.path()).is_empty(), "{:?}", entries(dir.path()));
+}
+
+/// A glTF quad in `dir` whose buffer is the file `g/model.bin` and whose
+/// material's texture is `tex.png`, with an MTL-textured OBJ beside it.
+fn model_tree(dir: &TempDir) -> (PathBuf, PathBuf) {
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("g")).expect("mkdir");
+    let positions: [f32; 9] = [-1., -1., 0., 1., -1., 0., 0., 1., 0.];
+    let bytes: Vec<u8> = positions.iter().flat_map(|x| x.to_le_bytes()).collect();
+    std::fs::write(d.join("g/model.bin"), &bytes).expect("bin");
+    let gltf = d.join("model.gltf");
+    std::fs::write(
+        &gltf,
+        r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+            "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+            "buffers": [{"byteLength": 36, "uri": "g/model.bin"}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                           "min": [-1, -1, 0], "max": [1, 1, 0]}]}"#,
+    )
+    .expect("gltf");
+    std::fs::write(d.join("m.mtl"), "newmtl m\nKd 1 0 0\n").expect("mtl");
+    let obj = d.join("m.obj");
+    std::fs::write(
+        &obj,
+        "mtllib m.mtl\nv -1 -1 0\nv 1 -1 0\nv 0 1 0\nusemtl m\nf 1 2 3\n",
+    )
+    .expect("obj");
+    (gltf, obj)
+}
+
+#[test]
+fn outputs_never_overwrite_what_the_scene_read() {
+    // The attack: `--stats g/model.bin` replaced a glTF's buffer with JSON,
+    // `--stats` over the MTL replaced the MTL, `--env env.exr -o env.exr`
+    // replaced the environment image; all with exit 0.
+    let dir = TempDir::new().expect("tmp");
+    let (gltf, obj) = model_tree(&dir);
+    let d = dir.path();
+    let out = d.join("o.png");
+    let (bin, mtl) = (d.join("g/model.bin"), d.join("m.mtl"));
+    let before: Vec<Vec<u8>> = [&gltf, &obj, &bin, &mtl]
+        .iter()
+        .map(|p| std::fs::read(p).expect("read"))
+        .collect();
+    let render = |scene: &Path, out: &Path, extra: &[&str]| {
+        let mut args = vec!["render", s(scene), "-o", s(out), "--size", SIZE];
+        args.extend_from_slice(extra);
+        twinray(&args)
+    };
+    let line = refused(
+        &render(&gltf, &out, &["--stats", s(&bin)]),
+        "would overwrite the input",
+    );
+    assert!(line.contains("model.bin"), "{line}");
+    refused(
+        &render(&obj, &out, &["--stats", s(&mtl)]),
+        "would overwrite the input",
+    );
+    // The same file by another name: a hard link, a symbolic link.
+    std::fs::hard_link(&mtl, d.join("hard.json")).expect("link");
+    refused(
+        &render(&obj, &out, &["--stats", s(&d.join("hard.json"))]),
+        "would overwrite the input",
+    );
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(&bin, d.join("soft.json")).expect("symlink");
+        refused(
+            &render(&gltf, &out, &["--stats", s(&d.join("soft.json"))]),
+            "would overwrite the input",
+        );
+    }
+    // Tiles: the tile's own file name is checked.
+    let tile = d.join("g/t_tile0of2.png");
+    std::fs::copy(&bin, &tile).expect("copy");
+    let mut doc = std::fs::read_to_string(&gltf).expect("gltf");
+    doc = doc.replace("g/model.bin", "g/t_tile0of2.png");
+    let tiled = d.join("tiled.gltf");
+    std::fs::write(&tiled, doc).expect("write");
+    refused(
+        &render(&tiled, &d.join("g/t.png"), &["--tiles", "2", "--tile", "0"]),
+        "would overwrite the input",
+    );
+    // The environment image, and a job file.
+    let env = d.join("env.exr");
+    succeeded(&render(&gltf, &env, &["--quiet"]));
+    let env_before = std::fs::read(&env).expect("env");
+    refused(&render(&gltf, &env, &["--env", s(&env)]), "would overwrite the input");
+    assert_eq!(std::fs::read(&env).expect("env"), env_before);
+    let job = d.join("job.png");
+    let spec = twinray(&["render", s(&gltf), "-o", s(&out), "--print-job"]);
+    std::fs::write(&job, &spec.stdout).expect("job");
+    refused(
+        &twinray(&["render", "--job", s(&job), "-o", s(&job)]),
+        "would overwrite the input",
+    );
+    assert_eq!(std::fs::read(&job).expect("job"), spec.stdout);
+    let after: Vec<Vec<u8>> = [&gltf, &obj, &bin, &mtl]
+        .iter()
+        .map(|p| std::fs::read(p).expect("read"))
+        .collect();
+    assert_eq!(before, after);
+}
+
+#[test]
+fn a_camera_path_is_never_a_frames_output() {
+    let dir = TempDir::new().expect("tmp");
+    let path = dir.path().join("cam_0000.png");
+    std::fs::write(&path, "0 from 0,-5,1 at 0,0,0\n1 from 1,-5,1 at 0,0,0\n").expect("path");
+    let scene = scene();
+    let pattern = dir.path().join("cam_####.png");
+    let out = twinray(&[
+        "render", s(&scene), "-o", s(&pattern), "--size", SIZE, "--frames", "0..1", "--path",
+        s(&path),
+    ]);
+    refused(&out, "would overwrite the input");
+}
+
+#[test]
+fn scenes_read_only_their_folder_unless_allowed() {
+    // The attack: `map_Kd ..\secret\x.png` and `mtllib /etc/passwd` were read.
+    let dir = TempDir::new().expect("tmp");
+    std::fs::create_dir_all(dir.path().join("scene")).expect("mkdir");
+    std::fs::create_dir_all(dir.path().join("secret")).expect("mkdir");
+    std::fs::write(dir.path().join("secret/m.mtl"), "newmtl m\nKd 1 0 0\n").expect("mtl");
+    let obj = dir.path().join("scene/a.obj");
+    std::fs::write(
+        &obj,
+        "mtllib ../secret/m.mtl\nv -1 -1 0\nv 1 -1 0\nv 0 1 0\nusemtl m\nf 1 2 3\n",
+    )
+    .expect("obj");
+    let out = dir.path().join("o.png");
+    let stderr = succeeded(&twinray(&["render", s(&obj), "-o", s(&out), "--size", SIZE]));
+    assert!(
+        stderr.contains("warning: ") && stderr.contains("is outside the scene's folder"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("--allow-dir"), "{stderr}");
+    let allowed = succeeded(&twinray(&[
+        "render",
+        s(&obj),
+        "-o",
+        s(&out),
+        "--size",
+        SIZE,
+        "--allow-dir",
+        s(&dir.path().join("secret")),
+    ]));
+    assert!(!allowed.contains("outside"), "{allowed}");
+    // The folders allowed are part of the job.
+    let job = twinray(&[
+        "render",
+        s(&obj),
+        "-o",
+        s(&out),
+        "--allow-dir",
+        s(&dir.path().join("secret")),
+        "--print-job",
+    ]);
+    let text = String::from_utf8_lossy(&job.stdout);
+    assert!(text.contains("\"allow_dirs\"") && text.contains("secret"), "{text}");
+}
+
+#[cfg(unix)]
+#[test]
+fn devices_fifos_and_folders_named_by_the_user_are_refused_at_once() {
+    // The attack: a scene of /dev/zero grew to 2.1 GB, then "out of memory";
+    // a FIFO hung forever.
+    let dir = TempDir::new().expect("tmp");
+    let fifo = dir.path().join("fifo.nff");
+    assert!(Command::new("mkfifo").arg(&fifo).status().expect("mkfifo").success());
+    std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.glb")).expect("symlink");
+    std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.hdr")).expect("symlink");
+    let out = dir.path().join("o.png");
+    let start = std::time::Instant::now();
+    for (args, says) in [
+        (vec!["render", s(&fifo), "-o", s(&out)], "not a regular file"),
+        (vec!["render", s(&dir.path().join("zero.glb")), "-o", s(&out)], "not a regular file"),
+        (
+            vec!["render", s(&scene()), "-o", s(&out), "--env", s(&dir.path().join("zero.hdr"))],
+            "not a regular file",
+        ),
+        (vec!["render", "--job", "/dev/zero", "-o", s(&out)], "not a regular file"),
+        (
+            vec!["render", s(&scene()), "-o", s(&out), "--frames", "0..1", "--path", "/dev/zero"],
+            "not a regular file",
+        ),
+        (vec!["render", s(&dir.path().join("zero.glb")), "-o", s(&out), "--frames", "0..1"], "not a regular file"),
+    ] {
+        refused(&twinray(&args), says);
+    }
+    assert!(start.elapsed().as_secs() < 60, "{:?}", start.elapsed());
+    let folder = dir.path().join("folder.obj");
+    std::fs::create_dir(&folder).expect("mkdir");
+    refused(&twinray(&["render", s(&folder), "-o", s(&out)]), "is a directory");
+}
+
+/// A GLB of one mesh of `triangles` triangles (all one triangle) instanced
+/// by `instances` nodes side by side.
+fn instanced_glb(triangles: usize, instances: usize) -> Vec<u8> {
+    let positions: [f32; 9] = [0., 0., 0., 1., 0., 0., 0., 1., 0.];
+    let mut bin: Vec<u8> = positions.iter().flat_map(|x| x.to_le_bytes()).collect();
+    bin.extend(std::iter::repeat_n([0u8, 1, 2], triangles).flatten());
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let nodes: Vec<String> = (0..instances)
+        .map(|i| format!(r#"{{"mesh": 0, "translation": [{}, 0, 0]}}"#, 2 * i))
+        .collect();
+    let roots: Vec<String> = (0..instances).map(|i| i.to_string()).collect();
+    let mut json = format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [{}]}}],
+            "nodes": [{}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],
+            "buffers": [{{"byteLength": {}}}],
+            "bufferViews": [{{"buffer": 0, "byteLength": 36}},
+                            {{"buffer": 0, "byteOffset": 36, "byteLength": {}}}],
+            "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                            "min": [0, 0, 0], "max": [1, 1, 0]}},
+                          {{"bufferView": 1, "componentType": 5121, "count": {}, "type": "SCALAR"}}]}}"#,
+        roots.join(", "),
+        nodes.join(", "),
+        bin.len(),
+        triangles * 3,
+        triangles * 3
+    )
+    .into_bytes();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let mut out = b"glTF".to_vec();
+    out.extend(2u32.to_le_bytes());
+    out.extend(((12 + 8 + json.len() + 8 + bin.len()) as u32).to_le_bytes());
+    out.extend((json.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(json);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(bin);
+    out
+}
+
+#[test]
+fn a_scene_larger_than_the_memory_is_refused_before_it_is_made() {
+    // The attack: a GLB instancing a 1M-triangle mesh 40 times (under the
+    // triangle limit) aborted with "memory allocation of ... failed" and a
+    // backtrace. Here under a 3 GB address-space limit.
+    let dir = TempDir::new().expect("tmp");
+    let glb = dir.path().join("forty.glb");
+    std::fs::write(&glb, instanced_glb(1_000_000, 40)).expect("glb");
+    let out = dir.path().join("o.png");
+    let run = twinray_in(Some("ulimit -v 3000000"), &["render", s(&glb), "-o", s(&out)]);
+    let line = refused(&run, "forty.glb: 40000000 triangles: needs about");
+    assert!(line.contains("is available"), "{line}");
+    assert!(!String::from_utf8_lossy(&run.stderr).contains("memory allocation"));
+    assert_eq!(entries(dir.path()), vec!["forty.glb".to_string()]);
+}
+
+#[test]
+fn small_items_are_refused_with_why() {
+    // The attack: --tiles 0 exited 0 having done nothing; a --job of size
+    // [0, 0] reached "rows 0..0 of a 0-row image"; --frames 0..4294967295
+    // was accepted; f_##_##.png replaced only its last run of #.
+    let dir = TempDir::new().expect("tmp");
+    let scene = scene();
+    let out = dir.path().join("o.png");
+    refused(
+        &twinray(&["render", s(&scene), "-o", s(&out), "--tiles", "0"]),
+        "--tiles",
+    );
+    let spec = twinray(&["render", s(&scene), "-o", s(&out), "--print-job"]);
+    let text = String::from_utf8_lossy(&spec.stdout).replace("\"size\": null", "\"size\": [0, 0]");
+    assert!(text.contains("[0, 0]"), "{text}");
+    let job = dir.path().join("job.json");
+    std::fs::write(&job, text).expect("job");
+    refused(
+        &twinray(&["render", "--job", s(&job)]),
+        "--size 0x0: width and height must be at least 1",
+    );
+    refused(
+        &twinray(&["render", s(&scene), "-o", s(&out), "--frames", "0..4294967295"]),
+        "at most 1000000",
+    );
+    let two_runs = dir.path().join("f_##_##.png");
+    refused(
+        &twinray(&["render", s(&scene), "-o", s(&two_runs), "--frames", "0..1", "--size", SIZE]),
+        "the frame number goes in one place",
+    );
+    assert_eq!(entries(dir.path()), vec!["job.json".to_string()]);
 }

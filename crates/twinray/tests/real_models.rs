@@ -9,11 +9,18 @@ use common::*;
 use twinray::loaders::{load_scene, LoadOptions};
 use twinray::{Scene, World};
 
+fn models() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/models")
+}
+
+/// The model `name`, which may read the files of `tests/data/models` (the
+/// torus's MTL names `../cube.png`, beside its own folder).
 fn model(name: &str) -> Scene {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/models")
-        .join(name);
-    load_scene(&path, &LoadOptions::default()).expect("real model loads")
+    let opts = LoadOptions {
+        allow_dirs: vec![models()],
+        ..LoadOptions::default()
+    };
+    load_scene(&models().join(name), &opts).expect("real model loads")
 }
 
 fn render(mut scene: Scene) -> Vec<[u32; 3]> {
@@ -42,6 +49,22 @@ fn blender_torus_obj_loads_with_its_texture() {
                 .iter()
                 .all(|c| c.normals.is_some() && c.uv.is_some())
     );
+}
+
+/// Without `--allow-dir`, the texture beside the model's folder is not
+/// read: a warning says so, and the material keeps its colour.
+#[test]
+fn a_texture_outside_the_models_folder_needs_its_folder_allowed() {
+    let path = models().join("pybullet/torus/torus_textured.obj");
+    let s = load_scene(&path, &LoadOptions::default()).expect("loads");
+    assert!(s.textures.is_empty());
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    let w = &s.warnings[0];
+    assert!(
+        w.contains("texture '../cube.png' is outside the scene's folder") && w.contains("--allow-dir"),
+        "{w}"
+    );
+    assert_eq!(s.shapes.len(), 1002);
 }
 
 #[test]

@@ -190,7 +190,7 @@ impl Animation {
                 FrameOutput::Video(spec.output.path.clone())
             }
             None => {
-                let (pattern, added) = FramePattern::new(&spec.output.path);
+                let (pattern, added) = FramePattern::new(&spec.output.path)?;
                 if added {
                     messages.push(Message {
                         level: Level::Note,
@@ -217,6 +217,7 @@ impl Animation {
             clip: a.clip.clone(),
             ..AnimationSpec::default()
         };
+        still.read_files.extend(a.path.iter().cloned());
         let first = frame_still(&still, &output, frames.first, FrameCamera::default(), None);
         let mut animation = Animation {
             spec: still,
@@ -423,6 +424,13 @@ impl Animation {
                 &self.base,
             )?;
             let plan = job.plan(loaded)?;
+            if let (FrameOutput::Video(path), None) = (&self.output, &video) {
+                // The video is no frame's file: checked here, before the
+                // first frame is rendered, against what the job reads.
+                let inputs = crate::job::job_inputs(job.spec(), &loaded.scene);
+                let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+                crate::output::check_distinct(&[job.video_path(path, &plan)], &inputs)?;
+            }
             if self.skip_existing && plan.files.iter().all(|f| f.exists()) {
                 on_frame(FrameReport {
                     frame,
@@ -537,5 +545,6 @@ fn is_animated(scene: &std::path::Path) -> bool {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
     matches!(ext.as_deref(), Some("gltf" | "glb"))
-        && std::fs::read(scene).is_ok_and(|b| crate::loaders::gltf::animation::has_animations(&b))
+        && crate::loaders::files::read_user_file(scene, crate::loaders::files::MAX_FILE_BYTES)
+            .is_ok_and(|b| crate::loaders::gltf::animation::has_animations(&b))
 }

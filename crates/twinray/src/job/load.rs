@@ -43,6 +43,8 @@ impl Job {
             max_triangles: limits.max_triangles,
             animation_time: time,
             animation: self.spec.animation.clip.clone(),
+            allow_dirs: limits.allow_dirs.clone(),
+            memory_limit: None,
         }
     }
 
