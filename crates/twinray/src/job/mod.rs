@@ -359,7 +359,8 @@ impl Job {
             self.up_axis(viewpoint, up)
         };
         let given_lights = &self.spec.studio.lights;
-        if scene.format != SceneFormat::Nff && scene.lights.is_empty() && given_lights.is_empty() {
+        let unlit = scene.format != SceneFormat::Nff && scene.lights.is_empty();
+        if unlit && given_lights.is_empty() {
             scene.lights =
                 crate::lights::three_point_rig(viewpoint.from, viewpoint.at, viewpoint.up);
             supplied.push("no lights: added a key, a fill and a rim light around the camera");
@@ -370,14 +371,17 @@ impl Job {
             let model = scene.bounds();
             studio::add_ground(&mut scene, model, up);
         }
-        if !supplied.is_empty() {
-            messages.push(Message::info(format!("{path}: {}", supplied.join("; "))));
-        }
         if let Some(rgb) = self.spec.studio.background {
             scene.background = Vec3::from(rgb);
         }
         if let Some(path) = &self.spec.studio.env {
             scene.environment = Some(self.environment(path, up)?);
+        } else if unlit && self.spec.studio.background.is_none() {
+            scene.environment = Some(studio::surroundings(up));
+            supplied.push(studio::SURROUNDINGS);
+        }
+        if !supplied.is_empty() {
+            messages.push(Message::info(format!("{path}: {}", supplied.join("; "))));
         }
         Ok(Loaded {
             scene: Arc::new(scene),
@@ -580,7 +584,12 @@ impl Job {
             && rig.interaxial.is_none()
             && rig.view_cone.is_none()
             && rig.depth_budget.is_none();
-        plan.messages = plan_messages(&plan, rig_by_default);
+        // Only an interaxial the user gave is theirs to change.
+        let interaxial_given = rig
+            .interaxial
+            .as_deref()
+            .is_some_and(|i| !i.eq_ignore_ascii_case("auto"));
+        plan.messages = plan_messages(&plan, rig_by_default, interaxial_given);
         Ok(plan)
     }
 
@@ -993,7 +1002,7 @@ fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
 
 /// The verbose account of a plan: scene, rig, the rig's choice and report,
 /// the cut; and the report's warnings.
-fn plan_messages(plan: &Plan, rig_by_default: bool) -> Vec<Message> {
+fn plan_messages(plan: &Plan, rig_by_default: bool, interaxial_given: bool) -> Vec<Message> {
     let world = &plan.world;
     let mut m = vec![Message::info(format!(
         "scene: {} primitives, {} lights, hierarchy {} nodes (depth {}), built in {:.3} s",
@@ -1050,8 +1059,21 @@ fn plan_messages(plan: &Plan, rig_by_default: bool) -> Vec<Message> {
         } else {
             Message::warning
         };
-        m.extend(s.report.budget_warning().map(budget));
-        m.extend(s.report.divergence_warning().map(Message::warning));
+        let advice = if interaxial_given {
+            "; --interaxial auto fits them"
+        } else {
+            ""
+        };
+        m.extend(
+            s.report
+                .budget_warning()
+                .map(|w| budget(format!("{w}{advice}"))),
+        );
+        if rig_by_default {
+            m.extend(s.report.quilt_divergence_note().map(Message::note));
+        } else {
+            m.extend(s.report.divergence_warning().map(Message::warning));
+        }
     }
     m
 }
