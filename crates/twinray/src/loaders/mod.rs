@@ -52,6 +52,12 @@ impl Default for LoadOptions {
 
 /// Load a scene, choosing the format by file extension (any case).
 pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
+    if path.is_dir() {
+        return Err(Error::Invalid(format!(
+            "{}: is a directory; give a scene file in it ({SUPPORTED})",
+            path.display()
+        )));
+    }
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
