@@ -62,10 +62,11 @@ fn a_directory_as_the_scene_says_it_is_a_directory() {
 fn a_render_logged_to_a_file_prints_progress_lines() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("p.png");
+    let scene = example();
     // Long enough for several lines at a tenth of a second each.
     let args = [
         "render",
-        s(&example()),
+        s(&scene),
         "-o",
         s(&out),
         "--size",
@@ -132,9 +133,10 @@ fn the_automatic_rig_of_a_shot_does_not_blame_the_interaxial() {
     // and goes beyond the budget on a few between (measured: 2).
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("f_##.png");
+    let scene = example();
     let args = [
         "render",
-        s(&example()),
+        s(&scene),
         "-o",
         s(&out),
         "--frames",

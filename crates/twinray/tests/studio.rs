@@ -227,3 +227,55 @@ fn bad_lights_are_refused_naming_the_flag() {
     assert_eq!(spec.studio.lights, vec![light(1.0, 2.0, 3.0)]);
     assert!(spec.studio.ground);
 }
+
+/// The cube as dark as a camera body: its vertices coloured 0.04 (OBJ's
+/// `v x y z r g b`) over the white default material.
+fn dark_cube(edit: impl FnOnce(&mut JobSpec)) -> Render {
+    render(|s| {
+        let dark: String = CUBE
+            .lines()
+            .map(|l| {
+                if l.starts_with("v ") {
+                    format!("{l} 0.04 0.04 0.04\n")
+                } else {
+                    format!("{l}\n")
+                }
+            })
+            .collect();
+        std::fs::write(&s.scene, dark).unwrap();
+        edit(s)
+    })
+}
+
+fn mean(r: &Render, mask: &[bool], on: bool) -> f32 {
+    let picked: Vec<f32> = r
+        .pixels
+        .iter()
+        .zip(mask)
+        .filter(|(_, m)| **m == on)
+        .map(|(p, _)| p.element_sum() / 3.0)
+        .collect();
+    picked.iter().sum::<f32>() / picked.len() as f32
+}
+
+#[test]
+fn a_model_without_lights_stands_in_a_grey_studio() {
+    let mask = cube_mask();
+    let studio = dark_cube(|_| {});
+    // The background is the studio's mid grey, brighter above than below,
+    // not black.
+    let background = mean(&studio, &mask, false);
+    assert!(background > 0.15 && background < 0.5, "{background}");
+    let (top, bottom) = (studio.at(2, 1), studio.at(2, H - 2));
+    assert!(top.x > bottom.x && top.x == top.y && top.y == top.z, "{top} {bottom}");
+    // A dark model is lit by the studio too: brighter than under the rig alone
+    // (a black background gives no ambient light), and still darker than its
+    // background, against which it stands out.
+    let rig_alone = dark_cube(|s| s.studio.background = Some([0.0; 3]));
+    let (lit, unlit) = (mean(&studio, &mask, true), mean(&rig_alone, &mask, true));
+    assert!(lit > 1.5 * unlit, "studio {lit} against the rig alone {unlit}");
+    assert!(lit < 0.5 * background, "{lit} against {background}");
+    // --background, --env or lights in the file replace it: the given
+    // background is what misses see.
+    assert_eq!(rig_alone.at(2, 1), Vec3::ZERO);
+}
