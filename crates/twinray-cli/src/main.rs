@@ -186,10 +186,7 @@ fn fix_mmap_threshold() {}
 
 fn main() -> ExitCode {
     // Before anything built for the newer instructions runs.
-    if let Err(line) = cpu::check() {
-        eprintln!("twinray: {line}");
-        return ExitCode::FAILURE;
-    }
+    cpu::require();
     fix_mmap_threshold();
     let cli = match parse_args() {
         Ok(cli) => cli,

@@ -40,8 +40,15 @@ fn a_video_without_frames_says_it_needs_frames() {
         assert!(!out.exists());
     }
     // Any other unknown extension is still just unknown.
-    let r = run(&["render", s(&example()), "-o", s(&dir.path().join("x.gif"))], &[]);
-    assert!(stderr(&r).contains("unsupported output format '.gif'"), "{}", stderr(&r));
+    let r = run(
+        &["render", s(&example()), "-o", s(&dir.path().join("x.gif"))],
+        &[],
+    );
+    assert!(
+        stderr(&r).contains("unsupported output format '.gif'"),
+        "{}",
+        stderr(&r)
+    );
 }
 
 #[test]
@@ -50,7 +57,10 @@ fn a_directory_as_the_scene_says_it_is_a_directory() {
     let scenes = dir.path().join("scenes.nff");
     std::fs::create_dir(&scenes).unwrap();
     for scene in [dir.path(), scenes.as_path()] {
-        let r = run(&["render", s(scene), "-o", s(&dir.path().join("x.png"))], &[]);
+        let r = run(
+            &["render", s(scene), "-o", s(&dir.path().join("x.png"))],
+            &[],
+        );
         let err = stderr(&r);
         assert!(!r.status.success(), "{err}");
         assert!(err.contains("is a directory"), "{err}");
@@ -85,14 +95,21 @@ fn a_render_logged_to_a_file_prints_progress_lines() {
         .filter(|l| l.starts_with("twinray: rendering"))
         .collect();
     assert!(!lines.is_empty(), "no progress line: {err}");
-    assert!(lines.iter().all(|l| l.contains('%') && l.contains("eta")), "{lines:?}");
+    assert!(
+        lines.iter().all(|l| l.contains('%') && l.contains("eta")),
+        "{lines:?}"
+    );
     // No bar drawing on a file: no carriage returns, no escape sequences.
     assert!(!err.contains('\r') && !err.contains('\u{1b}'), "{err:?}");
     // -q: none.
     let mut quiet = args.to_vec();
     quiet.push("-q");
     let r = run(&quiet, &every);
-    assert!(r.status.success() && stderr(&r).is_empty(), "{}", stderr(&r));
+    assert!(
+        r.status.success() && stderr(&r).is_empty(),
+        "{}",
+        stderr(&r)
+    );
 }
 
 #[test]
@@ -154,16 +171,23 @@ fn the_automatic_rig_of_a_shot_does_not_blame_the_interaxial() {
     assert!(r.status.success(), "{err}");
     assert!(!err.contains("warning"), "{err}");
     assert!(!err.contains("--interaxial"), "{err}");
-    let notes: Vec<_> = err.lines().filter(|l| l.contains("the shot's one rig")).collect();
+    let notes: Vec<_> = err
+        .lines()
+        .filter(|l| l.contains("the shot's one rig"))
+        .collect();
     assert_eq!(notes.len(), 1, "{err}");
-    assert!(notes[0].contains("of 48 frames") && notes[0].contains("--rig per-frame"), "{err}");
+    assert!(
+        notes[0].contains("of 48 frames") && notes[0].contains("--rig per-frame"),
+        "{err}"
+    );
     // With the interaxial given, a frame beyond the budget is the user's to
     // change, and the warning says how.
     let mut given = args.to_vec();
     given.extend(["--interaxial", "0.6"]);
     let err = stderr(&run(&given, &[]));
     assert!(
-        err.contains("warning: the rig's disparities") && err.contains("--interaxial auto fits them"),
+        err.contains("warning: the rig's disparities")
+            && err.contains("--interaxial auto fits them"),
         "{err}"
     );
 }
@@ -194,5 +218,8 @@ fn the_default_quilts_far_points_are_a_note_said_once() {
     assert!(!err.contains("warning"), "{err}");
     let notes: Vec<_> = err.lines().filter(|l| l.contains("far points")).collect();
     assert_eq!(notes.len(), 1, "{err}");
-    assert!(notes[0].starts_with("twinray: note:") && notes[0].contains("Looking Glass"), "{err}");
+    assert!(
+        notes[0].starts_with("twinray: note:") && notes[0].contains("Looking Glass"),
+        "{err}"
+    );
 }

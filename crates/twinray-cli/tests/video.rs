@@ -104,7 +104,10 @@ fn assert_top_bottom_mkv(out: &Path, codec: &str) {
 }
 
 #[test]
-#[cfg_attr(missing_ffmpeg, ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)")]
+#[cfg_attr(
+    missing_ffmpeg,
+    ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)"
+)]
 fn side_by_side_mp4_has_its_frames_size_and_st3d() {
     let dir = TempDir::new().unwrap();
     let out = dir.path().join("sbs.mp4");
@@ -122,7 +125,10 @@ fn side_by_side_mp4_has_its_frames_size_and_st3d() {
 }
 
 #[test]
-#[cfg_attr(missing_ffmpeg, ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)")]
+#[cfg_attr(
+    missing_ffmpeg,
+    ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)"
+)]
 fn top_bottom_mkv_has_stereo_mode() {
     let dir = TempDir::new().unwrap();
     let out = dir.path().join("tb.mkv");
@@ -133,7 +139,10 @@ fn top_bottom_mkv_has_stereo_mode() {
 }
 
 #[test]
-#[cfg_attr(missing_ffmpeg, ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)")]
+#[cfg_attr(
+    missing_ffmpeg,
+    ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)"
+)]
 fn anaglyph_and_quilt_videos_are_plain_pictures() {
     let dir = TempDir::new().unwrap();
     let out = dir.path().join("ana.mp4");
@@ -227,7 +236,10 @@ fn a_failed_encode_leaves_no_file_and_says_why() {
 }
 
 #[test]
-#[cfg_attr(missing_ffmpeg, ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)")]
+#[cfg_attr(
+    missing_ffmpeg,
+    ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)"
+)]
 fn hevc_videos_have_their_codec_frames_size_and_stereo_metadata() {
     let dir = TempDir::new().unwrap();
     let out = dir.path().join("sbs.mp4");
@@ -247,7 +259,10 @@ fn hevc_videos_have_their_codec_frames_size_and_stereo_metadata() {
 }
 
 #[test]
-#[cfg_attr(missing_ffmpeg, ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)")]
+#[cfg_attr(
+    missing_ffmpeg,
+    ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)"
+)]
 fn hevc_lossless_frames_show_what_the_stills_show() {
     let dir = TempDir::new().unwrap();
     let flags = [
@@ -353,7 +368,10 @@ fn difference(a: &[u8], b: &[u8]) -> (f64, u8) {
 /// and the largest ≤ 4 (measured: 0 and 0 with Debian 12's ffmpeg 5.1; a
 /// frame without the display transform differs by tens of levels).
 #[test]
-#[cfg_attr(missing_ffmpeg, ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)")]
+#[cfg_attr(
+    missing_ffmpeg,
+    ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)"
+)]
 fn video_frames_show_what_the_stills_show() {
     let dir = TempDir::new().unwrap();
     for (layout, exposure) in [("sbs", "--exposure=0.7"), ("anaglyph", "--exposure=-0.6")] {

@@ -257,7 +257,10 @@ mod tests {
             let env = studio_environment(z_up);
             let (above, below) = (env.radiance(up), env.radiance(-up));
             let side = env.radiance(up.any_orthonormal_vector());
-            assert!(above.x > side.x && side.x > below.x, "{above} {side} {below}");
+            assert!(
+                above.x > side.x && side.x > below.x,
+                "{above} {side} {below}"
+            );
             assert!((above.x - STUDIO_ZENITH).abs() < 0.02, "{above}");
             assert!((side.x - STUDIO_HORIZON).abs() < 0.03, "{side}");
             assert!(above.x == above.y && above.y == above.z, "grey: {above}");

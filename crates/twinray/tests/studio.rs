@@ -267,13 +267,19 @@ fn a_model_without_lights_stands_in_a_grey_studio() {
     let background = mean(&studio, &mask, false);
     assert!(background > 0.15 && background < 0.5, "{background}");
     let (top, bottom) = (studio.at(2, 1), studio.at(2, H - 2));
-    assert!(top.x > bottom.x && top.x == top.y && top.y == top.z, "{top} {bottom}");
+    assert!(
+        top.x > bottom.x && top.x == top.y && top.y == top.z,
+        "{top} {bottom}"
+    );
     // A dark model is lit by the studio too: brighter than under the rig alone
     // (a black background gives no ambient light), and still darker than its
     // background, against which it stands out.
     let rig_alone = dark_cube(|s| s.studio.background = Some([0.0; 3]));
     let (lit, unlit) = (mean(&studio, &mask, true), mean(&rig_alone, &mask, true));
-    assert!(lit > 1.5 * unlit, "studio {lit} against the rig alone {unlit}");
+    assert!(
+        lit > 1.5 * unlit,
+        "studio {lit} against the rig alone {unlit}"
+    );
     assert!(lit < 0.5 * background, "{lit} against {background}");
     // --background, --env or lights in the file replace it: the given
     // background is what misses see.

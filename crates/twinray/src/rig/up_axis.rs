@@ -216,10 +216,7 @@ fn center_of_mass(shapes: &[Shape]) -> Option<Vec3> {
     let (mut sum, mut area) = (glam::DVec3::ZERO, 0.0f64);
     for s in shapes {
         let (c, a) = match s {
-            Shape::Triangle(t) => (
-                t.v0 + (t.e1 + t.e2) / 3.0,
-                0.5 * t.e1.cross(t.e2).length(),
-            ),
+            Shape::Triangle(t) => (t.v0 + (t.e1 + t.e2) / 3.0, 0.5 * t.e1.cross(t.e2).length()),
             other => {
                 let b = other.bounds();
                 ((b.min + b.max) * 0.5, (b.max - b.min).length_squared())
@@ -282,7 +279,9 @@ fn convex_hull(mut points: Vec<[f32; 2]>) -> Vec<[f32; 2]> {
             Box::new(points.iter().rev())
         };
         for &p in ordered {
-            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
                 hull.pop();
             }
             hull.push(p);
@@ -406,7 +405,11 @@ mod tests {
         ] {
             let scene = boxes(format, &[([0.0; 3], [1.0; 3])]);
             let d = detect(&scene, scene.shapes.len());
-            assert_eq!((d.axis, d.evidence), (axis, Evidence::Convention), "{format:?}");
+            assert_eq!(
+                (d.axis, d.evidence),
+                (axis, Evidence::Convention),
+                "{format:?}"
+            );
             assert!(d.reason().contains("not clear"), "{}", d.reason());
         }
     }
@@ -447,7 +450,11 @@ mod tests {
             ],
         );
         let d = detect(&scene, scene.shapes.len());
-        assert_eq!((d.axis, d.evidence), (UpAxis::Y, Evidence::GroundPlane), "{d:?}");
+        assert_eq!(
+            (d.axis, d.evidence),
+            (UpAxis::Y, Evidence::GroundPlane),
+            "{d:?}"
+        );
         assert!(d.z.footprint > d.y.footprint * DECISIVE_RATIO, "{d:?}");
         assert!(d.reason().contains("plane y = 0"), "{}", d.reason());
         // Moved off the plane, the footprints decide: on its back.
@@ -520,6 +527,9 @@ mod tests {
         assert!((polygon_area(&square) - 1.0).abs() < 1e-6);
         assert!((inside_margin(&square, [0.5, 0.25]) - 0.25).abs() < 1e-6);
         assert!((inside_margin(&square, [1.5, 0.5]) + 0.5).abs() < 1e-6);
-        assert_eq!(polygon_area(&convex_hull(vec![[0.0, 0.0], [1.0, 1.0]])), 0.0);
+        assert_eq!(
+            polygon_area(&convex_hull(vec![[0.0, 0.0], [1.0, 1.0]])),
+            0.0
+        );
     }
 }
