@@ -11,4 +11,4 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 TWINRAY_FUZZ_MUTANTS="${1:-100000}" TWINRAY_FUZZ_SEED="${2:-1}" \
-    cargo test --release -p twinray --test fuzz -- --nocapture 2>&1 | grep -E "fuzz:|mutant|test result"
+    cargo test --release -p twinray --test all fuzz:: -- --nocapture 2>&1 | grep -E "fuzz:|mutant|test result"

@@ -4,7 +4,7 @@
 //! walls parallel to the eyes), interaxial distances from 0 to large, and
 //! convergence finite and infinite.
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::render::{Method, Sampling};

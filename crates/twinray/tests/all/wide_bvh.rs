@@ -16,7 +16,7 @@
 //! hit, any-hit meets every occluder, nearest first is counted, and it visits
 //! fewer nodes than the four-wide tree for the same hits.
 
-mod common;
+use crate::common;
 
 use common::brute;
 

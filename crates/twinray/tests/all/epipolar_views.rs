@@ -7,7 +7,7 @@
 //! shadow edge and a mirror are kept; the images do not depend on the
 //! threads.
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::render::{

@@ -7,7 +7,7 @@
 //! hits, a mirror whose reflection changes between them and a textured floor
 //! are kept.
 
-mod common;
+use crate::common;
 
 use common::*;
 use serde_json::json;

@@ -1,7 +1,7 @@
 //! The stereo rig measured on rendered images: screen parallax against
 //! `x_R − x_L = f·b·(1/C − 1/Z)`, no vertical parallax, eye order.
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::math::Vec3;

@@ -2,7 +2,7 @@
 //! size, other sampling, the layout composed in memory, the disparity
 //! histogram, a shared worker pool, and the command line of a spec.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -7,7 +7,7 @@
 //! each lane's answer must stay brute force's, bit for bit, and the counts
 //! must show the tests made together.
 
-mod common;
+use crate::common;
 
 use common::{brute, nff_world, rings};
 use twinray::bvh::{NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats};

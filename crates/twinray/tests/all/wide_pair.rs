@@ -6,7 +6,7 @@
 //! by its own nearest hit. Every hit is checked against brute force and
 //! against the lane traced alone.
 
-mod common;
+use crate::common;
 
 use common::brute;
 use twinray::bvh::{build, BuildOptions, Bvh, Packet, PacketHits, TraversalStats};

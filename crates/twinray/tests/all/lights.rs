@@ -2,7 +2,7 @@
 //! (its shadow rays run to "infinity"), a spot light lights its cone only,
 //! and a glTF point light falls off with the square of the distance.
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::lights::{Light, LightKind};

@@ -7,7 +7,7 @@
 //! for eye runs (`--eye-runs`), and their counts on a bare wall and with the
 //! pole in front of it.
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::loaders::nff::parse_nff;

@@ -5,7 +5,7 @@
 //! rendered alone), the adaptive refinement where it belongs, renders
 //! independent of the thread count, and views beyond one packet in batches.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -3,7 +3,7 @@
 //! safe reprojection leaves no ghost where the paper's does, the paper's
 //! holes are traced, cut objects keep their disparity within the bound asked.
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::math::{Color, Vec3};

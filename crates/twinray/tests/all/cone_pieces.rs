@@ -5,7 +5,7 @@
 //! rays and for shadow segments, and a glass cone must stay whole, so that a
 //! shadow segment meets it once.
 
-mod common;
+use crate::common;
 
 use common::{brute, camera, difference, nff_world, options, rings, run};
 use twinray::bvh::{self, AnyHit, Packet, SegmentPacket, TraversalStats};

@@ -1,7 +1,7 @@
 //! Real files written by other tools (tests/data/models/README.md): pybullet's
 //! textured torus as Blender wrote it, and obj2gltf's .glb and .gltf of it.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 

@@ -4,7 +4,7 @@
 //! `map_Bump`; glTF `normalTexture`) and OBJ `map_Ke`. The twin method must
 //! still give what independent renders give, bit for bit.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -1,7 +1,7 @@
 //! The same geometry given as NFF, OBJ and glTF renders to the same image,
 //! bit for bit, where the materials mean the same.
 
-mod common;
+use crate::common;
 
 use std::fmt::Write as _;
 use std::path::Path;

@@ -8,7 +8,7 @@
 //! index), with and without the two-block test; and the counts show the
 //! intended effect: leaves of two blocks take one register test, not two.
 
-mod common;
+use crate::common;
 
 use common::brute;
 use std::cell::Cell;

@@ -2,7 +2,7 @@
 //! emissive-textured glTF quad, glTF emissive strength, occlusion and metal
 //! tint, and an OBJ material of `Ns 0` (Blender's export of a rough surface).
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

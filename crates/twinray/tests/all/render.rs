@@ -4,7 +4,7 @@
 //! Reference images are regression guards: `TWINRAY_BLESS=1 cargo test --test
 //! render` rewrites them after an intended change of the images.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

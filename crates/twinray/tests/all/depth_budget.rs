@@ -3,7 +3,7 @@
 //! where planted and nowhere else, quilt tiles are the views rendered alone,
 //! and the depth channels agree with the images.
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::math::Vec3;

@@ -2,7 +2,7 @@
 //! loaded scene planned and rendered with several rigs (what the preview
 //! server does on every change), cancellation, and the spec as JSON.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

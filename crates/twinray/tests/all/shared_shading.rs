@@ -5,7 +5,7 @@
 //! between the views' samples, a mirror), and the same image for any number
 //! of threads.
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::lights::LightKind;

@@ -8,7 +8,7 @@
 //! shadow edge, a mirror and a small ball's shadow are kept; the images do
 //! not depend on the threads.
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::render::{

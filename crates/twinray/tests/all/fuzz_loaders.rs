@@ -2,7 +2,7 @@
 //! a scene or a one-line error naming the file, never a panic.
 //!
 //! The default run is a few seconds. A longer run:
-//! `TWINRAY_FUZZ_ITERS=20000 TWINRAY_FUZZ_SEED=7 cargo test --release -p twinray --test fuzz_loaders`
+//! `TWINRAY_FUZZ_ITERS=20000 TWINRAY_FUZZ_SEED=7 cargo test --release -p twinray --test all fuzz_loaders::`
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};

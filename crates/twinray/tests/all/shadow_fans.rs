@@ -5,7 +5,7 @@
 //! free), under a thin pole whose shadow crosses runs, with an occluder on
 //! one view's shadow segment only, and with spheres grazing a view's segment.
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::loaders::nff::parse_nff;

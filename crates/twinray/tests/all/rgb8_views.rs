@@ -2,7 +2,7 @@
 //! those written from the float views, byte for byte, and the renderer keeps
 //! 8-bit pixels only where every file shows the views as rendered.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

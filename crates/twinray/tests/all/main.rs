@@ -1,0 +1,44 @@
+//! The crate's integration tests as one binary (one link instead of one
+//! per file): `cargo test --release -p twinray --test all`, or
+//! `... --test all MODULE::` for one file's tests.
+
+mod approximations;
+mod bvh_build;
+mod colour_output;
+mod common;
+mod compressed_gltf;
+mod cone_pieces;
+mod depth_budget;
+mod environment;
+mod epipolar_views;
+mod exactness;
+mod eye_traversal;
+mod formats;
+mod framing;
+mod fuzz;
+mod fuzz_loaders;
+mod hardening;
+mod instances;
+mod interpolated_views;
+mod job;
+mod job_preview;
+mod lanes_at_once;
+mod lights;
+mod material_maps;
+mod materials;
+mod oracle;
+mod real_models;
+mod render;
+mod rgb8_views;
+mod sampling;
+mod shadow_fans;
+mod shared_shading;
+mod stereo;
+mod stl_ply;
+mod strip;
+mod studio;
+mod traversal_stack;
+mod up_axis;
+mod view_synthesis;
+mod wide_bvh;
+mod wide_pair;
