@@ -186,6 +186,6 @@ fn mutated_shipped_scenes_load_or_fail_with_a_location_and_never_panic() {
 /// cache's history and twin differed from independent (docs/reliability.md).
 #[test]
 fn huge_enclosing_sphere_mutant_twin_equals_independent() {
-    let text = include_str!("data/fuzz/twin-differs-huge-sphere.nff");
+    let text = include_str!("../data/fuzz/twin-differs-huge-sphere.nff");
     check(text).unwrap_or_else(|why| panic!("twin-differs-huge-sphere.nff: {why}"));
 }
