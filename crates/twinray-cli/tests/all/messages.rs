@@ -1,26 +1,11 @@
 //! What a newcomer reads: a mistake named in its own words, progress in a
 //! log, and no warning that blames a flag the user did not set.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn example() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// The binary with `args`, stderr a pipe (not a terminal), and `env`.
-fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_twinray"));
-    cmd.args(args);
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
-    cmd.output().expect("the binary runs")
-}
+// The video tests' helpers: the example scene, a path as text, and the binary
+// run with its stderr a pipe.
+use crate::video::{example, run, s};
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

@@ -9,15 +9,15 @@ use std::process::{Command, Output};
 
 use tempfile::TempDir;
 
-fn example() -> PathBuf {
+pub(crate) fn example() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff")
 }
 
-fn s(p: &Path) -> &str {
+pub(crate) fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
+pub(crate) fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_twinray"));
     cmd.args(args);
     for (k, v) in env {
