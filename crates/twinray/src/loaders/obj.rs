@@ -421,14 +421,15 @@ fn vertex_colors(mesh: &tobj::Mesh) -> Option<Vec<Color>> {
     if values.is_empty() || values.len() != mesh.positions.len() {
         return None;
     }
+    // Divided, not multiplied by 1/255: 51 is then exactly 0.2.
     let scale = if values.iter().any(|&v| v > 1.0 && v.is_finite()) {
-        1.0 / 255.0
+        255.0
     } else {
         1.0
     };
     let channel = |v: f32| {
         if v.is_finite() {
-            (v * scale).clamp(0.0, 1.0)
+            (v / scale).clamp(0.0, 1.0)
         } else {
             0.0
         }
