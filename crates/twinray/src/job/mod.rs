@@ -376,7 +376,7 @@ impl Job {
         }
         if let Some(path) = &self.spec.studio.env {
             scene.environment = Some(self.environment(path, up)?);
-        } else if unlit && self.spec.studio.background.is_none() {
+        } else if unlit && given_lights.is_empty() && self.spec.studio.background.is_none() {
             scene.environment = Some(studio::surroundings(up));
             supplied.push(studio::SURROUNDINGS);
         }

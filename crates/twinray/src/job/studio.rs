@@ -1,6 +1,6 @@
 //! What the job adds around a model: point lights (`--light`), a
 //! shadow-catching floor (`--ground`), and for a model file without lights
-//! (and without `--env` or `--background`) a grey studio around it.
+//! (and without `--light`, `--env` or `--background`) a grey studio around it.
 //!
 //! The floor is added by [`Job::prepare`](super::Job::prepare) after the
 //! viewpoint and the light rig are chosen from the model alone, and it is
@@ -18,7 +18,7 @@ use crate::rig::up_axis::UpAxis;
 
 /// What `-v` says of [`surroundings`].
 pub(super) const SURROUNDINGS: &str =
-    "a grey studio around it for ambient light and background (--background or --env replace it)";
+    "a grey studio around it for ambient light and background (--light, --background or --env replace it)";
 
 /// The studio around a model file without lights
 /// ([`crate::lights::studio_environment`]), turned for its up axis.
