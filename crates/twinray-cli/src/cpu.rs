@@ -131,6 +131,9 @@ mod tests {
         let line = [BEFORE, b"avx2", AFTER].concat();
         let text = String::from_utf8(line).unwrap();
         assert_eq!(text.matches('\n').count(), 1, "{text}");
-        assert!(text.ends_with('\n') && text.contains("lacks avx2."), "{text}");
+        assert!(
+            text.ends_with('\n') && text.contains("lacks avx2."),
+            "{text}"
+        );
     }
 }
