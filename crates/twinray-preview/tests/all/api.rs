@@ -1,178 +1,23 @@
 //! The preview's HTTP and WebSocket API, driven in-process: a server on a
 //! loopback port for the WebSocket, requests straight to its router.
 
-use std::path::{Path, PathBuf};
+mod common;
+
 use std::time::{Duration, Instant};
 
-use axum::body::Body;
-use axum::http::{Request, StatusCode};
-use futures_util::StreamExt;
+use axum::http::StatusCode;
 use serde_json::{json, Value};
-use tokio::net::TcpListener;
-use tokio_tungstenite::tungstenite::Message;
-use tower::ServiceExt;
 
 use twinray::job::{CancelToken, Job, JobSpec};
-use twinray_preview::session::parse_frame;
-use twinray_preview::Preview;
 
-type Socket =
-    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
-
-fn example() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff")
-}
-
-/// The command line's spec of a small preview of the example scene.
-fn base(scene: &Path) -> JobSpec {
-    let mut spec = JobSpec::new(scene, "");
-    spec.camera.size = Some([192, 108]);
-    spec
-}
-
-struct Server {
-    preview: Preview,
-    address: std::net::SocketAddr,
-    stop: CancelToken,
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        self.stop.cancel();
-    }
-}
-
-/// A server of `spec` with 96-pixel-wide previews, on a free loopback port.
-async fn serve(spec: JobSpec) -> Server {
-    let preview = Preview::new(spec, 96).expect("the flags are valid");
-    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let address = listener.local_addr().unwrap();
-    let stop = CancelToken::new();
-    tokio::spawn(preview.clone().serve(listener, stop.clone()));
-    Server {
-        preview,
-        address,
-        stop,
-    }
-}
-
-impl Server {
-    async fn request(
-        &self,
-        method: &str,
-        uri: &str,
-        body: Option<String>,
-    ) -> (StatusCode, Vec<u8>) {
-        let mut request = Request::builder().method(method).uri(uri);
-        if body.is_some() {
-            request = request.header("content-type", "application/json");
-        }
-        let request = request
-            .body(body.map_or_else(Body::empty, Body::from))
-            .unwrap();
-        let answer = self.preview.router().oneshot(request).await.unwrap();
-        let status = answer.status();
-        let bytes = axum::body::to_bytes(answer.into_body(), 1 << 28)
-            .await
-            .unwrap();
-        (status, bytes.to_vec())
-    }
-
-    async fn json(&self, method: &str, uri: &str, body: Option<Value>) -> (StatusCode, Value) {
-        let (status, bytes) = self.request(method, uri, body.map(|b| b.to_string())).await;
-        let value = serde_json::from_slice(&bytes)
-            .unwrap_or_else(|_| panic!("{uri}: not JSON: {}", String::from_utf8_lossy(&bytes)));
-        (status, value)
-    }
-
-    /// Opens a page's WebSocket: the socket and the session's id.
-    async fn connect(&self) -> (Socket, u64) {
-        let url = format!("ws://{}/api/session", self.address);
-        let (mut socket, _) = tokio_tungstenite::connect_async(url).await.unwrap();
-        let hello = next_text(&mut socket).await;
-        assert_eq!(hello["type"], "hello");
-        (socket, hello["session"].as_u64().unwrap())
-    }
-
-    async fn change(&self, session: u64, settings: Value) -> (StatusCode, Value) {
-        self.json(
-            "POST",
-            &format!("/api/session/{session}/view"),
-            Some(settings),
-        )
-        .await
-    }
-}
-
-async fn next_text(socket: &mut Socket) -> Value {
-    loop {
-        match tokio::time::timeout(Duration::from_secs(60), socket.next()).await {
-            Ok(Some(Ok(Message::Text(t)))) => return serde_json::from_str(t.as_str()).unwrap(),
-            Ok(Some(Ok(_))) => continue,
-            other => panic!("no text message: {other:?}"),
-        }
-    }
-}
-
-/// A frame: its header and its PNG images.
-struct Frame {
-    header: Value,
-    images: Vec<Vec<u8>>,
-}
-
-impl Frame {
-    fn generation(&self) -> u64 {
-        self.header["generation"].as_u64().unwrap()
-    }
-    fn is_last(&self) -> bool {
-        self.header["pass"].as_u64().unwrap() + 1 == self.header["passes"].as_u64().unwrap()
-    }
-}
-
-async fn next_frame(socket: &mut Socket) -> Frame {
-    loop {
-        match tokio::time::timeout(Duration::from_secs(120), socket.next()).await {
-            Ok(Some(Ok(Message::Binary(bytes)))) => {
-                let (header, images) = parse_frame(&bytes).expect("a well-formed frame");
-                return Frame { header, images };
-            }
-            Ok(Some(Ok(_))) => continue,
-            other => panic!("no frame: {other:?}"),
-        }
-    }
-}
-
-/// The frames of `generation` up to its last pass (older ones skipped).
-async fn frames_of(socket: &mut Socket, generation: u64) -> Vec<Frame> {
-    let mut frames = Vec::new();
-    loop {
-        let frame = next_frame(socket).await;
-        assert!(frame.generation() <= generation, "a frame from the future");
-        if frame.generation() < generation {
-            continue;
-        }
-        let last = frame.is_last();
-        frames.push(frame);
-        if last {
-            return frames;
-        }
-    }
-}
-
-fn pixels(png: &[u8]) -> image::RgbImage {
-    image::load_from_memory(png).unwrap().to_rgb8()
-}
-
-fn settings(interaxial: &str) -> Value {
-    json!({ "interaxial": interaxial, "samples": 1 })
-}
+use common::*;
 
 #[tokio::test]
 async fn a_change_of_interaxial_changes_the_frame() {
     let server = serve(base(&example())).await;
     let (mut socket, session) = server.connect().await;
 
-    let (status, first) = server.change(session, settings("0.1")).await;
+    let (status, first) = server.change(&session, settings("0.1")).await;
     assert_eq!(status, StatusCode::OK, "{first}");
     let generation = first["generation"].as_u64().unwrap();
     let frames = frames_of(&mut socket, generation).await;
@@ -191,7 +36,7 @@ async fn a_change_of_interaxial_changes_the_frame() {
     let before = pixels(&frames[3].images[0]);
     assert_eq!((before.width(), before.height()), (96, 54));
 
-    let (status, second) = server.change(session, settings("0.4")).await;
+    let (status, second) = server.change(&session, settings("0.4")).await;
     assert_eq!(status, StatusCode::OK, "{second}");
     assert!(second["generation"].as_u64().unwrap() > generation);
     assert_eq!(second["rig"]["interaxial"], 0.4);
@@ -230,7 +75,7 @@ async fn the_layouts_send_their_frames() {
     ] {
         let (status, info) = server
             .change(
-                session,
+                &session,
                 json!({ "view": view, "samples": 1, "interaxial": "0.2" }),
             )
             .await;
@@ -243,7 +88,7 @@ async fn the_layouts_send_their_frames() {
     }
     let (status, info) = server
         .change(
-            session,
+            &session,
             json!({ "view": "quilt", "views": 4, "quilt": "2x2", "samples": 1 }),
         )
         .await;
@@ -264,13 +109,13 @@ fn slow() -> Value {
 async fn a_change_cancels_the_render_in_flight() {
     let server = serve(base(&example())).await;
     let (mut socket, session) = server.connect().await;
-    let (_, slow_info) = server.change(session, slow()).await;
+    let (_, slow_info) = server.change(&session, slow()).await;
     let slow_generation = slow_info["generation"].as_u64().unwrap();
     // Its coarse passes arrive; the anti-aliased one is being rendered.
     let frame = next_frame(&mut socket).await;
     assert_eq!(frame.generation(), slow_generation);
 
-    let (status, quick) = server.change(session, settings("0.3")).await;
+    let (status, quick) = server.change(&session, settings("0.3")).await;
     assert_eq!(status, StatusCode::OK);
     let frames = frames_of(&mut socket, quick["generation"].as_u64().unwrap()).await;
     assert_eq!(frames[0].header["divisor"], 8);
@@ -286,7 +131,7 @@ async fn a_client_that_disconnects_stops_its_render() {
     // is left behind (sessions, renders, threads).
     for _ in 0..3 {
         let (mut socket, session) = server.connect().await;
-        let (status, _) = server.change(session, slow()).await;
+        let (status, _) = server.change(&session, slow()).await;
         assert_eq!(status, StatusCode::OK);
         next_frame(&mut socket).await;
         assert!(server.preview.rendering());
@@ -353,13 +198,13 @@ async fn bad_values_are_refused_with_the_command_lines_messages() {
         ),
     ];
     for (settings, message) in cases {
-        let (status, answer) = server.change(session, settings.clone()).await;
+        let (status, answer) = server.change(&session, settings.clone()).await;
         assert_eq!(status, StatusCode::BAD_REQUEST, "{settings}");
         assert_eq!(answer["error"], message, "{settings}");
     }
     // What only the page can get wrong, and malformed requests.
     let (status, answer) = server
-        .change(session, json!({ "view": "single", "eye": 2 }))
+        .change(&session, json!({ "view": "single", "eye": 2 }))
         .await;
     assert_eq!(status, StatusCode::BAD_REQUEST);
     assert_eq!(answer["error"], "eye 2: the views are numbered 0 to 1");
@@ -381,16 +226,26 @@ async fn bad_values_are_refused_with_the_command_lines_messages() {
             "{answer}"
         );
     }
-    let (status, _) = server.change(session + 100, json!({})).await;
+    let guessed = format!("{}0", &session[..session.len() - 1]);
+    let guessed = if guessed == session {
+        format!("{}1", &session[..session.len() - 1])
+    } else {
+        guessed
+    };
+    let (status, _) = server.change(&guessed, json!({})).await;
     assert_eq!(status, StatusCode::NOT_FOUND);
     let (status, _) = server.request("GET", "/api/nothing", None).await;
     assert_eq!(status, StatusCode::NOT_FOUND);
     let (status, _) = server
-        .request("GET", "/api/download/1/..%2F..%2Fetc%2Fpasswd", None)
+        .request(
+            "GET",
+            "/api/download/00000000000000000000000000000000/..%2F..%2Fetc%2Fpasswd",
+            None,
+        )
         .await;
     assert_eq!(status, StatusCode::NOT_FOUND);
     // And the server still works.
-    let (status, answer) = server.change(session, settings("0.2")).await;
+    let (status, answer) = server.change(&session, settings("0.2")).await;
     assert_eq!(status, StatusCode::OK, "{answer}");
 }
 
@@ -411,7 +266,7 @@ async fn a_scene_that_fails_to_load_shows_its_error() {
     assert_eq!(status, StatusCode::OK);
     assert_eq!(state["error"], error);
     let (_socket, session) = server.connect().await;
-    let (status, answer) = server.change(session, json!({})).await;
+    let (status, answer) = server.change(&session, json!({})).await;
     assert_eq!(status, StatusCode::CONFLICT);
     assert_eq!(answer["error"], error);
 
@@ -420,7 +275,7 @@ async fn a_scene_that_fails_to_load_shows_its_error() {
     let (status, state) = server.json("POST", "/api/reload", None).await;
     assert_eq!(status, StatusCode::OK);
     assert_eq!(state["error"], Value::Null, "{state}");
-    let (status, answer) = server.change(session, json!({ "samples": 1 })).await;
+    let (status, answer) = server.change(&session, json!({ "samples": 1 })).await;
     assert_eq!(status, StatusCode::OK, "{answer}");
 }
 
@@ -500,7 +355,7 @@ async fn fast_and_the_camera_reach_the_job() {
     let camera = json!({ "from": [1.0, -6.0, 2.5], "at": [0.0, 0.0, 0.8], "up": [0.0, 0.0, 1.0], "fov": 35.0 });
     let (status, info) = server
         .change(
-            session,
+            &session,
             json!({ "fast": true, "samples": 1, "interaxial": "0.2", "camera": camera }),
         )
         .await;
@@ -526,7 +381,7 @@ async fn a_change_refused_by_the_plan_leaves_the_last_view_rendering() {
     let server = serve(base(&example())).await;
     let (mut socket, session) = server.connect().await;
     let (status, good) = server
-        .change(session, json!({ "interaxial": "0.2", "samples": 64 }))
+        .change(&session, json!({ "interaxial": "0.2", "samples": 64 }))
         .await;
     assert_eq!(status, StatusCode::OK);
     let generation = good["generation"].as_u64().unwrap();
@@ -536,7 +391,7 @@ async fn a_change_refused_by_the_plan_leaves_the_last_view_rendering() {
     // flight was stopped.
     let (status, answer) = server
         .change(
-            session,
+            &session,
             json!({ "interaxial": "0.4", "convergence": "0.001" }),
         )
         .await;
