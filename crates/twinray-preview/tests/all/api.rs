@@ -1,8 +1,6 @@
 //! The preview's HTTP and WebSocket API, driven in-process: a server on a
 //! loopback port for the WebSocket, requests straight to its router.
 
-mod common;
-
 use std::time::{Duration, Instant};
 
 use axum::http::StatusCode;
@@ -10,7 +8,7 @@ use serde_json::{json, Value};
 
 use twinray::job::{CancelToken, Job, JobSpec};
 
-use common::*;
+use crate::common::*;
 
 #[tokio::test]
 async fn a_change_of_interaxial_changes_the_frame() {

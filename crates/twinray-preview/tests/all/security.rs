@@ -3,8 +3,6 @@
 //! their messages are capped, full-size renders are pruned and removed, and
 //! a page gone stops its renders.
 
-mod common;
-
 use std::time::{Duration, Instant};
 
 use axum::http::StatusCode;
@@ -16,7 +14,7 @@ use twinray_preview::ids::is_id;
 use twinray_preview::renders::KEPT_RENDERS;
 use twinray_preview::{MAX_PAGES, MAX_PAGE_MESSAGE};
 
-use common::*;
+use crate::common::*;
 
 const EVIL: &str = "http://evil.example";
 
