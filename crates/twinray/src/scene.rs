@@ -170,8 +170,9 @@ impl Default for Viewpoint {
             angle_deg: 45.0,
             angle_span: AngleSpan::EdgePixelCentres,
             hither: 0.0,
-            width: 512,
-            height: 512,
+            // Every model format's size without a camera that gives one.
+            width: 640,
+            height: 480,
         }
     }
 }

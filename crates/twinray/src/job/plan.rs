@@ -109,7 +109,11 @@ impl Job {
             && r.interaxial.is_none()
             && r.view_cone.is_none()
             && r.depth_budget.is_none();
-        plan.messages = plan_messages(&plan, rig_by_default);
+        let interaxial_given = r
+            .interaxial
+            .as_deref()
+            .is_some_and(|i| !i.eq_ignore_ascii_case("auto"));
+        plan.messages = plan_messages(&plan, rig_by_default, interaxial_given);
         Ok(plan)
     }
 

@@ -459,8 +459,6 @@ impl Loader<'_> {
         let (loader, doc) = (self, self.doc);
         let mut scene = Scene::new();
         scene.format = SceneFormat::Gltf;
-        scene.viewpoint.width = 640;
-        scene.viewpoint.height = 480;
         let mut textures = HashMap::new();
         for m in doc.materials() {
             let mut texture = |t: Option<gltf::Texture>, kind: Texels| match t {

@@ -94,7 +94,7 @@ impl LoadContext {
 pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     if path.is_dir() {
         return Err(Error::Invalid(format!(
-            "{}: is a directory, not a scene file ({SUPPORTED})",
+            "{}: is a directory; give a scene file in it ({SUPPORTED})",
             path.display()
         )));
     }

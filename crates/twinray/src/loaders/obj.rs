@@ -3,6 +3,9 @@
 //! * Objects (`o`) and groups (`g`) become scene groups (one id per name).
 //! * Polygons of any size are cut into triangles exactly as NFF's are.
 //! * `vn` normals give smooth shading, `vt` texture coordinates feed `map_Kd`.
+//! * Vertex colours (`v x y z r g b`, as MeshLab and scanners write them) are
+//!   interpolated across each triangle and multiply the material's colour;
+//!   faces without `usemtl` are then white under them, not the default grey.
 //! * MTL `Kd`, `Ks`, `Ns`, `d`/`Tr`, `Ni`, `Ke`, `illum`, `map_Kd`, `map_d`,
 //!   `map_Ke`, `norm` and `map_Bump` map to twinray's Whitted material as
 //!   docs/formats.md explains.
@@ -205,16 +208,19 @@ fn obj_scene(bytes: &[u8], file: &Path, opts: &LoadOptions, cx: &LoadContext) ->
         }
         scene.add_material(material);
     }
-    // Faces without `usemtl`: the default material, after the file's.
+    // Faces without `usemtl`: the default material, after the file's; white
+    // under vertex colours, which then are the surface's colour.
+    let colored = models.iter().any(|m| vertex_colors(&m.mesh).is_some());
     let default_material = scene.add_material(Material {
-        color: Color::splat(0.8),
+        color: Color::splat(if colored { 1.0 } else { 0.8 }),
         ..Material::default()
     });
 
     let triangles: u64 = models.iter().map(|m| face_triangles(&m.mesh)).sum::<u64>();
-    let with_corners = models
-        .iter()
-        .any(|m| !m.mesh.normals.is_empty() || !m.mesh.texcoords.is_empty());
+    let with_corners = colored
+        || models
+            .iter()
+            .any(|m| !m.mesh.normals.is_empty() || !m.mesh.texcoords.is_empty());
     reserve_triangles(&mut scene, triangles, with_corners, file, opts, cx)?;
 
     let given = FaceAttributes::of(bytes);
@@ -352,6 +358,8 @@ fn add_mesh(
     let has_uv = mesh.texcoord_indices.len() == n && !mesh.texcoords.is_empty();
     let position = |i: u32| vec3_at(&mesh.positions, i);
     let normal = |i: u32| vec3_at(&mesh.normals, i);
+    let colors = vertex_colors(mesh);
+    let color = |i: u32| colors.as_ref().and_then(|c| c.get(i as usize).copied());
     let uv = |i: u32| {
         let i = i as usize * 2;
         let (u, v) = (mesh.texcoords.get(i)?, mesh.texcoords.get(i + 1)?);
@@ -363,7 +371,8 @@ fn add_mesh(
     } else {
         Box::new(mesh.face_arities.iter().map(|&a| a as usize))
     };
-    let (mut vertices, mut normals, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut vertices, mut normals, mut uvs, mut corner_colors) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut start = 0;
     for (face, arity) in arities.enumerate() {
         let end = start + arity;
@@ -390,8 +399,12 @@ fn add_mesh(
         vertices.clear();
         normals.clear();
         uvs.clear();
+        corner_colors.clear();
         for k in start..end {
             vertices.push(position(mesh.indices[k]).ok_or_else(out_of_range)?);
+            if colors.is_some() {
+                corner_colors.push(color(mesh.indices[k]).ok_or_else(out_of_range)?);
+            }
             if has_normals {
                 normals.push(normal(mesh.normal_indices[k]).ok_or_else(out_of_range)?);
             }
@@ -413,7 +426,7 @@ fn add_mesh(
                 face + 1
             )));
         }
-        scene.add_mesh_polygon(
+        scene.add_colored_mesh_polygon(
             &MeshPolygon {
                 vertices: &vertices,
                 normals: (has_normals && face_has(1)).then_some(&normals[..]),
@@ -421,6 +434,7 @@ fn add_mesh(
                 material,
                 group,
             },
+            colors.is_some().then_some(&corner_colors[..]),
             &|| {
                 format!(
                     "{}: object '{}', face {}",
@@ -432,6 +446,36 @@ fn add_mesh(
         );
     }
     Ok(())
+}
+
+/// A mesh's vertex colours, one per position, where the file gives them
+/// (tobj keeps them beside the positions). Values in 0–1 as written; a file
+/// with any channel above 1 is read as 8-bit (0–255). Channels that are not
+/// finite, or negative, are black.
+fn vertex_colors(mesh: &tobj::Mesh) -> Option<Vec<Color>> {
+    let values = &mesh.vertex_color;
+    if values.is_empty() || values.len() != mesh.positions.len() {
+        return None;
+    }
+    // Divided, not multiplied by 1/255: 51 is then exactly 0.2.
+    let scale = if values.iter().any(|&v| v > 1.0 && v.is_finite()) {
+        255.0
+    } else {
+        1.0
+    };
+    let channel = |v: f32| {
+        if v.is_finite() {
+            (v / scale).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    };
+    Some(
+        values
+            .chunks_exact(3)
+            .map(|c| Color::new(channel(c[0]), channel(c[1]), channel(c[2])))
+            .collect(),
+    )
 }
 
 fn vec3_at(values: &[f32], i: u32) -> Option<Vec3> {
@@ -881,5 +925,32 @@ mod tests {
             texture_file_name("-bm 0.5 t.jpg"),
             ("t.jpg".into(), Wrap::Repeat)
         );
+    }
+
+    #[test]
+    fn vertex_colours_are_the_corners_colours_over_a_white_default() {
+        let dir = tempfile::tempdir().unwrap();
+        // MeshLab's `v x y z r g b`: a red, a green and a blue corner, and
+        // a quad of 8-bit colours (any channel above 1).
+        let s = load(
+            dir.path(),
+            "c.obj",
+            "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n",
+        )
+        .unwrap();
+        assert_eq!(s.materials[s.shape_material[0] as usize].color, Color::ONE);
+        assert_eq!(s.corner_colors, vec![[Color::X, Color::Y, Color::Z]]);
+        let bytes = load(
+            dir.path(),
+            "b.obj",
+            "v 0 0 0 255 51 0\nv 1 0 0 255 51 0\nv 1 1 0 255 51 0\nv 0 1 0 255 51 0\nf 1 2 3 4\n",
+        )
+        .unwrap();
+        assert_eq!(bytes.corner_colors.len(), 2);
+        assert_eq!(bytes.corner_colors[1][0], Color::new(1.0, 0.2, 0.0));
+        // Without colours: the grey default and no corner colours.
+        let plain = load(dir.path(), "p.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert!(plain.corner_colors.is_empty());
+        assert_eq!(plain.materials[0].color, Color::splat(0.8));
     }
 }
