@@ -697,7 +697,7 @@ fn instanced_glb(triangles: usize, instances: usize) -> Vec<u8> {
     let positions: [f32; 9] = [0., 0., 0., 1., 0., 0., 0., 1., 0.];
     let mut bin: Vec<u8> = positions.iter().flat_map(|x| x.to_le_bytes()).collect();
     bin.extend(std::iter::repeat_n([0u8, 1, 2], triangles).flatten());
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let nodes: Vec<String> = (0..instances)
