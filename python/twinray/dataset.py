@@ -452,10 +452,10 @@ def generate(out, pairs: int, seed: int, opts: Optional[Options] = None, progres
 def generate_on_ray(out, pairs: int, seed: int, opts: Optional[Options] = None, progress: bool = False,
                     cpus_per_task: float = 1, max_retries: int = 2, chunk: int = 4) -> Path:
     """`generate` with chunks of samples as Ray tasks (retried where a
-    worker dies; a retry skips the samples done). Ray must be initialised."""
+    worker dies; a retry skips the samples done), with a progress bar.
+    Ray must be initialised."""
     import ray
-
-    from .ray.driver import RenderFailed, gather
+    from tqdm import tqdm
 
     out, opts = Path(out).resolve(), opts or Options()
     remove_temporaries(out)
@@ -467,15 +467,26 @@ def generate_on_ray(out, pairs: int, seed: int, opts: Optional[Options] = None, 
         o = dataclasses.replace(opts, threads=opts.threads or max(1, int(cpus_per_task)))
         return [make_sample(out, seed, i, o) for i in range(first, last)]
 
-    tasks = {}
+    pending = {}
     for first in range(0, pairs, chunk):
         last = min(pairs, first + chunk)
         ref = share.options(num_cpus=cpus_per_task, max_retries=max_retries).remote(first, last)
-        tasks[ref] = (f"pairs {first}..{last - 1}", last - first)
-    results, failures = gather(tasks, pairs, progress, "pair", None, None)
+        pending[ref] = (first, last)
+    entries: List[Dict] = []
+    failures: List[str] = []
+    with tqdm(total=pairs, unit="pair", disable=not progress, file=sys.stderr) as bar:
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            for ref in done:
+                first, last = pending.pop(ref)
+                try:
+                    entries += ray.get(ref)
+                except Exception as err:  # a share that failed every attempt
+                    failures.append(f"pairs {first}..{last - 1}: {str(err).strip().splitlines()[-1:]}")
+                bar.update(last - first)
     if failures:
-        raise RenderFailed(f"{len(failures)} share(s) failed: " + "; ".join(failures))
-    return write_manifest(out, seed, [e for share_entries in results for e in share_entries], opts)
+        raise RuntimeError(f"{len(failures)} share(s) failed {max_retries + 1} times: " + "; ".join(failures))
+    return write_manifest(out, seed, entries, opts)
 
 
 def _pair(text: str, kind=float) -> Tuple:

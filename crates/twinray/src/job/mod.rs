@@ -41,7 +41,8 @@ mod studio;
 pub mod tiles;
 
 pub use check::sampling;
-pub use outputs::{display_transform, numbered, write_options};
+
+pub use outputs::{display_transform, job_inputs, numbered, write_options};
 pub use preflight::{
     available_memory, check_memory, check_threads, estimate_render_memory, human_bytes,
     lights_warning, ViewsKeptAs, MANY_LIGHTS, MAX_THREADS,
