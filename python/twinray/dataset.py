@@ -355,9 +355,14 @@ def make_sample(out: Path, seed: int, index: int, opts: Options) -> Dict:
     w, h = opts.size
     common = dict(size=(w, h), from_=(0, 0, 0), at=(0, 0, -1), up=(0, 1, 0), fov=opts.fov,
                   samples=opts.samples, threads=opts.threads)
-    probe = twinray.Job(scene, stereo=True, interaxial=0.1, convergence="inf", **common)
-    b = draw_interaxial(rng, scene_spec, probe.rig["focal_px"], opts)
-    job = twinray.Job(scene, stereo=True, interaxial=round(b, 6), convergence="inf", **common)
+    focal_px = twinray.Job(scene, **common).rig["focal_px"]
+    b = draw_interaxial(rng, scene_spec, focal_px, opts)
+    # Parallel cameras put everything in front of the screen (twinray's
+    # negative disparities): the budget is the user's range (less than the
+    # width, as budgets are), so that only a pair beyond it is warned about.
+    budget = f"-{min(int(np.ceil(opts.disparity[1])) + 1, w - 1)}px,1px"
+    job = twinray.Job(scene, stereo=True, interaxial=round(b, 6), convergence="inf",
+                      depth_budget=budget, **common)
     r = job.render()
     files = write_sample(out, name, r, opts)
     spec = job.spec
