@@ -236,7 +236,7 @@ def main():
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
             w.writeheader()
             for r in rows:
-                w.writerow({k: ("%.4f" % v if isinstance(v, float) else v) for k, v in r.items()})
+                w.writerow({k: ("%.6g" % v if isinstance(v, float) else v) for k, v in r.items()})
     if plot:
         try:
             import matplotlib  # noqa: F401

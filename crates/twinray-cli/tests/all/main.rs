@@ -3,6 +3,7 @@
 //! `... --test all MODULE::` for one file's tests.
 
 mod animation;
+mod bench_stereo;
 mod cli;
 mod hardening;
 mod job;
