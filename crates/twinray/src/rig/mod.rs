@@ -14,6 +14,7 @@ pub mod choice;
 pub mod depth_pass;
 pub mod framing;
 pub mod histogram;
+pub mod panorama_rig;
 pub mod projection;
 pub mod report;
 pub mod up_axis;
