@@ -3,12 +3,16 @@
 
 use super::check::invalid;
 use super::spec::{JobSpec, LayoutSpec, MethodName};
+use super::stages::Plan;
+use crate::output::layouts::separate_paths;
+use crate::output::panorama_meta::{tag_jpeg_file, GPano};
 use crate::render::MAX_PANORAMA_VIEWS;
 use crate::rig::choice::Interaxial;
 use crate::rig::panorama_rig::{self, PanoramaRig, UnitsKnown, DEFAULT_ANGULAR_BUDGET_DEG};
 use crate::rig::{Camera, PoleMerge, Projection, ProjectionName, Rig, View};
 use crate::world::World;
 use crate::Result;
+use std::path::Path;
 
 /// The projection a spec asks for, its flags checked against the rest.
 pub(super) fn check(spec: &JobSpec, views: usize) -> Result<Projection> {
@@ -160,4 +164,35 @@ pub(super) fn pair(
         effective_convergence: None,
     };
     Ok((rig, settled))
+}
+
+/// Gives a panorama's JPEG files the GPano XMP photo viewers read: each
+/// eye's file of `--layout separate` (or the one file of one eye), the
+/// left eye's carrying the right eye's JPEG (Google's VR180 and Cardboard
+/// Camera photos). Fisheyes, and layouts that pack both eyes in one
+/// picture, are not equirectangular panoramas: their files are left as
+/// they are.
+pub(super) fn tag_jpegs(spec: &JobSpec, plan: &Plan, views: usize) -> Result<()> {
+    let projection = plan.camera.projection;
+    let out = &spec.output;
+    let is_jpeg = |p: &Path| {
+        p.extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"))
+    };
+    if out.layout != LayoutSpec::Separate || !is_jpeg(&out.path) {
+        return Ok(());
+    }
+    let (w, h) = (plan.width, plan.rows.len() as u32);
+    let pano = match projection {
+        Projection::Equirect | Projection::Ods(_) if spec.tile.is_none() => GPano::full(w, h),
+        Projection::Vr180 if spec.tile.is_none() => GPano::half(w, h),
+        _ => return Ok(()),
+    };
+    if views == 1 {
+        return tag_jpeg_file(&out.path, &pano, None);
+    }
+    let (left, right) = separate_paths(&out.path);
+    tag_jpeg_file(&left, &pano, Some(&right))?;
+    tag_jpeg_file(&right, &pano, None)
 }
