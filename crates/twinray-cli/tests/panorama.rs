@@ -205,7 +205,7 @@ fn the_job_spec_carries_the_projection_and_the_report_gives_the_angles() {
     std::fs::write(&job, &r.stdout).unwrap();
     let report = ok(&["render", "--job", s(&job), "-v"]);
     assert_eq!(size_of(&out), (64, 64));
-    assert!(report.contains("panorama (ods): IPD"), "{report}");
+    assert!(report.contains("panorama (ods): 2 eyes, IPD"), "{report}");
     assert!(
         report.contains("angular disparity: near 0.500°"),
         "{report}"
@@ -272,7 +272,13 @@ fn jpeg_panoramas_carry_gpano_and_the_vr180_right_eye() {
         .arg(&left)
         .output()
         .unwrap();
-    assert_eq!(data.stdout, std::fs::read(&right).unwrap());
+    let right_bytes = std::fs::read(&right).unwrap();
+    assert!(
+        data.stdout == right_bytes,
+        "the right eye read back: {} bytes, the file {} bytes",
+        data.stdout.len(),
+        right_bytes.len()
+    );
     // The right eye's own file: GPano alone.
     let exif = Command::new("exiftool")
         .args(["-j", "-XMP-GPano:all"])
@@ -302,4 +308,83 @@ fn jpeg_panoramas_carry_gpano_and_the_vr180_right_eye() {
     let v: Value = serde_json::from_slice(&exif.stdout).unwrap();
     assert_eq!(v[0]["FullPanoWidthPixels"], 64);
     assert_eq!(v[0]["CroppedAreaImageHeightPixels"], 32);
+}
+
+/// What ffprobe says of the video stream, side data included.
+fn probe(path: &Path) -> String {
+    let out = Command::new("ffprobe")
+        .args(["-v", "error", "-select_streams", "v:0", "-show_streams"])
+        .arg(path)
+        .output()
+        .expect("ffprobe runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+#[test]
+fn panorama_videos_carry_spherical_and_stereo_side_data() {
+    if !present("ffmpeg") || !present("ffprobe") {
+        return;
+    }
+    let dir = TempDir::new().unwrap();
+    let scene = example();
+    for (projection, layout, size, stereo, bound) in [
+        ("ods", "tb", "64x32", Some("top and bottom"), "0"),
+        ("vr180", "sbs", "32x32", Some("side by side"), "1073741824"),
+        ("equirect", "separate", "64x32", None, "0"),
+    ] {
+        let out = dir.path().join(format!("{projection}.mp4"));
+        let mut args = vec![
+            "render",
+            s(&scene),
+            "-o",
+            s(&out),
+            "-q",
+            "--projection",
+            projection,
+        ];
+        args.extend([
+            "--size",
+            size,
+            "--frames",
+            "0..2",
+            "--orbit",
+            "10",
+            "--samples",
+            "1",
+        ]);
+        if stereo.is_some() {
+            args.extend(["--stereo", "--layout", layout]);
+        }
+        ok(&args);
+        let p = probe(&out);
+        assert!(
+            p.contains("side_data_type=Spherical Mapping"),
+            "{projection}: {p}"
+        );
+        assert!(
+            p.contains("projection=equirectangular"),
+            "{projection}: {p}"
+        );
+        assert!(
+            p.contains(&format!("bound_left={bound}")),
+            "{projection}: {p}"
+        );
+        assert!(
+            p.contains(&format!("bound_right={bound}")),
+            "{projection}: {p}"
+        );
+        match stereo {
+            Some(kind) => {
+                assert!(p.contains("side_data_type=Stereo 3D"), "{projection}: {p}");
+                assert!(p.contains(&format!("type={kind}")), "{projection}: {p}");
+            }
+            None => assert!(!p.contains("Stereo 3D"), "{projection}: {p}"),
+        }
+        assert!(p.contains("nb_frames=3"), "{projection}: {p}");
+    }
 }

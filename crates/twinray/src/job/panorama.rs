@@ -192,7 +192,8 @@ pub(super) fn tag_jpegs(spec: &JobSpec, plan: &Plan, views: usize) -> Result<()>
     if views == 1 {
         return tag_jpeg_file(&out.path, &pano, None);
     }
+    // The right eye first: the left eye carries it as written.
     let (left, right) = separate_paths(&out.path);
-    tag_jpeg_file(&left, &pano, Some(&right))?;
-    tag_jpeg_file(&right, &pano, None)
+    tag_jpeg_file(&right, &pano, None)?;
+    tag_jpeg_file(&left, &pano, Some(&right))
 }

@@ -261,7 +261,7 @@ impl PanoramaRig {
             IpdChoice::AtTarget => "nothing visible: the budget at the target's distance".into(),
         };
         let mut lines = vec![format!(
-            "panorama ({}): IPD {:.6}{metres} ({why}); {units}",
+            "panorama ({}): 2 eyes, IPD {:.6}{metres} ({why}); {units}",
             self.projection.name(),
             self.ipd
         )];
