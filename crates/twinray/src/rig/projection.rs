@@ -197,11 +197,7 @@ impl Projection {
         match self {
             Projection::Pinhole => None,
             Projection::Equirect | Projection::Vr180 => {
-                let origin = match self {
-                    Projection::Equirect => f.eye,
-                    _ => parallel_eye(f, offset),
-                };
-                let (z, x, y) = local(origin);
+                let (z, x, y) = local(parallel_eye(f, offset));
                 let lon = x.atan2(z);
                 let lat = y.atan2(x.hypot(z));
                 let span = match self {
