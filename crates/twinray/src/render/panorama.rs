@@ -58,6 +58,19 @@ impl<'a> PanoramaTwin<'a> {
     }
 }
 
+impl PanoramaTwin<'_> {
+    /// A packet of eight eye rays, its lanes written in place.
+    fn empty_packet(&self) -> Packet<EYE_PACKET> {
+        Packet {
+            origins: [self.camera.eye; EYE_PACKET],
+            dirs: [Vec3::Z; EYE_PACKET],
+            t_min: self.camera.hither,
+            t_max: [f32::INFINITY; EYE_PACKET],
+            mask: 0,
+        }
+    }
+}
+
 impl ViewBatch for PanoramaTwin<'_> {
     fn view_count(&self) -> usize {
         self.views.len()
@@ -121,14 +134,7 @@ impl PanoramaWorker<'_, '_> {
     /// The nearest hit of every lane, eight lanes (the eyes of neighbouring
     /// samples) to a descent.
     fn eye_pass(&mut self, tracer: &mut Tracer) {
-        let camera = self.batch.camera;
-        let mut packet = Packet {
-            origins: [camera.eye; EYE_PACKET],
-            dirs: [Vec3::Z; EYE_PACKET],
-            t_min: camera.hither,
-            t_max: [f32::INFINITY; EYE_PACKET],
-            mask: 0,
-        };
+        let mut packet = self.batch.empty_packet();
         let eight = tracer.eye_hit_applies();
         let mut views = [0usize; EYE_PACKET];
         for chunk in self.lanes.chunks_mut(EYE_PACKET) {
@@ -154,15 +160,8 @@ impl PanoramaWorker<'_, '_> {
     /// The lanes' colours: a miss sees the background, hits are shaded
     /// eight to a packet.
     fn shade(&mut self, tracer: &mut Tracer, out: &mut [RowColors]) {
-        let camera = self.batch.camera;
         let scene = self.batch.scene;
-        let mut packet = Packet {
-            origins: [camera.eye; EYE_PACKET],
-            dirs: [Vec3::Z; EYE_PACKET],
-            t_min: camera.hither,
-            t_max: [f32::INFINITY; EYE_PACKET],
-            mask: 0,
-        };
+        let mut packet = self.batch.empty_packet();
         let mut hits = PacketHits::<EYE_PACKET>::none();
         let mut slots = [(0usize, 0usize); EYE_PACKET];
         let mut n = 0;
