@@ -121,7 +121,11 @@ impl RowWorker for PanoramaWorker<'_, '_> {
                         prim: NO_HIT,
                         hit: none,
                     }),
-                    None => out[v][i] = Color::ZERO,
+                    None => {
+                        if let Some(c) = out[v].get_mut(i) {
+                            *c = Color::ZERO;
+                        }
+                    }
                 }
             }
         }
