@@ -11,14 +11,14 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 size=${1:-480x270}
 spd=${SPD:-../shared/scenes/spd}
 cargo build --release -q -p twinray-cli
-cargo test -q -p twinray-preview --test browser --no-run 2>/dev/null
+cargo test -q -p twinray-preview --test all --no-run 2>/dev/null
 for scene in "$spd"/*.nff; do
     out=$(mktemp)
     target/release/twinray preview "$scene" --size "$size" > "$out" 2>&1 &
     server=$!
     for _ in $(seq 100); do grep -q http "$out" && break; sleep 0.1; done
     url=$(grep -o 'http://[^ ]*' "$out")
-    line=$(TWINRAY_PREVIEW_URL=$url cargo test -q -p twinray-preview --test browser on_screen_latency \
+    line=$(TWINRAY_PREVIEW_URL=$url cargo test -q -p twinray-preview --test all browser::on_screen_latency \
         -- --ignored --nocapture 2>&1 | grep '^on-screen' || echo "on-screen: failed")
     printf '%s\t%s\n' "$(basename "$scene" .nff)" "$line"
     kill "$server"; wait "$server" 2>/dev/null || true

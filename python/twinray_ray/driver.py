@@ -1,77 +1,92 @@
 """Ray tasks that run the twinray binary on shares of a render.
 
 A share of an animation is ``twinray render SCENE -o OUT --frames A..B
---only C..D --skip-existing``: the camera motion and the shot's stereo rig
-are those of the whole range ``A..B`` whatever share a task renders, and
-frames whose files exist are skipped, so a retried task (or a re-run)
-renders only what is missing. A share of a still is one tile, ``--tiles N
---tile K``; the tiles are merged by ``twinray merge`` at the end.
+--only C..D``: the camera motion and the shot's stereo rig are those of the
+whole range ``A..B`` whatever share a task renders. A share of a still is
+one tile, ``--tiles N --tile K``; the tiles are merged by ``twinray merge``
+at the end. Every task runs twinray in the driver's working directory, so
+relative paths mean on every node what they mean to the driver.
 
-twinray writes each file atomically under its final name; a task whose
-worker dies takes its twinray process with it (the child gets SIGTERM,
-cancels its render and removes its temporary file), so nothing partial is
-left.
+What is done is kept in a record beside the outputs (:mod:`.record`): a frame
+or a tile is reused only if the record says the same job made it. While the
+tasks run, each reports every file twinray writes (``frame N: wrote PATH``,
+or ``wrote PATH`` for a tile) to a small actor (:class:`ProgressLog`); the
+driver polls it, advances the progress bar and saves the record. A task
+reads the record when it starts, so an attempt after one that died renders
+only the frames of its share that the record does not have. twinray writes each file atomically under its final name, and a
+task whose worker dies takes its twinray process with it (the child gets
+SIGTERM, cancels its render and removes its temporary file), so nothing
+partial is left.
 
-Progress is per frame, not per share: twinray prints ``frame N: wrote
-PATH`` (or ``frame N: done already``) as each frame is finished; the task
-reports the frame to a small actor (:class:`ProgressLog`) at once, and the
-driver, polling it while it waits for the tasks, advances the bar by one
-for every frame it has not seen (a frame written by an attempt that died,
-then skipped by the retry, counts once).
+Retries are for what a retry can mend: a worker or a twinray process that
+died. An error twinray reports (a bad scene, a folder it cannot write) fails
+the share at once.
 """
 
 from __future__ import annotations
 
 import ctypes
+import json
 import os
 import re
-import shutil
 import signal
 import subprocess
 import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import ray
 
+from .record import JobError, Record, keyed_job, print_job
+
 # Environment variable: a file path. The first task attempt that finds it
-# missing creates it and kills its own worker after its first frame (a
-# fault injected for the tests).
+# missing creates it and kills its own worker once its first file is
+# recorded (a fault injected for the tests); files twinray finishes after
+# that are listed in it.
 FAULT_ENV = "TWINRAY_RAY_FAULT"
 
+# How often the driver asks the progress log for news (seconds).
+POLL_S = 0.2
 
-class TwinrayError(Exception):
-    """twinray exited with an error; the message is its own."""
+# How long an interrupted driver waits for its tasks to stop and for the
+# progress log's last news, and a task for twinray to stop (seconds).
+STOP_S = 10
+
+FRAME_LINE = re.compile(r"frame (\d+): wrote (.*)")
+TILE_LINE = re.compile(r"wrote (.*)")
+
+
+class TwinrayFailed(Exception):
+    """twinray exited with an error of its own; a retry would meet it again."""
+
+
+class TwinrayStopped(Exception):
+    """twinray was stopped by a signal (its node shutting down, memory);
+    a retry may succeed."""
 
 
 class RenderFailed(Exception):
-    """A share failed on every attempt."""
+    """The run cannot go on, or a share failed; the message says why."""
+
+
+class Interrupted(Exception):
+    """The run was interrupted (Ctrl-C); what was done is recorded."""
+
+    def __init__(self, done: int, total: int, unit: str, record: str):
+        super().__init__(f"{done} of {total} {unit}s done")
+        self.done, self.total, self.unit, self.record = done, total, unit, record
 
 
 @dataclass
 class Summary:
-    """What a run did."""
+    """What a run did: the files written, the frames or tiles found done
+    already, the images merged from tiles."""
 
     written: List[str] = field(default_factory=list)
     skipped: List[int] = field(default_factory=list)
     merged: List[str] = field(default_factory=list)
-
-
-def find_twinray(given: Optional[str]) -> str:
-    """The twinray binary: `given`, or `twinray` on the PATH."""
-    if given:
-        path = Path(given)
-        if not (path.is_file() and os.access(path, os.X_OK)):
-            raise RenderFailed(f"--twinray {given}: not an executable file")
-        return str(path.resolve())
-    found = shutil.which("twinray")
-    if not found:
-        raise RenderFailed(
-            "twinray is not on the PATH: build it (cargo build --release) and "
-            "give --twinray PATH, or put target/release on the PATH"
-        )
-    return found
 
 
 def parse_range(text: str, flag: str) -> Tuple[int, int]:
@@ -82,10 +97,21 @@ def parse_range(text: str, flag: str) -> Tuple[int, int]:
     return int(m.group(1)), int(m.group(2))
 
 
-def chunks(first: int, last: int, size: int) -> List[Tuple[int, int]]:
-    """`first..last` in consecutive ranges of `size` frames."""
+def runs(frames: Sequence[int]) -> List[Tuple[int, int]]:
+    """Sorted frame numbers as ranges of consecutive ones."""
+    out: List[Tuple[int, int]] = []
+    for f in frames:
+        if out and f == out[-1][1] + 1:
+            out[-1] = (out[-1][0], f)
+        else:
+            out.append((f, f))
+    return out
+
+
+def chunks(frames: Sequence[int], size: int) -> List[Tuple[int, int]]:
+    """Sorted frame numbers in ranges of consecutive ones, `size` at most."""
     size = max(1, size)
-    return [(a, min(a + size - 1, last)) for a in range(first, last + 1, size)]
+    return [(a, min(a + size - 1, b)) for a, b in runs(frames) for a in range(a, b + 1, size)]
 
 
 def _die_with_parent() -> None:
@@ -98,22 +124,16 @@ def _die_with_parent() -> None:
 
 @ray.remote(num_cpus=0)
 class ProgressLog:
-    """The frames the tasks report finished, in the order they arrive."""
+    """The files the tasks report written, in the order they arrive."""
 
     def __init__(self) -> None:
-        self.units: List[str] = []
+        self.events: List[Tuple[str, str]] = []
 
-    def done(self, unit: str) -> None:
-        self.units.append(unit)
+    def report(self, unit: str, path: str) -> None:
+        self.events.append((unit, path))
 
-    def since(self, start: int) -> List[str]:
-        return self.units[start:]
-
-
-# How often the driver asks the progress log for news (seconds).
-POLL_S = 0.2
-
-FRAME_LINE = re.compile(r"frame (\d+): (wrote (.*)|done already)")
+    def since(self, start: int) -> List[Tuple[str, str]]:
+        return self.events[start:]
 
 
 def write_journal(journal: Optional[str], path: str) -> None:
@@ -123,72 +143,165 @@ def write_journal(journal: Optional[str], path: str) -> None:
             j.write(f"wrote {path}\n")
 
 
-@ray.remote
-def render_share(
+class _Reporter:
+    """Tells the progress log of each file written. The calls are not waited
+    for (a task waiting on Ray gives its CPU to another task meanwhile, and
+    twinray would share it), except by `flush`, once twinray is done."""
+
+    def __init__(self, log: "ray.actor.ActorHandle") -> None:
+        self.log = log
+        self.last = None
+
+    def report(self, unit: str, path: str) -> None:
+        self.last = self.log.report.remote(unit, path)
+
+    def flush(self) -> None:
+        if self.last is not None:
+            ray.get(self.last)
+            self.last = None
+
+
+def _twinray(
     twinray: str,
+    cwd: str,
     args: List[str],
+    unit: Optional[str],
     journal: Optional[str],
-    fault: Optional[str],
-    progress: Optional["ray.actor.ActorHandle"] = None,
-) -> dict:
-    """Runs `twinray ARGS`; returns the files written and frames skipped,
-    and reports each frame to `progress` as twinray finishes it."""
+    fault: Optional[Tuple[str, str]],
+    reporter: _Reporter,
+) -> List[str]:
+    """Runs `twinray ARGS`, reporting each file it writes (under `frame N`,
+    or under `unit` for a tile); returns the files."""
     proc = subprocess.Popen(
         [twinray, *args],
+        cwd=cwd,
         stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
         preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None,
     )
-    wrote: List[str] = []
-    skipped: List[int] = []
-    said: List[str] = []
     assert proc.stderr is not None
-    reported = set()
-
-    def report(frame: Optional[int]) -> None:
-        if progress is not None and frame is not None and frame not in reported:
-            reported.add(frame)
-            ray.get(progress.done.remote(f"frame {frame}"))
-
-    for line in proc.stderr:
-        line = line.rstrip("\n")
-        m = FRAME_LINE.match(line)
-        frame = None
-        if m:  # a frame: `frame N: wrote PATH` or `frame N: done already`
-            frame, path = int(m.group(1)), m.group(3)
-            if path is None:
-                skipped.append(frame)
-                report(frame)
+    wrote: List[str] = []
+    said: List[str] = []
+    try:
+        for line in proc.stderr:
+            line = line.rstrip("\n")
+            m = FRAME_LINE.match(line)
+            if m:
+                owner, path = f"frame {m.group(1)}", m.group(2)
+            elif unit is not None and TILE_LINE.match(line):
+                owner, path = unit, line[len("wrote ") :]
+            else:
+                said.append(line)
                 continue
-        elif line.startswith("wrote "):  # a tile: its files
-            path = line[len("wrote ") :]
-        else:
-            said.append(line)
-            continue
-        wrote.append(path)
-        write_journal(journal, path)
-        if fault and not os.path.exists(fault):
-            Path(fault).write_text(f"worker {os.getpid()} killed mid-run\n")
-            # The injected death, made deterministic: twinray gets the
-            # SIGTERM it would get from the worker's death, and whatever it
-            # finished writing before it stopped is journaled, as a real
-            # death can leave finished files behind for the retry to skip.
+            wrote.append(path)
+            write_journal(journal, path)
+            reporter.report(owner, path)
+            if fault and _claim(fault[0]):
+                _die_on_purpose(proc, fault, owner, journal, reporter)
+        code = proc.wait()
+    except BaseException:
+        # twinray removes its temporary file on SIGTERM.
+        if proc.poll() is None:
             proc.terminate()
-            for rest in proc.stderr:
-                late = FRAME_LINE.match(rest.rstrip("\n"))
-                if late and late.group(3) is not None:
-                    write_journal(journal, late.group(3))
-            proc.wait()
-            os._exit(1)  # the worker dies; Ray retries the task
-        # After the journal and the fault: the actor call takes a moment
-        # in which twinray goes on writing frames.
-        report(frame)
-    code = proc.wait()
-    if code != 0:
-        message = " / ".join(l for l in said if l.strip()) or f"exit status {code}"
-        raise TwinrayError(message)
+            try:
+                proc.wait(timeout=STOP_S)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+        raise
+    message = " / ".join(l for l in said if l.strip())
+    if code == 0:
+        return wrote
+    if code < 0 or code == 130:
+        raise TwinrayStopped(f"twinray stopped by a signal ({message or f'exit status {code}'})")
+    raise TwinrayFailed(message or f"exit status {code}")
+
+
+def _claim(marker: str) -> bool:
+    """Creates the fault file if it is missing: whether this task did."""
+    try:
+        os.close(os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+    except FileExistsError:
+        return False
+    return True
+
+
+def _die_on_purpose(
+    proc: subprocess.Popen,
+    fault: Tuple[str, str],
+    unit: str,
+    journal: Optional[str],
+    reporter: _Reporter,
+) -> None:
+    """The injected fault, once the driver has recorded the task's first
+    file: twinray gets the SIGTERM it would get from the worker's death, and
+    the worker dies. A file twinray finishes in the meantime is journaled (a
+    real death can leave one behind) and listed in the fault file: no
+    attempt reported it, so the retry makes it again."""
+    marker, record = fault
+    reporter.flush()
+    for _ in range(int(60 / POLL_S)):  # a loaded machine's driver may be slow
+        if unit in _done_in_record(record, None):
+            break
+        time.sleep(POLL_S)
+    with open(marker, "a", encoding="utf-8") as f:
+        f.write(f"worker {os.getpid()} killed mid-run after {unit}\n")
+    proc.terminate()
+    assert proc.stderr is not None
+    for rest in proc.stderr:
+        late = FRAME_LINE.match(rest.rstrip("\n"))
+        if late:
+            write_journal(journal, late.group(2))
+            with open(marker, "a", encoding="utf-8") as f:
+                f.write(f"late: {late.group(2)}\n")
+    proc.wait()
+    os._exit(1)  # the worker dies; Ray tries the task again
+
+
+def _done_in_record(path: str, key: Optional[str]) -> set:
+    """The units the record at `path` has done (if it is the record of
+    `key`, when given)."""
+    try:
+        saved = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return set()
+    if not isinstance(saved, dict) or (key is not None and saved.get("key") != key):
+        return set()
+    return set(saved.get("done") or {})
+
+
+@ray.remote
+def render_share(
+    twinray: str,
+    cwd: str,
+    args: List[str],
+    units: List[str],
+    record: Tuple[str, str],
+    journal: Optional[str],
+    fault: Optional[str],
+    log: "ray.actor.ActorHandle",
+) -> Dict[str, List]:
+    """Renders the units (``frame N`` or one ``tile K``) of a share that
+    the job's record does not have done: frames as ``--only`` ranges, a tile
+    as it is. The record is read from disk, so that an attempt after one
+    that died skips what that one reported."""
+    done = _done_in_record(*record)
+    todo = [u for u in units if u not in done]
+    skipped = [u for u in units if u in done]
+    reporter = _Reporter(log)
+    wrote: List[str] = []
+    faulty = (fault, record[0]) if fault else None
+    try:
+        if units[0].startswith("frame "):
+            numbers = sorted(int(u.split()[1]) for u in todo)
+            for a, b in runs(numbers):
+                args_ab = [*args, "--only", f"{a}..{b}"]
+                wrote += _twinray(twinray, cwd, args_ab, None, journal, faulty, reporter)
+        elif todo:
+            wrote += _twinray(twinray, cwd, args, units[0], journal, faulty, reporter)
+    finally:
+        reporter.flush()
     return {"wrote": wrote, "skipped": skipped}
 
 
@@ -199,94 +312,152 @@ def _threads(extra: Sequence[str], cpus: float) -> List[str]:
     return ["--threads", str(max(1, int(cpus)))]
 
 
-def _why(err: Exception) -> str:
-    """twinray's own message from a Ray task error."""
+def _why(err: Exception, attempts: int) -> str:
+    """What made a share fail, from a Ray task error: twinray's own message,
+    or the last line of Ray's."""
     cause = getattr(err, "cause", None)
-    if isinstance(cause, TwinrayError):
-        return str(cause)
+    if isinstance(cause, TwinrayFailed):
+        return f"{cause} (not retried: the same job fails the same way)"
+    if isinstance(cause, TwinrayStopped):
+        return f"{cause}, {attempts} times"
     text = str(err).strip().splitlines()
-    return text[-1] if text else type(err).__name__
+    return f"{text[-1] if text else type(err).__name__} ({attempts} attempts)"
 
 
-def _gather(
-    tasks: dict,
-    total: int,
+def _say(note: str) -> None:
+    print(f"twinray-ray: note: {note}", file=sys.stderr)
+
+
+@dataclass
+class Share:
+    label: str
+    units: List[str]
+    args: List[str]
+
+
+def _run_shares(
+    twinray: str,
+    cwd: Path,
+    record: Record,
+    units: List[str],
+    shares: List[Share],
+    max_retries: int,
+    cpus_per_task: float,
+    journal: Optional[str],
     progress: bool,
     unit: str,
-    log: Optional["ray.actor.ActorHandle"],
     on_progress: Optional[Callable[[str], None]],
-) -> Tuple[List[dict], List[str]]:
-    """Waits for every task with a progress bar; returns results and
-    failures. With a progress `log` the bar advances per unit the tasks
-    report (a frame); without, per task finished (a tile)."""
+) -> List[dict]:
+    """Runs one Ray task a share; the bar counts `units`, those done
+    already at once. Saves the record as files are reported; raises
+    RenderFailed with the shares' errors, Interrupted on Ctrl-C."""
     from tqdm import tqdm
 
+    fault = os.environ.get(FAULT_ENV)
+    done_before = [u for u in units if u in record.done]
+    if not shares:
+        for u in done_before if on_progress else []:
+            on_progress(u)
+        return []
+    log = ProgressLog.remote()
+    options = dict(
+        num_cpus=cpus_per_task, max_retries=max_retries, retry_exceptions=[TwinrayStopped]
+    )
+    tasks = {}
+    for share in shares:
+        args = [*share.args, *_threads(share.args, cpus_per_task)]
+        ref = render_share.options(**options).remote(
+            twinray, str(cwd), args, share.units, (str(record.path), record.key), journal, fault, log
+        )
+        tasks[ref] = share
     results: List[dict] = []
-    failures: List[str] = []
+    failures: Dict[str, List[str]] = {}
     seen: set = set()
     heard = 0
     pending = list(tasks)
-    with tqdm(total=total, unit=unit, disable=not progress, file=sys.stderr) as bar:
+    with tqdm(total=len(units), unit=unit, disable=not progress, file=sys.stderr) as bar:
 
-        def advance(units: List[str]) -> None:
-            for u in units:
+        def advance(new: List[str]) -> None:
+            for u in new:
                 if u not in seen:
                     seen.add(u)
                     bar.update(1)
                     if on_progress:
                         on_progress(u)
 
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1, timeout=POLL_S if log else None)
-            if log is not None:
-                news = ray.get(log.since.remote(heard))
-                heard += len(news)
-                advance(news)
-            for ref in done:
-                share, _ = tasks[ref]
-                try:
-                    results.append(ray.get(ref))
-                except Exception as err:  # a share that failed every attempt
-                    failures.append(f"{share}: {_why(err)}")
-                if log is None:
-                    advance([share])
-    return results, failures
+        def poll(timeout: Optional[float] = None) -> None:
+            nonlocal heard
+            news = ray.get(log.since.remote(heard), timeout=timeout)
+            for u, path in news:
+                record.add(u, path)
+            record.save()
+            # Counted once saved: a poll cut short by Ctrl-C is done again.
+            heard += len(news)
+            advance([u for u, _ in news])
 
-
-def _run_shares(
-    twinray: str,
-    shares: List[Tuple[str, int, List[str]]],
-    max_retries: int,
-    cpus_per_task: float,
-    journal: Optional[str],
-    progress: bool,
-    unit: str,
-    on_progress: Optional[Callable[[str], None]] = None,
-) -> List[dict]:
-    """One Ray task a share `(label, units, twinray args)`, each tried
-    `max_retries + 1` times; raises RenderFailed with twinray's errors.
-    Frames are reported one by one as the tasks finish them: to the bar,
-    and to `on_progress` (``"frame N"``); tiles as their tasks end."""
-    fault = os.environ.get(FAULT_ENV)
-    options = dict(num_cpus=cpus_per_task, max_retries=max_retries, retry_exceptions=[TwinrayError])
-    log = ProgressLog.remote() if unit == "frame" else None
-    tasks = {}
-    for label, units, args in shares:
-        args = [*args, *_threads(args, cpus_per_task)]
-        ref = render_share.options(**options).remote(twinray, args, journal, fault, log)
-        tasks[ref] = (label, units)
-    try:
-        results, failures = _gather(
-            tasks, sum(u for _, u, _ in shares), progress, unit, log, on_progress
-        )
-    finally:
-        if log is not None:
+        advance(done_before)
+        try:
+            while pending:
+                finished, pending = ray.wait(pending, num_returns=1, timeout=POLL_S)
+                poll()
+                for ref in finished:
+                    try:
+                        results.append(ray.get(ref))
+                    except Exception as err:  # a share that failed
+                        why = _why(err, max_retries + 1)
+                        failures.setdefault(why, []).append(tasks[ref].label)
+        except KeyboardInterrupt:
+            # The tasks' workers are ended: their twinray processes get
+            # SIGTERM, stop within a row and remove their temporary files.
+            # What was reported is kept in the record.
+            for ref in pending:
+                ray.cancel(ref, force=True)
+            ray.wait(pending, num_returns=len(pending), timeout=STOP_S)
+            try:
+                poll(STOP_S)
+            except Exception:
+                pass  # what did not come in time is rendered again
+            done = len([u for u in units if u in record.done])
+            raise Interrupted(done, len(units), unit, record.name) from None
+        finally:
             ray.kill(log)
     if failures:
         raise RenderFailed(
-            f"{len(failures)} share(s) failed {max_retries + 1} times: " + "; ".join(failures)
+            f"{sum(len(v) for v in failures.values())} share(s) failed: "
+            + "; ".join(f"{', '.join(labels)}: {why}" for why, labels in failures.items())
         )
     return results
+
+
+def _refuse_driver_flags(extra: Sequence[str]) -> None:
+    """Refuses the twinray flags the driver sets itself."""
+    for flag in ("--only", "--tile", "--skip-existing", "--job", "--print-job"):
+        if any(a == flag or a.startswith(flag + "=") for a in extra):
+            raise RenderFailed(
+                "--job: give twinray-ray the flags, not a job file"
+                if flag == "--job"
+                else f"{flag}: twinray-ray sets the share of each task itself"
+            )
+
+
+def _prepare(
+    twinray: str, cwd: Path, scene: str, output: str, job_args: List[str], on_note
+) -> Record:
+    """Checks the job with twinray, creates the output folder and opens the
+    job's record there."""
+    try:
+        spec = print_job(twinray, cwd, ["render", scene, "-o", output, *job_args])
+    except JobError as e:
+        raise RenderFailed(str(e)) from None
+    folder = (cwd / output).parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise RenderFailed(f"cannot create the output folder {folder}: {e.strerror}") from None
+    record, note = Record.open(output, cwd, keyed_job(spec, cwd))
+    if note:
+        (on_note or _say)(note)
+    return record
 
 
 def run_frames(
@@ -301,39 +472,45 @@ def run_frames(
     journal: Optional[str] = None,
     progress: bool = True,
     on_progress: Optional[Callable[[str], None]] = None,
+    on_note: Optional[Callable[[str], None]] = None,
+    cwd: Optional[str] = None,
 ) -> Summary:
-    """Renders frames `frames` (A..B) of `scene` to `output` in chunks, one
-    Ray task a chunk, each tried `max_retries + 1` times; `on_progress` is
-    called with ``"frame N"`` as each frame is done (written or found)."""
+    """Renders frames `frames` (A..B) of `scene` to `output`, one Ray task
+    a chunk of frames not done yet; `on_progress` is called with ``"frame
+    N"`` as each frame is done (written, or found done before the run)."""
     first, last = parse_range(frames, "--frames")
-    base = ["render", scene, "-o", output, "--frames", f"{first}..{last}", "--skip-existing"]
+    _refuse_driver_flags(extra)
+    here = Path(cwd or os.getcwd())
+    base = ["render", scene, "-o", output, "--frames", f"{first}..{last}", *extra]
+    record = _prepare(twinray, here, scene, output, base[4:], on_note)
+    units = [f"frame {f}" for f in range(first, last + 1)]
+    kept = {u for u in units if record.files_there(u, here)}
+    record.keep(kept)
+    record.save()
+    todo = [f for f in range(first, last + 1) if f"frame {f}" not in kept]
     shares = [
-        (f"frames {a}..{b}", b - a + 1, [*base, *extra, "--only", f"{a}..{b}"])
-        for a, b in chunks(first, last, chunk)
+        Share(f"frames {a}..{b}", [f"frame {f}" for f in range(a, b + 1)], base)
+        for a, b in chunks(todo, chunk)
     ]
     results = _run_shares(
-        twinray, shares, max_retries, cpus_per_task, journal, progress, "frame", on_progress
+        twinray, here, record, units, shares, max_retries, cpus_per_task, journal,
+        progress, "frame", on_progress,
     )
-    summary = Summary()
+    summary = Summary(skipped=sorted(int(u.split()[1]) for u in kept))
     for r in results:
         summary.written += r["wrote"]
-        summary.skipped += r["skipped"]
+        summary.skipped += [int(u.split()[1]) for u in r["skipped"]]
+    summary.skipped.sort()
     return summary
 
 
-def tile_files(output: str, count: int) -> dict:
-    """The tile files of `output` on disk: {suffix: {index: path}}."""
-    out = Path(output)
-    pattern = re.compile(
-        re.escape(out.stem) + r"_tile(\d+)of" + str(count) + r"(.*)" + re.escape(out.suffix) + "$"
-    )
-    found: dict = {}
-    directory = out.parent if str(out.parent) else Path(".")
-    for p in directory.iterdir() if directory.is_dir() else []:
-        m = pattern.match(p.name)
-        if m:
-            found.setdefault(m.group(2), {})[int(m.group(1))] = str(p)
-    return found
+def _tile_suffix(path: str, output: Path, index: int, count: int) -> str:
+    """The view suffix of a tile file (``_L``, ``""``)."""
+    name = Path(path).name
+    head = f"{output.stem}_tile{index}of{count}"
+    if not (name.startswith(head) and name.endswith(output.suffix)):
+        raise RenderFailed(f"tile {index}: twinray wrote {path}, not a tile of {output}")
+    return name[len(head) : len(name) - len(output.suffix)]
 
 
 def run_tiles(
@@ -346,27 +523,44 @@ def run_tiles(
     cpus_per_task: float = 1,
     journal: Optional[str] = None,
     progress: bool = True,
+    on_note: Optional[Callable[[str], None]] = None,
+    cwd: Optional[str] = None,
 ) -> Summary:
-    """Renders `scene` as `count` tiles, one Ray task a tile not yet on disk,
-    then merges them (per eye where the views are separate files)."""
+    """Renders `scene` as `count` tiles, one Ray task a tile not done yet,
+    then merges them (per view where the views are separate files)."""
     if count < 1:
         raise RenderFailed("--tiles must be at least 1")
-    have = tile_files(output, count)
-    done = set.intersection(*(set(v) for v in have.values())) if have else set()
+    _refuse_driver_flags(extra)
+    here = Path(cwd or os.getcwd())
     base = ["render", scene, "-o", output, "--tiles", str(count), *extra]
-    shares = [(f"tile {k}", 1, [*base, "--tile", str(k)]) for k in range(count) if k not in done]
-    results = _run_shares(twinray, shares, max_retries, cpus_per_task, journal, progress, "tile")
-    summary = Summary(skipped=sorted(done))
+    record = _prepare(twinray, here, scene, output, [*base[4:], "--tile", "0"], on_note)
+    units = [f"tile {k}" for k in range(count)]
+    kept = {u for u in units if record.files_there(u, here)}
+    record.keep(kept)
+    record.save()
+    shares = [Share(u, [u], [*base, "--tile", u.split()[1]]) for u in units if u not in kept]
+    results = _run_shares(
+        twinray, here, record, units, shares, max_retries, cpus_per_task, journal,
+        progress, "tile", None,
+    )
+    summary = Summary(skipped=sorted(int(u.split()[1]) for u in kept))
     for r in results:
         summary.written += r["wrote"]
     out = Path(output)
-    for suffix, tiles in sorted(tile_files(output, count).items()):
+    views: Dict[str, Dict[int, str]] = {}
+    for k in range(count):
+        for path in record.done.get(f"tile {k}", []):
+            views.setdefault(_tile_suffix(path, out, k, count), {})[k] = path
+    for suffix, tiles in sorted(views.items()):
         if sorted(tiles) != list(range(count)):
-            raise RenderFailed(f"tiles of '{suffix or out.name}' missing after the run: have {sorted(tiles)}")
+            missing = sorted(set(range(count)) - set(tiles))
+            raise RenderFailed(f"tiles {missing} of '{out.stem}{suffix}{out.suffix}' missing after the run")
         target = str(out.with_name(out.stem + suffix + out.suffix))
-        inputs = [tiles[k] for k in range(count)]
         result = subprocess.run(
-            [twinray, "merge", "-o", target, *inputs], capture_output=True, text=True
+            [twinray, "merge", "-o", target, *(tiles[k] for k in range(count))],
+            cwd=here,
+            capture_output=True,
+            text=True,
         )
         if result.returncode != 0:
             raise RenderFailed(f"twinray merge: {result.stderr.strip()}")

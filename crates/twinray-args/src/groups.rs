@@ -306,7 +306,7 @@ pub struct SpeedArgs {
     /// 1 is white; the bound holds where radiance is at most 1.
     #[arg(long, value_name = "E")]
     pub tolerance: Option<f32>,
-    /// Worker threads (default: all cores); the image is the same for any count.
+    /// Worker threads, 1 to 1024 (default: all cores); the image is the same for any count.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     /// The paper's merged secondary rays (approximate).
@@ -426,8 +426,8 @@ pub struct AnimationArgs {
     pub path: Option<PathBuf>,
     /// The automatic rig of a stereo animation: per-shot (the default) or per-frame.
     ///
-    /// per-shot: chosen once from depth passes over sampled frames (no
-    /// jumps); per-frame: for each frame.
+    /// per-shot: chosen once, from the depths of sampled frames (no jumps);
+    /// per-frame: for each frame.
     #[arg(long, value_name = "WHEN", default_value = "per-shot", requires = "frames",
           hide_short_help = true, value_parser = one_of::<ShotRigSpec>(ShotRigSpec::NAMES))]
     pub rig: ShotRigSpec,
@@ -454,6 +454,7 @@ pub struct AnimationArgs {
         long,
         value_name = "N",
         conflicts_with = "frames",
+        value_parser = clap::value_parser!(u32).range(1..),
         hide_short_help = true
     )]
     pub tiles: Option<u32>,
@@ -540,6 +541,11 @@ pub struct LimitArgs {
     #[arg(long, value_name = "N", default_value_t = LimitSpec::default().max_triangles,
           hide_short_help = true)]
     pub max_triangles: u64,
+    /// Let the scene read files in DIR and below, beside its own folder
+    /// (textures kept elsewhere); repeatable. A scene reads no file outside
+    /// its folder without it.
+    #[arg(long, value_name = "DIR", hide_short_help = true)]
+    pub allow_dir: Vec<std::path::PathBuf>,
 }
 
 impl RenderArgs {
@@ -600,8 +606,10 @@ impl RenderArgs {
                 max_resolution: self.limits.max_resolution,
                 max_vertices: self.limits.max_vertices,
                 max_triangles: self.limits.max_triangles,
+                allow_dirs: self.limits.allow_dir.clone(),
             },
             studio: self.studio.spec(),
+            read_files: Vec::new(),
         }
     }
 }

@@ -60,6 +60,9 @@ impl ToArgs for JobSpec {
         if l.max_triangles != d.max_triangles {
             a.value("--max-triangles", l.max_triangles);
         }
+        for dir in &l.allow_dirs {
+            a.value("--allow-dir", path(dir));
+        }
         a.0
     }
 }

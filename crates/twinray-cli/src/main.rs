@@ -2,7 +2,9 @@
 //! prints what they report, shows progress.
 
 mod bench;
+mod cpu;
 mod preview;
+mod progress_lines;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -186,6 +188,8 @@ fn fix_mmap_threshold() {
 fn fix_mmap_threshold() {}
 
 fn main() -> ExitCode {
+    // Before anything built for the newer instructions runs.
+    cpu::require();
     fix_mmap_threshold();
     let cli = match parse_args() {
         Ok(cli) => cli,
@@ -280,10 +284,10 @@ pub(crate) fn render_spec(args: &RenderArgs) -> Result<JobSpec> {
     let Some(path) = &args.output.job else {
         return Ok(flags);
     };
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("--job {}", path.display()))?;
+    let text = twinray::loaders::files::read_user_text(path, "--job")?;
     let mut spec =
         JobSpec::from_json(&text).with_context(|| format!("--job {}", path.display()))?;
+    spec.read_files.push(path.clone());
     // Everything but SCENE and -o comes from the file: other flags would be
     // ignored, so they are refused.
     let mut rest = flags.clone();
@@ -348,10 +352,14 @@ fn run_render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     render_still(&job, &loaded, args)
 }
 
-/// A progress bar on a terminal (hidden with --quiet or when stderr is not one).
+/// A progress bar on a terminal; where stderr is not one, a line every few
+/// seconds (`progress_lines`); nothing with --quiet.
 pub(crate) fn progress_bar(args: &RenderArgs, template: &str) -> ProgressBar {
-    if args.output.quiet || !std::io::stderr().is_terminal() {
+    if args.output.quiet {
         return ProgressBar::hidden();
+    }
+    if !std::io::stderr().is_terminal() {
+        return progress_lines::bar(template);
     }
     let b = ProgressBar::new(1);
     b.set_style(

@@ -2,8 +2,9 @@
 //! the SPD scenes): the first frame of a page, and the latency from a change
 //! of interaxial to the first (1/8) frame of the new rig, median over 20
 //! changes made one after another (each cancelling the render in flight, as
-//! a slider being dragged does), and the server's memory over 10 quick
-//! reconnects.
+//! a slider being dragged does), how long the renders go on once a page is
+//! gone in the middle of one (median of 5), and the server's memory over 10
+//! quick reconnects.
 //!
 //! `cargo run --release -p twinray-preview --example preview_latency -- WxH SCENE...`
 //!
@@ -12,6 +13,7 @@
 //! to receiving the encoded frame; the browser's decoding and painting are
 //! not included.
 
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -30,25 +32,22 @@ use twinray_preview::Preview;
 type Socket =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
 
-async fn connect(address: std::net::SocketAddr) -> (Socket, u64) {
+async fn connect(address: std::net::SocketAddr) -> (Socket, String) {
     let (mut socket, _) = tokio_tungstenite::connect_async(format!("ws://{address}/api/session"))
         .await
         .expect("the server answers");
     loop {
         if let Some(Ok(Message::Text(t))) = socket.next().await {
             let hello: Value = serde_json::from_str(t.as_str()).unwrap_or_default();
-            return (socket, hello["session"].as_u64().unwrap_or(0));
+            let id = hello["session"].as_str().unwrap_or_default();
+            return (socket, id.to_string());
         }
     }
 }
 
 /// Posts `settings`; returns the change's generation.
-async fn change(preview: &Preview, session: u64, settings: &Value) -> u64 {
-    let request = Request::post(format!("/api/session/{session}/view"))
-        .header("content-type", "application/json")
-        .body(Body::from(settings.to_string()))
-        .unwrap_or_default();
-    let answer = preview.router().oneshot(request).await.expect("an answer");
+async fn change(preview: &Preview, address: SocketAddr, session: &str, settings: &Value) -> u64 {
+    let answer = post_view(preview, address, session, settings).await;
     let status = answer.status();
     let body = axum::body::to_bytes(answer.into_body(), 1 << 24)
         .await
@@ -102,7 +101,7 @@ async fn main() {
         .split_once('x')
         .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
         .expect("WxH");
-    println!("scene\tload_ms\tfirst_frame_ms\tfirst_frame_warm_ms\tchange_median_ms\tchange_p90_ms\tfull_frame_ms\trss_before_kib\trss_after_10_reconnects_kib");
+    println!("scene\tload_ms\tfirst_frame_ms\tfirst_frame_warm_ms\tchange_median_ms\tchange_p90_ms\tfull_frame_ms\tgone_stop_ms\trss_before_kib\trss_after_10_reconnects_kib");
     for scene in args.map(PathBuf::from) {
         let mut spec = JobSpec::new(&scene, "");
         spec.camera.size = Some([w, h]);
@@ -122,7 +121,7 @@ async fn main() {
         // A fresh server: the first plan builds the hierarchy.
         let (mut socket, session) = connect(address).await;
         let t = Instant::now();
-        let g = change(&preview, session, &anaglyph).await;
+        let g = change(&preview, address, &session, &anaglyph).await;
         first_frame(&mut socket, g).await;
         let first = t.elapsed();
         // The full-size frame (one ray per pixel) of that first view.
@@ -137,10 +136,10 @@ async fn main() {
         // A second page: the hierarchy is built.
         let (mut socket, session) = connect(address).await;
         let t = Instant::now();
-        let g = change(&preview, session, &anaglyph).await;
+        let g = change(&preview, address, &session, &anaglyph).await;
         first_frame(&mut socket, g).await;
         let warm = t.elapsed();
-        let interaxial = preview_interaxial(&preview, session).await;
+        let interaxial = preview_interaxial(&preview, address, &session).await;
 
         // 20 changes of interaxial, each made as soon as the previous one's
         // coarse frame is in: the renders in flight are cancelled.
@@ -149,17 +148,36 @@ async fn main() {
             let factor = 0.6 + 0.05 * f64::from(i);
             let settings = json!({ "interaxial": format!("{}", interaxial * factor) });
             let t = Instant::now();
-            let g = change(&preview, session, &settings).await;
+            let g = change(&preview, address, &session, &settings).await;
             first_frame(&mut socket, g).await;
             latencies.push(ms(t.elapsed()));
         }
         let (med, p90) = median(latencies);
         drop(socket);
+        while preview.sessions() > 0 || preview.render_threads() > 0 {
+            tokio::time::sleep(Duration::from_millis(1)).await;
+        }
+
+        // Pages gone in the middle of a render: how long until nothing
+        // renders and their threads have ended.
+        let mut gone = Vec::new();
+        for _ in 0..5 {
+            let (mut socket, session) = connect(address).await;
+            let g = change(&preview, address, &session, &anaglyph).await;
+            first_frame(&mut socket, g).await;
+            drop(socket);
+            let t = Instant::now();
+            while preview.sessions() > 0 || preview.rendering() || preview.render_threads() > 0 {
+                tokio::time::sleep(Duration::from_millis(1)).await;
+            }
+            gone.push(ms(t.elapsed()));
+        }
+        let (gone, _) = median(gone);
 
         let before = rss_kib();
         for _ in 0..10 {
             let (mut socket, session) = connect(address).await;
-            let g = change(&preview, session, &anaglyph).await;
+            let g = change(&preview, address, &session, &anaglyph).await;
             first_frame(&mut socket, g).await;
         }
         while preview.sessions() > 0 || preview.render_threads() > 0 {
@@ -168,7 +186,7 @@ async fn main() {
         let after = rss_kib();
         stop.cancel();
         println!(
-            "{}\t{:.0}\t{:.0}\t{:.0}\t{:.0}\t{:.0}\t{:.0}\t{before}\t{after}",
+            "{}\t{:.0}\t{:.0}\t{:.0}\t{:.0}\t{:.0}\t{:.0}\t{:.0}\t{before}\t{after}",
             scene
                 .file_stem()
                 .map(|s| s.to_string_lossy())
@@ -179,17 +197,33 @@ async fn main() {
             med,
             p90,
             ms(full),
+            gone,
         );
     }
 }
 
-/// The automatic interaxial of the scene (the changes scale it).
-async fn preview_interaxial(preview: &Preview, session: u64) -> f64 {
+/// Posts `settings` to the session's view, as its page does.
+async fn post_view(
+    preview: &Preview,
+    address: SocketAddr,
+    session: &str,
+    settings: &Value,
+) -> axum::response::Response {
     let request = Request::post(format!("/api/session/{session}/view"))
+        .header("host", address.to_string())
         .header("content-type", "application/json")
-        .body(Body::from("{}"))
+        .body(Body::from(settings.to_string()))
         .unwrap_or_default();
-    let answer = preview.router().oneshot(request).await.expect("an answer");
+    preview
+        .router(address)
+        .oneshot(request)
+        .await
+        .expect("an answer")
+}
+
+/// The automatic interaxial of the scene (the changes scale it).
+async fn preview_interaxial(preview: &Preview, address: SocketAddr, session: &str) -> f64 {
+    let answer = post_view(preview, address, session, &json!({})).await;
     let body = axum::body::to_bytes(answer.into_body(), 1 << 24)
         .await
         .unwrap_or_default();

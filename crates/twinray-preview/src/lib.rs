@@ -20,8 +20,17 @@
 //! | `POST /api/session/{id}/render` | the view at full size: the files to download |
 //! | `GET /api/download/{render}/{file}` | one of them |
 //! | `POST /api/reload` | reads the scene file again |
+//!
+//! Only the server's own page may use it (`guard.rs`: `Host` and `Origin`).
+//! Session and render ids are 128 random bits (`ids.rs`). At most
+//! [`MAX_PAGES`] pages are open at once, each WebSocket takes messages of
+//! at most [`MAX_PAGE_MESSAGE`] bytes, and the newest
+//! [`renders::KEPT_RENDERS`] full-size renders are kept for download.
 
+pub mod guard;
+pub mod ids;
 pub mod info;
+pub mod renders;
 pub mod session;
 pub mod settings;
 
@@ -44,17 +53,35 @@ use futures_util::{SinkExt, StreamExt};
 use serde::Serialize;
 use serde_json::json;
 use tokio::net::TcpListener;
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, OwnedSemaphorePermit, Semaphore};
+use tower_http::validate_request::ValidateRequestHeaderLayer;
 
 use twinray::job::{CancelToken, Job, JobSpec, Loaded, Message};
 use twinray_args::ToArgs;
 
+use guard::Guard;
 use info::{Info, Note};
+use renders::{file_name_of, Renders};
 use session::{Counts, Outgoing, Prepared, Session};
 use settings::{Refused, Settings};
 
 /// Widest preview image by default, pixels per view.
 pub const DEFAULT_PREVIEW_WIDTH: u32 = 480;
+
+/// Pages open at once (each a WebSocket, a render thread and a queue of
+/// frames); the next is refused with 503 until one closes.
+pub const MAX_PAGES: usize = 8;
+
+/// Largest message a page's WebSocket takes, bytes. The page sends its
+/// settings over HTTP and nothing over the socket.
+pub const MAX_PAGE_MESSAGE: usize = 4096;
+
+/// Messages queued for a page: frames wait here while the socket sends.
+const PAGE_QUEUE: usize = 4;
+
+/// How long a stopping server waits for its renders to see their
+/// cancellation before it returns regardless.
+const STOP_WAIT: Duration = Duration::from_millis(500);
 
 /// The page, served from the binary.
 const INDEX_HTML: &str = include_str!("page/index.html");
@@ -77,11 +104,14 @@ struct App {
     preview_width: u32,
     pool: Arc<rayon::ThreadPool>,
     scene: RwLock<SceneState>,
-    sessions: Mutex<HashMap<u64, Arc<Session>>>,
-    /// Files of the full-size renders, by render number.
-    renders: Mutex<HashMap<u64, Vec<PathBuf>>>,
-    next_id: AtomicU64,
+    sessions: Mutex<HashMap<String, Arc<Session>>>,
+    /// One permit per page open.
+    pages: Arc<Semaphore>,
+    /// The full-size renders kept for download.
+    renders: Renders,
     counts: Arc<Counts>,
+    /// Requests refused by the guard.
+    refused: Arc<AtomicU64>,
     /// The preview jobs' nominal output and the full-size renders' files.
     dir: tempfile::TempDir,
 }
@@ -131,9 +161,10 @@ impl Preview {
             pool,
             scene: RwLock::new(SceneState::Failed("not loaded yet".into())),
             sessions: Mutex::new(HashMap::new()),
-            renders: Mutex::new(HashMap::new()),
-            next_id: AtomicU64::new(1),
+            pages: Arc::new(Semaphore::new(MAX_PAGES)),
+            renders: Renders::default(),
             counts: Arc::default(),
+            refused: Arc::default(),
             dir,
         };
         // The flags, as the page's first settings will use them.
@@ -159,8 +190,10 @@ impl Preview {
         }
     }
 
-    /// The HTTP API and the page.
-    pub fn router(&self) -> Router {
+    /// The HTTP API and the page, for a server listening on `address`
+    /// (the addresses its requests must name).
+    pub fn router(&self, address: SocketAddr) -> Router {
+        let guard = Guard::new(address, Arc::clone(&self.app.refused));
         Router::new()
             .route("/", get(index))
             .route("/app.js", get(app_js))
@@ -172,6 +205,7 @@ impl Preview {
             .route("/api/download/{render}/{file}", get(download))
             .route("/api/reload", post(reload))
             .with_state(Arc::clone(&self.app))
+            .layer(ValidateRequestHeaderLayer::custom(guard))
     }
 
     /// Sessions open (pages connected).
@@ -193,28 +227,63 @@ impl Preview {
         )
     }
 
+    /// Full-size renders finished and cancelled so far.
+    pub fn full_render_counts(&self) -> (u64, u64) {
+        let c = &self.app.counts;
+        (
+            c.full_finished.load(Ordering::Relaxed),
+            c.full_cancelled.load(Ordering::Relaxed),
+        )
+    }
+
+    /// Requests refused because they did not come from the server's page.
+    pub fn refused(&self) -> u64 {
+        self.app.refused.load(Ordering::Relaxed)
+    }
+
+    /// The folder of the full-size renders' files (removed when the
+    /// server stops).
+    pub fn render_folder(&self) -> &FsPath {
+        self.app.dir.path()
+    }
+
+    /// The ids of the full-size renders kept for download, oldest first.
+    pub fn kept_renders(&self) -> Vec<String> {
+        self.app.renders.ids()
+    }
+
     /// Sessions' render threads still running.
     pub fn render_threads(&self) -> u64 {
         self.app.counts.threads.load(Ordering::SeqCst)
     }
 
     /// Serves on `listener` until `shutdown` is raised; then every session
-    /// is closed (its render cancelled).
+    /// is closed (its renders cancelled) and the full-size renders' files
+    /// are deleted.
     pub async fn serve(self, listener: TcpListener, shutdown: CancelToken) -> std::io::Result<()> {
-        let server = axum::serve(listener, self.router()).into_future();
+        let router = self.router(listener.local_addr()?);
+        let server = axum::serve(listener, router).into_future();
         let stop = async {
             while !shutdown.is_cancelled() {
-                tokio::time::sleep(Duration::from_millis(100)).await;
+                tokio::time::sleep(Duration::from_millis(20)).await;
             }
         };
         let result = tokio::select! {
             r = server => r,
             _ = stop => Ok(()),
         };
-        for session in lock(&self.app.sessions).drain().map(|(_, s)| s) {
+        self.stop();
+        result
+    }
+
+    /// Closes every session (their renders are cancelled) and deletes the
+    /// full-size renders' files.
+    fn stop(&self) {
+        let sessions: Vec<_> = lock(&self.app.sessions).drain().map(|(_, s)| s).collect();
+        for session in sessions {
             session.close();
         }
-        result
+        self.app.renders.remove_all();
     }
 }
 
@@ -229,11 +298,15 @@ pub fn run(
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
-    runtime.block_on(async move {
+    let result = runtime.block_on(async move {
         let listener = TcpListener::bind(addr).await?;
         ready(listener.local_addr()?);
         preview.serve(listener, shutdown).await
-    })
+    });
+    // The renders were cancelled: a render that has not yet seen it is not
+    // waited for past STOP_WAIT (dropping the runtime would wait for it).
+    runtime.shutdown_timeout(STOP_WAIT);
+    result
 }
 
 /// Opens `url` in the desktop's browser.
@@ -265,8 +338,8 @@ impl App {
         }
     }
 
-    fn session(&self, id: u64) -> Option<Arc<Session>> {
-        lock(&self.sessions).get(&id).cloned()
+    fn session(&self, id: &str) -> Option<Arc<Session>> {
+        lock(&self.sessions).get(id).cloned()
     }
 
     /// The file name of full-size renders (`-o`'s, or the scene's stem).
@@ -318,6 +391,8 @@ struct StateAnswer {
     /// Size of a full render and of the preview, `[width, height]`.
     full_size: Option<[u32; 2]>,
     preview_size: Option<[u32; 2]>,
+    /// Pages that may be open at once.
+    max_pages: usize,
     version: &'static str,
 }
 
@@ -340,6 +415,7 @@ fn state_answer(app: &App) -> StateAnswer {
         messages,
         full_size: sizes.map(|s| s.0),
         preview_size: sizes.map(|s| s.1),
+        max_pages: MAX_PAGES,
         version: env!("CARGO_PKG_VERSION"),
     }
 }
@@ -362,17 +438,39 @@ async fn reload(State(app): State<Arc<App>>) -> Response {
     }
 }
 
+/// A random id for a `what`, or the answer saying why there is none.
+fn new_id(what: &str) -> Result<String, Box<Response>> {
+    ids::random_id().map_err(|e| {
+        Box::new(refuse(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("no random id for the {what}: {e}"),
+        ))
+    })
+}
+
 async fn open_session(State(app): State<Arc<App>>, ws: WebSocketUpgrade) -> Response {
-    ws.on_upgrade(move |socket| run_session(app, socket))
+    let Ok(page) = Arc::clone(&app.pages).try_acquire_owned() else {
+        return refuse(
+            StatusCode::SERVICE_UNAVAILABLE,
+            format!("{MAX_PAGES} pages are open: close one to open another"),
+        );
+    };
+    let id = match new_id("page") {
+        Ok(id) => id,
+        Err(answer) => return *answer,
+    };
+    ws.max_message_size(MAX_PAGE_MESSAGE)
+        .max_frame_size(MAX_PAGE_MESSAGE)
+        .on_upgrade(move |socket| run_session(app, socket, id, page))
 }
 
 /// A page's WebSocket: frames out until the page goes away, then the
-/// session is closed and its render cancelled.
-async fn run_session(app: Arc<App>, socket: WebSocket) {
-    let (tx, mut rx) = mpsc::channel::<Outgoing>(8);
-    let id = app.next_id.fetch_add(1, Ordering::Relaxed);
-    let session = Session::start(id, tx, Arc::clone(&app.counts));
-    lock(&app.sessions).insert(id, Arc::clone(&session));
+/// session is closed and its renders cancelled; `_page` is its place among
+/// the pages open, given back then.
+async fn run_session(app: Arc<App>, socket: WebSocket, id: String, _page: OwnedSemaphorePermit) {
+    let (tx, mut rx) = mpsc::channel::<Outgoing>(PAGE_QUEUE);
+    let session = Session::start(id.clone(), tx, Arc::clone(&app.counts));
+    lock(&app.sessions).insert(id.clone(), Arc::clone(&session));
     let (mut sink, mut stream) = socket.split();
     let hello = json!({ "type": "hello", "session": id }).to_string();
     if sink.send(WsMessage::Text(hello.into())).await.is_ok() {
@@ -423,14 +521,14 @@ fn settings_of(body: Result<Json<Settings>, JsonRejection>) -> Result<Settings, 
 /// the answer that refuses the request.
 fn change_request(
     app: &App,
-    id: u64,
+    id: &str,
     body: Result<Json<Settings>, JsonRejection>,
 ) -> Result<(Settings, Arc<Session>, Arc<Loaded>), Box<Response>> {
     let settings = settings_of(body)?;
     let Some(session) = app.session(id) else {
         return Err(Box::new(refuse(
             StatusCode::NOT_FOUND,
-            format!("no session {id}"),
+            "no such session: the page has closed (reload it)",
         )));
     };
     let loaded = app
@@ -443,11 +541,11 @@ fn change_request(
 /// planned, answered with the rig and report, and rendered by the session.
 async fn change(
     State(app): State<Arc<App>>,
-    Path(id): Path<u64>,
+    Path(id): Path<String>,
     body: Result<Json<Settings>, JsonRejection>,
 ) -> Response {
     let received = Instant::now();
-    let (settings, session, loaded) = match change_request(&app, id, body) {
+    let (settings, session, loaded) = match change_request(&app, &id, body) {
         Ok(r) => r,
         Err(answer) => return *answer,
     };
@@ -518,21 +616,33 @@ struct RenderedFile {
 }
 
 /// The page's view at full size, with the command line's sampling: the
-/// files, offered for download. Cancelled if the page goes away.
+/// files, offered for download. Cancelled if the page goes away or the
+/// request is dropped; one at a time per page.
 async fn render_full(
     State(app): State<Arc<App>>,
-    Path(id): Path<u64>,
+    Path(id): Path<String>,
     body: Result<Json<Settings>, JsonRejection>,
 ) -> Response {
-    let (settings, session, loaded) = match change_request(&app, id, body) {
+    let (settings, session, loaded) = match change_request(&app, &id, body) {
         Ok(r) => r,
         Err(answer) => return *answer,
     };
-    let number = app.next_id.fetch_add(1, Ordering::Relaxed);
-    let dir = app.dir.path().join(format!("render-{number}"));
-    if let Err(e) = std::fs::create_dir_all(&dir) {
+    let Some(full) = session.begin_full() else {
+        return refuse(
+            StatusCode::CONFLICT,
+            "a full-size render of this page is running: wait for it",
+        );
+    };
+    let render = match new_id("render") {
+        Ok(id) => id,
+        Err(answer) => return *answer,
+    };
+    let dir = app.dir.path().join(&render);
+    if let Err(e) = std::fs::create_dir(&dir) {
         return refuse(StatusCode::INTERNAL_SERVER_ERROR, e.to_string());
     }
+    // The folder goes with the request unless its files are kept.
+    let mut folder = RenderFolder(Some(dir.clone()));
     let name = app.output_name();
     let file_name = name.file_name().map(PathBuf::from).unwrap_or(name.clone());
     let spec = settings.spec(&app.base, app.base.camera.size, &dir.join(file_name));
@@ -548,6 +658,7 @@ async fn render_full(
         Err(e) => return refuse(StatusCode::BAD_REQUEST, e.to_string()),
     };
     let worker = Arc::clone(&session);
+    let cancel = full.cancel.clone();
     let start = Instant::now();
     let done = tokio::task::spawn_blocking(move || {
         let plan = job.plan(&loaded)?;
@@ -559,15 +670,25 @@ async fn render_full(
                 worker.notify(json!({ "type": "full-progress", "done": done, "total": total }));
             }
         };
-        let rendered = job.render(&plan, &progress, &worker.closing)?;
+        let rendered = job.render(&plan, &progress, &cancel)?;
+        if cancel.is_cancelled() {
+            return Err(twinray::Error::Cancelled);
+        }
         let written = job.write(&loaded, &plan, &rendered)?;
         let messages = [job.messages(), &plan.messages, &rendered.messages].concat();
         Ok::<_, twinray::Error>((written, messages))
     })
     .await;
     let (written, messages) = match done {
-        Ok(Ok(w)) => w,
-        Ok(Err(e)) => return refuse(StatusCode::BAD_REQUEST, e.to_string()),
+        Ok(Ok(w)) => {
+            full.ended(&Ok(()));
+            w
+        }
+        Ok(Err(e)) => {
+            let message = e.to_string();
+            full.ended(&Err(e));
+            return refuse(StatusCode::BAD_REQUEST, message);
+        }
         Err(e) => return refuse(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()),
     };
     let files = written
@@ -575,13 +696,14 @@ async fn render_full(
         .map(|p| {
             let name = file_name_of(p);
             RenderedFile {
-                url: format!("/api/download/{number}/{name}"),
+                url: format!("/api/download/{render}/{name}"),
                 bytes: std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
                 name,
             }
         })
         .collect::<Vec<_>>();
-    lock(&app.renders).insert(number, written);
+    folder.0 = None;
+    app.renders.keep(render, dir, written);
     Json(json!({
         "files": files,
         "command": command,
@@ -591,24 +713,27 @@ async fn render_full(
     .into_response()
 }
 
-fn file_name_of(p: &FsPath) -> String {
-    p.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default()
+/// A full-size render's folder, deleted when dropped unless its files were
+/// kept (`None`).
+struct RenderFolder(Option<PathBuf>);
+
+impl Drop for RenderFolder {
+    fn drop(&mut self) {
+        if let Some(dir) = &self.0 {
+            renders::remove(dir);
+        }
+    }
 }
 
-/// A file of a full-size render, by name (only the files it wrote).
+/// A file of a full-size render kept, by name (only the files it wrote).
 async fn download(
     State(app): State<Arc<App>>,
-    Path((render, file)): Path<(u64, String)>,
+    Path((render, file)): Path<(String, String)>,
 ) -> Response {
-    let path = lock(&app.renders)
-        .get(&render)
-        .and_then(|files| files.iter().find(|p| file_name_of(p) == file).cloned());
-    let Some(path) = path else {
+    let Some(path) = app.renders.file(&render, &file) else {
         return refuse(
             StatusCode::NOT_FOUND,
-            format!("no file {file} in render {render}"),
+            "no such file: only the newest full-size renders are kept",
         );
     };
     let reading = path.clone();

@@ -7,8 +7,8 @@
 //! renders the progressive passes of the newest one only: a newer change
 //! cancels the render in flight (its [`CancelToken`]), and one render at a
 //! time runs per session. When the page goes away the session is closed:
-//! the render in flight and a full-size render are cancelled and the thread
-//! ends.
+//! the render in flight and its full-size render are cancelled and the
+//! thread ends. A page runs one full-size render at a time.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -110,11 +110,15 @@ pub struct Counts {
     pub cancelled: AtomicU64,
     /// Sessions' render threads running.
     pub threads: AtomicU64,
+    /// Full-size renders finished, and stopped (the page gone, the request
+    /// dropped or the server stopping).
+    pub full_finished: AtomicU64,
+    pub full_cancelled: AtomicU64,
 }
 
 /// A page's session.
 pub struct Session {
-    pub id: u64,
+    pub id: String,
     out: mpsc::Sender<Outgoing>,
     state: Mutex<State>,
     wake: Condvar,
@@ -122,14 +126,41 @@ pub struct Session {
     generation: AtomicU64,
     /// The generation of the newest change submitted: older frames are stale.
     accepted: AtomicU64,
-    /// Raised when the page goes away: stops a full-size render.
-    pub closing: CancelToken,
+    /// The token of the full-size render in flight.
+    full: Mutex<Option<CancelToken>>,
     counts: Arc<Counts>,
+}
+
+/// A page's full-size render in flight: its token is raised when the page
+/// goes away, and when this is dropped (the request answered or abandoned).
+pub struct FullRender {
+    session: Arc<Session>,
+    pub cancel: CancelToken,
+}
+
+impl FullRender {
+    /// Counts how the render ended.
+    pub fn ended(&self, result: &twinray::Result<()>) {
+        let counts = &self.session.counts;
+        match result {
+            Ok(()) => counts.full_finished.fetch_add(1, Ordering::Relaxed),
+            Err(Error::Cancelled) => counts.full_cancelled.fetch_add(1, Ordering::Relaxed),
+            Err(_) => 0,
+        };
+    }
+}
+
+impl Drop for FullRender {
+    fn drop(&mut self) {
+        self.cancel.cancel();
+        *self.session.full.lock().unwrap_or_else(|e| e.into_inner()) = None;
+    }
 }
 
 impl Session {
     /// A session sending to `out`, with its render thread.
-    pub fn start(id: u64, out: mpsc::Sender<Outgoing>, counts: Arc<Counts>) -> Arc<Session> {
+    pub fn start(id: String, out: mpsc::Sender<Outgoing>, counts: Arc<Counts>) -> Arc<Session> {
+        let name = format!("preview-session-{}", &id[..id.len().min(8)]);
         let session = Arc::new(Session {
             id,
             out,
@@ -137,17 +168,15 @@ impl Session {
             wake: Condvar::new(),
             generation: AtomicU64::new(0),
             accepted: AtomicU64::new(0),
-            closing: CancelToken::new(),
+            full: Mutex::new(None),
             counts,
         });
         let worker = Arc::clone(&session);
         session.counts.threads.fetch_add(1, Ordering::SeqCst);
-        let started = std::thread::Builder::new()
-            .name(format!("preview-session-{id}"))
-            .spawn(move || {
-                worker.render_loop();
-                worker.counts.threads.fetch_sub(1, Ordering::SeqCst);
-            });
+        let started = std::thread::Builder::new().name(name).spawn(move || {
+            worker.render_loop();
+            worker.counts.threads.fetch_sub(1, Ordering::SeqCst);
+        });
         if let Err(e) = started {
             session.counts.threads.fetch_sub(1, Ordering::SeqCst);
             eprintln!("twinray: cannot start a render thread: {e}");
@@ -227,8 +256,28 @@ impl Session {
         if let Some((_, cancel)) = &state.running {
             cancel.cancel();
         }
-        self.closing.cancel();
+        if let Some(full) = &*self.full.lock().unwrap_or_else(|e| e.into_inner()) {
+            full.cancel();
+        }
         self.wake.notify_all();
+    }
+
+    /// A full-size render for the page, unless one is in flight or the
+    /// page has gone.
+    pub fn begin_full(self: &Arc<Self>) -> Option<FullRender> {
+        // Under the state's lock, as `close` takes it: a render begun
+        // now is seen by a close that follows.
+        let state = self.lock();
+        let mut full = self.full.lock().unwrap_or_else(|e| e.into_inner());
+        if state.closed || full.is_some() {
+            return None;
+        }
+        let cancel = CancelToken::new();
+        *full = Some(cancel.clone());
+        Some(FullRender {
+            session: Arc::clone(self),
+            cancel,
+        })
     }
 
     /// Whether a render is in flight or waiting (for the tests).

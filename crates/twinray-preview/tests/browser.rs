@@ -2,17 +2,22 @@
 //! the DevTools protocol (a few commands over its WebSocket). It waits for
 //! the first frames, moves the interaxial slider with the mouse, checks that
 //! the image changed, and saves a screenshot that it inspects (not blank,
-//! the frame and the controls drawn).
+//! the frame and the controls drawn). Pages of other sites, and a page
+//! served under a rebound name, are refused.
 //!
-//! Without Chromium the test prints a notice and passes, except under CI
-//! (`CI=true`), where `.ci/run` installs it and a missing browser fails.
+//! A harness of its own (libtest-mimic), so that where Chromium is missing
+//! the tests show as ignored, with the reason, instead of passing. Under CI
+//! (`CI=true`), where `.ci/run` installs Chromium, they always run, and a
+//! missing browser fails them.
 
+use std::future::Future;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, ExitCode, Stdio};
 use std::time::{Duration, Instant};
 
 use base64::Engine;
 use futures_util::{SinkExt, StreamExt};
+use libtest_mimic::{Arguments, Failed, Trial};
 use serde_json::{json, Value};
 use tokio::net::TcpListener;
 use tokio_tungstenite::tungstenite::Message;
@@ -24,8 +29,9 @@ type Socket =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
 
 fn chromium() -> Option<PathBuf> {
+    // TWINRAY_CHROMIUM names the browser (and only it).
     if let Ok(p) = std::env::var("TWINRAY_CHROMIUM") {
-        return Some(PathBuf::from(p));
+        return Some(PathBuf::from(p)).filter(|p| p.exists());
     }
     ["/usr/bin/chromium", "/usr/bin/chromium-browser"]
         .iter()
@@ -46,9 +52,9 @@ impl Drop for Browser {
     }
 }
 
-/// Starts headless Chromium with a fresh profile; returns it and the
-/// DevTools WebSocket URL of the browser.
-async fn launch(binary: &Path) -> (Browser, String) {
+/// Starts headless Chromium with a fresh profile (and `extra` flags);
+/// returns it and the DevTools WebSocket URL of the browser.
+async fn launch(binary: &Path, extra: &[&str]) -> (Browser, String) {
     let profile = tempfile::tempdir().unwrap();
     let child = Command::new(binary)
         .args([
@@ -63,6 +69,7 @@ async fn launch(binary: &Path) -> (Browser, String) {
             "--remote-debugging-port=0",
             "--window-size=1400,1150",
         ])
+        .args(extra)
         .arg(format!("--user-data-dir={}", profile.path().display()))
         .arg("about:blank")
         .stdout(Stdio::null())
@@ -193,24 +200,16 @@ const FINAL_FRAME: &str = "(() => { const p = window.twinrayPreview; const h = p
      return !!h && h.generation === p.generation && h.pass + 1 === h.passes \
        && document.getElementById('frame').complete; })()";
 
-/// Chromium, or `None` with a notice outside CI (a failure under CI).
-fn chromium_or_skip() -> Option<PathBuf> {
-    let found = chromium();
-    if found.is_none() {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "chromium is not installed (CI installs it: .ci/run)"
-        );
-        eprintln!(
-            "notice: chromium not found: the browser test is skipped (apt-get install chromium)"
-        );
-    }
-    found
+/// The browser the tests drive (a test that runs without it fails: under
+/// CI, or when asked for with `--include-ignored`).
+fn chromium_or_fail() -> PathBuf {
+    chromium()
+        .expect("chromium is not installed (apt-get install chromium; CI installs it: .ci/run)")
 }
 
-/// Chromium showing `url`, and a DevTools connection to the page.
-async fn open_page(binary: &Path, url: &str) -> (Browser, DevTools) {
-    let (browser, devtools_url) = launch(binary).await;
+/// A DevTools connection to the browser at `devtools_url`, attached to a
+/// new page showing `url`.
+async fn attach(devtools_url: &str, url: &str) -> DevTools {
     let (socket, _) = tokio_tungstenite::connect_async(devtools_url)
         .await
         .unwrap();
@@ -227,14 +226,31 @@ async fn open_page(binary: &Path, url: &str) -> (Browser, DevTools) {
         )
         .await;
     dt.session = attached["sessionId"].as_str().map(String::from);
+    dt
+}
+
+/// Chromium showing `url`, and a DevTools connection to the page.
+async fn open_page(binary: &Path, url: &str) -> (Browser, DevTools) {
+    let (browser, devtools_url) = launch(binary, &[]).await;
+    let dt = attach(&devtools_url, url).await;
     (browser, dt)
 }
 
-#[tokio::test]
+/// A preview of `spec` served on a free loopback port: it and its URL.
+async fn serve(spec: JobSpec, width: u32, stop: &CancelToken) -> (Preview, String) {
+    let preview = Preview::new(spec, width).unwrap();
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("http://{}/", listener.local_addr().unwrap());
+    tokio::spawn(preview.clone().serve(listener, stop.clone()));
+    (preview, url)
+}
+
+fn example() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff")
+}
+
 async fn a_scene_that_fails_to_load_shows_its_error_on_the_page() {
-    let Some(binary) = chromium_or_skip() else {
-        return;
-    };
+    let binary = chromium_or_fail();
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("broken.nff");
     std::fs::write(
@@ -242,12 +258,9 @@ async fn a_scene_that_fails_to_load_shows_its_error_on_the_page() {
         "v\nfrom 0 0 1\nat 0 0 0\nup 0 1 0\nangle 40\nhither 0\nresolution 10 10\nq 1 2 3\n",
     )
     .unwrap();
-    let preview = Preview::new(JobSpec::new(&scene, ""), 64).unwrap();
-    let error = preview.load_error().expect("a load error");
-    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let url = format!("http://{}/", listener.local_addr().unwrap());
     let stop = CancelToken::new();
-    tokio::spawn(preview.clone().serve(listener, stop.clone()));
+    let (preview, url) = serve(JobSpec::new(&scene, ""), 64, &stop).await;
+    let error = preview.load_error().expect("a load error");
     let (_browser, mut dt) = open_page(&binary, &url).await;
     dt.wait_for(
         "!document.getElementById('error').hidden && !document.getElementById('reload').hidden",
@@ -262,27 +275,21 @@ async fn a_scene_that_fails_to_load_shows_its_error_on_the_page() {
     stop.cancel();
 }
 
-#[tokio::test]
 async fn the_page_in_chromium() {
-    let Some(binary) = chromium_or_skip() else {
-        return;
-    };
+    let binary = chromium_or_fail();
     // TWINRAY_PREVIEW_URL: drive a running `twinray preview` instead (the
     // README's screenshot, saved where TWINRAY_PREVIEW_SCREENSHOT says).
+    // That server is not the test's: nothing that writes a file (a
+    // full-size render) is asked of it.
     let given = std::env::var("TWINRAY_PREVIEW_URL").ok();
     let stop = CancelToken::new();
     let url = match &given {
         Some(url) => url.clone(),
         None => {
-            let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff");
-            let mut spec = JobSpec::new(&scene, "");
+            let mut spec = JobSpec::new(example(), "");
             spec.camera.size = Some([640, 360]);
             spec.sampling.samples = Some(1);
-            let preview = Preview::new(spec, 320).unwrap();
-            let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-            let url = format!("http://{}/", listener.local_addr().unwrap());
-            tokio::spawn(preview.clone().serve(listener, stop.clone()));
-            url
+            serve(spec, 320, &stop).await.1
         }
     };
 
@@ -415,18 +422,21 @@ async fn the_page_in_chromium() {
         .contains("--from"));
     dt.wait_for(FINAL_FRAME, "the dollied frame").await;
 
-    // Render full size: the button runs the job and offers the file.
-    dt.click("render-full").await;
-    dt.wait_for(
-        "document.querySelectorAll('#downloads a').length > 0",
-        "the full-size render's file",
-    )
-    .await;
-    let download = dt
-        .eval("(async () => { const a = document.querySelector('#downloads a'); const r = await fetch(a.href); const b = await r.arrayBuffer(); return [a.download, r.status, b.byteLength]; })()")
+    // Render full size: the button runs the job and offers the file (only
+    // on the test's own server).
+    if given.is_none() {
+        dt.click("render-full").await;
+        dt.wait_for(
+            "document.querySelectorAll('#downloads a').length > 0",
+            "the full-size render's file",
+        )
         .await;
-    assert_eq!(download[1], 200, "{download}");
-    assert!(download[2].as_u64().unwrap() > 1000, "{download}");
+        let download = dt
+            .eval("(async () => { const a = document.querySelector('#downloads a'); const r = await fetch(a.href); const b = await r.arrayBuffer(); return [a.download, r.status, b.byteLength]; })()")
+            .await;
+        assert_eq!(download[1], 200, "{download}");
+        assert!(download[2].as_u64().unwrap() > 1000, "{download}");
+    }
 
     // The command, copied.
     dt.click("copy").await;
@@ -531,8 +541,6 @@ async fn the_page_in_chromium() {
 /// and 90th percentile of change -> first frame painted, as the page times
 /// it (from sending the change to the animation frame after the image
 /// loaded).
-#[tokio::test]
-#[ignore = "a benchmark: bench/preview-browser.sh runs it"]
 async fn on_screen_latency() {
     let url = std::env::var("TWINRAY_PREVIEW_URL").expect("TWINRAY_PREVIEW_URL");
     let binary = chromium().expect("chromium");
@@ -571,4 +579,141 @@ async fn on_screen_latency() {
         changes[changes.len() * 9 / 10],
         changes.len()
     );
+}
+
+/// Pages of other sites are refused, through a real browser: another local
+/// server's page (another origin) tries the preview's WebSocket, a fetch
+/// and a plain form post; a page loaded under a name rebound to this
+/// machine (`evil.test`, mapped to 127.0.0.1 by Chromium's resolver) is
+/// refused as a whole. The preview's own page still works.
+async fn pages_of_other_sites_are_refused() {
+    let binary = chromium_or_fail();
+    let stop = CancelToken::new();
+    let mut spec = JobSpec::new(example(), "");
+    spec.camera.size = Some([320, 180]);
+    spec.sampling.samples = Some(1);
+    let (preview, url) = serve(spec.clone(), 160, &stop).await;
+    let (_, other_url) = serve(spec, 160, &stop).await;
+    let target = url.trim_end_matches('/').to_string();
+    let port = target.rsplit(':').next().unwrap().to_string();
+    let (_browser, devtools_url) =
+        launch(&binary, &["--host-resolver-rules=MAP evil.test 127.0.0.1"]).await;
+
+    // Another site's page. (It is a preview too: its own page opens a
+    // session with its own server, not with this one.)
+    let mut other = attach(&devtools_url, &other_url).await;
+    other
+        .wait_for(
+            "!!(window.twinrayPreview && window.twinrayPreview.session)",
+            "the other page's session",
+        )
+        .await;
+    let refused = preview.refused();
+    let attempt = format!(
+        r#"(async () => {{
+  const target = "{target}";
+  const socket = await new Promise((done) => {{
+    const s = new WebSocket(target.replace("http:", "ws:") + "/api/session");
+    s.onopen = () => done("open");
+    s.onerror = () => done("refused");
+  }});
+  // A fetch the page cannot read the answer of: the server must refuse it.
+  await fetch(target + "/api/reload", {{ method: "POST", mode: "no-cors" }}).catch(() => null);
+  // The plain cross-site form, posted into a frame.
+  const sink = document.createElement("iframe");
+  sink.name = "sink";
+  document.body.appendChild(sink);
+  const form = document.createElement("form");
+  form.method = "POST"; form.action = target + "/api/reload"; form.target = "sink";
+  document.body.appendChild(form);
+  form.submit();
+  return socket;
+}})()"#
+    );
+    assert_eq!(other.eval(&attempt).await, json!("refused"));
+    let start = Instant::now();
+    while preview.refused() < refused + 3 {
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "refused {} of the 3 requests",
+            preview.refused() - refused
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    assert_eq!(
+        preview.sessions(),
+        0,
+        "another site's page opened a session"
+    );
+
+    // DNS rebinding: the preview's port under another name.
+    let mut rebound = attach(&devtools_url, &format!("http://evil.test:{port}/")).await;
+    rebound
+        .wait_for(
+            "document.readyState === 'complete' && document.body && document.body.innerText.length > 0",
+            "the rebound page",
+        )
+        .await;
+    let text = rebound.eval("document.body.innerText").await;
+    assert!(
+        text.as_str().unwrap().contains("refused: Host evil.test"),
+        "{text}"
+    );
+    let status = rebound
+        .eval("fetch('/api/state').then((r) => r.status)")
+        .await;
+    assert_eq!(status, 403);
+    assert_eq!(preview.sessions(), 0);
+
+    // The preview's own page works: a session and its first frames.
+    let mut own = attach(&devtools_url, &url).await;
+    own.wait_for(FINAL_FRAME, "the own page's full-size frame")
+        .await;
+    assert_eq!(preview.sessions(), 1);
+    assert_eq!(
+        own.eval("window.twinrayPreview.errors.length").await,
+        json!(0)
+    );
+    stop.cancel();
+}
+
+/// Runs an async test on a runtime of its own.
+fn run(test: impl Future<Output = ()>) -> Result<(), Failed> {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| Failed::from(e.to_string()))?
+        .block_on(test);
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args = Arguments::from_args();
+    // Ignored where Chromium is missing, except under CI, which installs it.
+    let missing = chromium().is_none() && std::env::var("CI").as_deref() != Ok("true");
+    let needs_chromium = |trial: Trial| {
+        if missing {
+            trial
+                .with_ignored_flag(true)
+                .with_kind("needs chromium: apt-get install chromium")
+        } else {
+            trial
+        }
+    };
+    let tests = vec![
+        needs_chromium(Trial::test("the_page_in_chromium", || {
+            run(the_page_in_chromium())
+        })),
+        needs_chromium(Trial::test(
+            "a_scene_that_fails_to_load_shows_its_error_on_the_page",
+            || run(a_scene_that_fails_to_load_shows_its_error_on_the_page()),
+        )),
+        needs_chromium(Trial::test("pages_of_other_sites_are_refused", || {
+            run(pages_of_other_sites_are_refused())
+        })),
+        Trial::test("on_screen_latency", || run(on_screen_latency()))
+            .with_ignored_flag(true)
+            .with_kind("benchmark: bench/preview-browser.sh runs it"),
+    ];
+    libtest_mimic::run(&args, tests).exit_code()
 }

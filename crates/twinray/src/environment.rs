@@ -25,6 +25,11 @@ use crate::math::{Color, Vec3};
 /// Largest image accepted (a 16k × 8k panorama).
 const MAX_TEXELS: u64 = 16_384 * 8_192;
 
+/// Brightest texel kept: above any captured sky (a sun disk is about 1e9
+/// times a white surface's radiance at most), far enough below the largest
+/// float that the irradiance's sums and a pixel's samples stay finite.
+const MAX_TEXEL: f32 = 1e9;
+
 /// An equirectangular image of linear radiance, with what shading needs of
 /// it precomputed.
 #[derive(Clone, PartialEq)]
@@ -64,11 +69,11 @@ impl Environment {
         if !matches!(ext.as_deref(), Some("hdr" | "exr")) {
             return Err(bad("an equirectangular .hdr or .exr image is needed".into()));
         }
-        let reader = image::ImageReader::open(path)
-            .map_err(|source| Error::Io {
-                path: path.to_path_buf(),
-                source,
-            })?
+        // A regular file, read with a bound: `--env /dev/zero` was read
+        // until the memory ran out.
+        let bytes =
+            crate::loaders::files::read_user_file(path, crate::loaders::files::MAX_FILE_BYTES)?;
+        let reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
             .with_guessed_format()
             .map_err(|source| Error::Io {
                 path: path.to_path_buf(),
@@ -92,8 +97,15 @@ impl Environment {
             .pixels()
             .map(|p| {
                 // Negative or non-finite values (a broken file) would give
-                // negative or infinite light.
-                Color::from(p.0.map(|c| if c.is_finite() { c.max(0.0) } else { 0.0 }))
+                // negative or infinite light, and values near the largest
+                // float an infinite irradiance (a sum of them).
+                Color::from(p.0.map(|c| {
+                    if c.is_finite() {
+                        c.clamp(0.0, MAX_TEXEL)
+                    } else {
+                        0.0
+                    }
+                }))
             })
             .collect();
         Ok(Environment::from_texels(w, h, texels, z_up))

@@ -14,6 +14,7 @@ pub mod job;
 pub mod lights;
 pub mod loaders;
 pub mod math;
+pub mod memory;
 mod named;
 pub mod output;
 pub mod render;

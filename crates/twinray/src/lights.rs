@@ -7,6 +7,7 @@
 //! spot lights fall off with the inverse square of the distance, as the glTF
 //! specification says, windowed by their `range`.
 
+use crate::environment::Environment;
 use crate::math::{Color, Vec3};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -153,6 +154,39 @@ pub fn three_point_rig(from: Vec3, at: Vec3, up: Vec3) -> Vec<Light> {
         .collect()
 }
 
+/// Radiance of the studio around a model file without lights, linear: above
+/// (the zenith), at the horizon and below (the nadir).
+pub const STUDIO_ZENITH: f32 = 0.5;
+pub const STUDIO_HORIZON: f32 = 0.3;
+pub const STUDIO_NADIR: f32 = 0.12;
+
+/// The surroundings twinray adds to a model file without lights, beside
+/// [`three_point_rig`]: a soft grey studio, brighter above than below, as an
+/// environment. Surfaces take it as ambient light, so that a dark material's
+/// shape still reads where the rig leaves it in shadow; eye rays that miss
+/// see it as the background, a mid grey that a black object stands out
+/// against (and a white one too), and mirrors reflect it. Grey, so that it
+/// tints nothing; `z_up` turns it for a z-up model.
+pub fn studio_environment(z_up: bool) -> Environment {
+    // Only the vertical gradient matters: a narrow image holds it exactly
+    // enough for the nine spherical harmonics and for the background.
+    let (width, height) = (8u32, 64u32);
+    let texels = (0..height)
+        .flat_map(|row| {
+            let elevation = std::f32::consts::FRAC_PI_2
+                - std::f32::consts::PI * (row as f32 + 0.5) / height as f32;
+            let s = elevation.sin();
+            let radiance = if s >= 0.0 {
+                STUDIO_HORIZON + (STUDIO_ZENITH - STUDIO_HORIZON) * s
+            } else {
+                STUDIO_HORIZON + (STUDIO_NADIR - STUDIO_HORIZON) * -s
+            };
+            std::iter::repeat_n(Color::splat(radiance), width as usize)
+        })
+        .collect();
+    Environment::from_texels(width, height, texels, z_up)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -215,5 +249,24 @@ mod tests {
         let (dir, dist, _) = l.toward(Vec3::new(3.0, 4.0, 5.0)).unwrap();
         assert_eq!(dir, Vec3::Z);
         assert!(dist > 1e30);
+    }
+
+    #[test]
+    fn the_studio_is_grey_brighter_above_and_turns_with_the_up_axis() {
+        for (z_up, up) in [(false, Vec3::Y), (true, Vec3::Z)] {
+            let env = studio_environment(z_up);
+            let (above, below) = (env.radiance(up), env.radiance(-up));
+            let side = env.radiance(up.any_orthonormal_vector());
+            assert!(
+                above.x > side.x && side.x > below.x,
+                "{above} {side} {below}"
+            );
+            assert!((above.x - STUDIO_ZENITH).abs() < 0.02, "{above}");
+            assert!((side.x - STUDIO_HORIZON).abs() < 0.03, "{side}");
+            assert!(above.x == above.y && above.y == above.z, "grey: {above}");
+            // Light from above reaches a surface facing up more than one
+            // facing down: shapes keep their top and bottom.
+            assert!(env.diffuse(up).x > env.diffuse(-up).x);
+        }
     }
 }

@@ -58,11 +58,13 @@ pub struct Material {
 
 impl Material {
     /// The material with every value in the range the shading model is defined
-    /// for, and what was changed (for a warning): `kd`, `ks`, `t` and the
-    /// colour components in 0..=1, `shine` >= 0, `ior` > 0 (else 1). (A colour
-    /// of 3.4e38, found by the fuzzer, gave infinite pixels.) Out of range,
-    /// they gave infinite pixels (a negative Phong exponent) or light from
-    /// nowhere (`kd` -1: ambient 2).
+    /// for, and what was changed (for a warning): `kd`, `ks`, `t`, `mirror`,
+    /// `alpha` and the colour and highlight colour components in 0..=1,
+    /// `shine` >= 0, the emission's components in 0..=[`MAX_RADIANCE`],
+    /// `ior` > 0 (else 1); NaN becomes the lower bound. (A colour of 3.4e38,
+    /// found by the fuzzer, gave infinite pixels, as did an MTL `Ke` or a
+    /// glTF emission of 1e38.) Out of range, they gave infinite pixels (a
+    /// negative Phong exponent) or light from nowhere (`kd` -1: ambient 2).
     pub fn clamped(mut self) -> (Material, Vec<String>) {
         let mut changed = Vec::new();
         for (name, value, lo, hi) in [
@@ -73,14 +75,27 @@ impl Material {
             ("red", &mut self.color.x, 0.0, 1.0),
             ("green", &mut self.color.y, 0.0, 1.0),
             ("blue", &mut self.color.z, 0.0, 1.0),
+            ("mirror", &mut self.mirror, 0.0, 1.0),
+            ("alpha", &mut self.alpha, 0.0, 1.0),
+            ("highlight red", &mut self.specular_color.x, 0.0, 1.0),
+            ("highlight green", &mut self.specular_color.y, 0.0, 1.0),
+            ("highlight blue", &mut self.specular_color.z, 0.0, 1.0),
+            ("emission red", &mut self.emission.x, 0.0, MAX_RADIANCE),
+            ("emission green", &mut self.emission.y, 0.0, MAX_RADIANCE),
+            ("emission blue", &mut self.emission.z, 0.0, MAX_RADIANCE),
+            ("occlusion strength", &mut self.occlusion_strength, 0.0, 1.0),
         ] {
-            let fixed = value.clamp(lo, hi);
-            if fixed != *value {
+            let fixed = if value.is_nan() {
+                lo
+            } else {
+                value.clamp(lo, hi)
+            };
+            if fixed != *value || value.is_nan() {
                 changed.push(format!("{name} {value} clamped to {fixed}"));
                 *value = fixed;
             }
         }
-        if self.ior <= 0.0 {
+        if !(self.ior > 0.0 && self.ior.is_finite()) {
             // Only a transmitting material refracts: an opaque one's index
             // means nothing (the SPD write 0 there), so no warning.
             if self.t > 0.0 {
@@ -155,8 +170,9 @@ impl Default for Viewpoint {
             angle_deg: 45.0,
             angle_span: AngleSpan::EdgePixelCentres,
             hither: 0.0,
-            width: 512,
-            height: 512,
+            // Every model format's size without a camera that gives one.
+            width: 640,
+            height: 480,
         }
     }
 }
@@ -217,6 +233,10 @@ pub struct Scene {
     /// `corner_colors` is. Without them a normal map's frame comes from the
     /// triangle's uv.
     pub corner_tangents: Vec<[[f32; 4]; 3]>,
+    /// The files the load read (canonical paths): the scene file, and the
+    /// buffers, images and material libraries it names. No output may
+    /// replace one of them.
+    pub inputs: Vec<std::path::PathBuf>,
 }
 
 /// What the tracer needs of a hit: the unit shading normal (not yet turned
@@ -287,6 +307,24 @@ impl Scene {
             self.materials.push(Material::default());
         }
         (self.materials.len() - 1) as u32
+    }
+
+    /// Bytes held by the shapes, their materials and groups, corner
+    /// attributes, materials and textures.
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.shapes.len() * size_of::<Shape>()
+            + self.shape_material.len() * 4
+            + self.shape_group.len() * 4
+            + self.corners.len() * size_of::<Corners>()
+            + self.corner_colors.len() * size_of::<[Color; 3]>()
+            + self.corner_tangents.len() * size_of::<[[f32; 4]; 3]>()
+            + self.materials.len() * size_of::<Material>()
+            + self
+                .textures
+                .iter()
+                .map(Texture::memory_bytes)
+                .sum::<usize>()
     }
 
     /// A new group id for the shapes that follow.
@@ -683,6 +721,10 @@ impl Scene {
 /// distances in single precision, which overflows past about 1.8e19 (a sphere
 /// of radius 2e19 vanished).
 pub const MAX_COORDINATE: f32 = 1e18;
+
+/// Largest light a file may give: a light's colour, a material's emission
+/// (what their products and sums stay far from overflowing `f32` with).
+pub const MAX_RADIANCE: f32 = 1e6;
 
 fn within_range(points: &[Vec3]) -> bool {
     points

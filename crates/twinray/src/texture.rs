@@ -5,8 +5,6 @@
 //! modeller are too), so their texels are decoded to linear light when loaded:
 //! the tracer multiplies and adds linear values only.
 
-use std::path::Path;
-
 use crate::math::Color;
 
 /// What happens to texture coordinates outside [0, 1].
@@ -52,45 +50,78 @@ impl Texture {
     /// Decodes a PNG or JPEG colour image held in memory (sRGB-encoded).
     /// `what` names it in errors.
     pub fn decode(bytes: &[u8], what: &str) -> Result<Texture, String> {
-        let (w, h, rgb) = decode_rgb8(bytes, what)?;
-        Ok(Texture::from_srgb8(w, h, &rgb))
+        Texture::decode_as(bytes, what, Texels::Colour)
     }
 
-    /// Decodes a PNG or JPEG image of non-colour data (occlusion): texels
-    /// are `byte / 255`, not sRGB-decoded.
-    pub fn decode_data(bytes: &[u8], what: &str) -> Result<Texture, String> {
-        let (width, height, rgb) = decode_rgb8(bytes, what)?;
-        let v = |b: u8| f32::from(b) / 255.0;
-        Ok(Texture {
-            width,
-            height,
-            texels: rgb
-                .iter()
-                .map(|p| Color::new(v(p[0]), v(p[1]), v(p[2])))
-                .collect(),
-            wrap_s: Wrap::Repeat,
-            wrap_t: Wrap::Repeat,
-        })
+    /// The width and height a PNG or JPEG image says it has, read from its
+    /// header (nothing decoded); refused when larger than [`MAX_TEXELS`].
+    pub fn dimensions(bytes: &[u8], what: &str) -> Result<(u32, u32), String> {
+        let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| format!("{what}: {e}"))?;
+        let (w, h) = reader
+            .into_dimensions()
+            .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?;
+        if w == 0 || h == 0 || u64::from(w) * u64::from(h) > MAX_TEXELS {
+            return Err(format!(
+                "{what}: image of {w}x{h} pixels refused (at most {MAX_TEXELS} pixels)"
+            ));
+        }
+        Ok((w, h))
     }
 
-    /// Reads and decodes an image file.
-    pub fn load(path: &Path) -> Result<Texture, String> {
-        Texture::load_as(path, Texels::Colour)
+    /// Bytes a decoded texture of `width` x `height` keeps.
+    pub fn kept_bytes(width: u32, height: u32) -> u64 {
+        u64::from(width) * u64::from(height) * std::mem::size_of::<Color>() as u64
     }
 
-    /// Reads and decodes an image file into texels of the kind asked for.
-    pub fn load_as(path: &Path, kind: Texels) -> Result<Texture, String> {
-        let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        Texture::decode_as(&bytes, &path.display().to_string(), kind)
+    /// Bytes its decoding holds beside the texture for a moment: the image
+    /// as its file stores it (at most four 16-bit channels), and as 8-bit
+    /// RGB(A).
+    pub fn decoding_bytes(width: u32, height: u32) -> u64 {
+        u64::from(width) * u64::from(height) * (8 + 4)
     }
 
-    /// Decodes a PNG or JPEG image held in memory into texels of `kind`.
+    /// Decodes a PNG or JPEG image held in memory into texels of `kind`;
+    /// one larger than [`MAX_TEXELS`] is refused before it is decoded.
     pub fn decode_as(bytes: &[u8], what: &str, kind: Texels) -> Result<Texture, String> {
+        let (width, height) = Texture::dimensions(bytes, what)?;
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| format!("{what}: {e}"))?;
+        // The decoder's own allocations bounded too (it would abort on a
+        // failed one): the image at its widest, 16-bit RGBA.
+        let mut limits = image::Limits::default();
+        limits.max_alloc = Some(u64::from(width) * u64::from(height) * 8 + (1 << 20));
+        reader.limits(limits);
+        let img = reader
+            .decode()
+            .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?;
+        let texels = |n: usize| -> Result<Vec<Color>, String> {
+            let mut v = Vec::new();
+            v.try_reserve_exact(n)
+                .map_err(|_| format!("{what}: no memory for {width}x{height} texels"))?;
+            Ok(v)
+        };
+        let n = width as usize * height as usize;
+        let mut out = texels(n)?;
         match kind {
-            Texels::Colour => Texture::decode(bytes, what),
-            Texels::Data => Texture::decode_data(bytes, what),
+            Texels::Colour | Texels::Data => {
+                let rgb = img.into_rgb8();
+                if kind == Texels::Colour {
+                    let lut: Vec<f32> =
+                        (0..256).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
+                    out.extend(rgb.pixels().map(|p| {
+                        Color::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize])
+                    }));
+                } else {
+                    let v = |b: u8| f32::from(b) / 255.0;
+                    out.extend(rgb.pixels().map(|p| Color::new(v(p[0]), v(p[1]), v(p[2]))));
+                }
+            }
             Texels::Alpha | Texels::Coverage => {
-                let (rgba, has_alpha) = decode_rgba8(bytes, what)?;
+                let has_alpha = img.color().has_alpha();
+                let rgba = img.into_rgba8();
                 let value = |p: &image::Rgba<u8>| {
                     let byte = match (has_alpha, kind) {
                         (true, _) => p.0[3],
@@ -99,15 +130,16 @@ impl Texture {
                     };
                     f32::from(byte) / 255.0
                 };
-                Ok(Texture {
-                    width: rgba.width(),
-                    height: rgba.height(),
-                    texels: rgba.pixels().map(|p| Color::splat(value(p))).collect(),
-                    wrap_s: Wrap::Repeat,
-                    wrap_t: Wrap::Repeat,
-                })
+                out.extend(rgba.pixels().map(|p| Color::splat(value(p))));
             }
         }
+        Ok(Texture {
+            width,
+            height,
+            texels: out,
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+        })
     }
 
     /// Bilinear sample at (`u`, `v`), `v` = 0 on the top row; texel centres at
@@ -153,42 +185,6 @@ pub enum Texels {
     /// The alpha channel if the image has one, else its red channel (OBJ
     /// `map_d`, a scalar texture often saved as a grey image); in every channel.
     Coverage,
-}
-
-/// A PNG or JPEG image as 8-bit RGBA, and whether it has an alpha channel.
-fn decode_rgba8(bytes: &[u8], what: &str) -> Result<(image::RgbaImage, bool), String> {
-    check_size(bytes, what)?;
-    let img = image::load_from_memory(bytes)
-        .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?;
-    let has_alpha = img.color().has_alpha();
-    Ok((img.into_rgba8(), has_alpha))
-}
-
-/// Refuses an image too large to decode, before decoding it.
-fn check_size(bytes: &[u8], what: &str) -> Result<(), String> {
-    let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| format!("{what}: {e}"))?;
-    let (w, h) = reader
-        .into_dimensions()
-        .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?;
-    if w == 0 || h == 0 || w as u64 * h as u64 > MAX_TEXELS {
-        return Err(format!(
-            "{what}: image of {w}x{h} pixels refused (at most {MAX_TEXELS} pixels)"
-        ));
-    }
-    Ok(())
-}
-
-/// A PNG or JPEG image's size and 8-bit RGB pixels; too large an image is
-/// refused before it is decoded.
-fn decode_rgb8(bytes: &[u8], what: &str) -> Result<(u32, u32, Vec<[u8; 3]>), String> {
-    check_size(bytes, what)?;
-    let img = image::load_from_memory(bytes)
-        .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?
-        .into_rgb8();
-    let rgb: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
-    Ok((img.width(), img.height(), rgb))
 }
 
 /// Texel index of integer coordinate `i` on an axis of `n` texels.

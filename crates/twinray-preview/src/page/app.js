@@ -35,6 +35,7 @@ let convergenceRange = [0.1, 100];
 let viewImages = [];       // the newest frame's images (wiggle, single eye)
 let wiggleTimer = null;
 let urls = [];
+let maxPages = 0;         // pages the server takes at once
 
 function showError(text) {
   el.error.hidden = !text;
@@ -271,7 +272,15 @@ function connect() {
     if (typeof e.data === "string") return onText(JSON.parse(e.data));
     onFrame(e.data);
   };
-  ws.onclose = () => { setStatus("disconnected (reload the page)"); preview.session = null; };
+  ws.onclose = () => {
+    if (preview.session === null) {
+      // Refused before its hello: the only refusal a page of the server's
+      // own can meet is the cap on pages open.
+      showError(`the server did not take this page: at most ${maxPages} pages may be open at once (close one, then reload this one)`);
+    }
+    setStatus("disconnected (reload the page)");
+    preview.session = null;
+  };
 }
 
 function onText(m) {
@@ -532,6 +541,7 @@ async function start() {
   const r = await fetch("/api/state");
   const state = await r.json();
   el.scene.textContent = state.scene;
+  maxPages = state.max_pages;
   settings = state.settings;
   writeControls();
   if (state.error) {

@@ -192,7 +192,7 @@ impl Animation {
                 FrameOutput::Video(spec.output.path.clone())
             }
             None => {
-                let (pattern, added) = FramePattern::new(&spec.output.path);
+                let (pattern, added) = FramePattern::new(&spec.output.path)?;
                 if added {
                     messages.push(Message {
                         level: Level::Note,
@@ -219,6 +219,7 @@ impl Animation {
             clip: a.clip.clone(),
             ..AnimationSpec::default()
         };
+        still.read_files.extend(a.path.iter().cloned());
         let first = frame_still(&still, &output, frames.first, FrameCamera::default(), None);
         let mut animation = Animation {
             spec: still,
@@ -410,6 +411,7 @@ impl Animation {
         }
         let mut video: Option<VideoWriter> = None;
         let mut written = Vec::new();
+        let mut beyond = BeyondTheRig::default();
         let count = self.frames.count();
         for (index, frame) in self.frames.iter().enumerate() {
             if cancel.is_cancelled() {
@@ -425,6 +427,13 @@ impl Animation {
                 &self.base,
             )?;
             let plan = job.plan(loaded)?;
+            if let (FrameOutput::Video(path), None) = (&self.output, &video) {
+                // The video is no frame's file: checked here, before the
+                // first frame is rendered, against what the job reads.
+                let inputs = crate::job::job_inputs(job.spec(), &loaded.scene);
+                let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+                crate::output::check_distinct(&[job.video_path(path, &plan)], &inputs)?;
+            }
             if self.skip_existing && plan.files.iter().all(|f| f.exists()) {
                 on_frame(FrameReport {
                     frame,
@@ -450,6 +459,9 @@ impl Animation {
                 FrameOutput::Video(_) => job.render(&plan, &frame_progress, cancel)?,
             };
             let mut frame_messages = plan.messages.clone();
+            if shot.is_some() {
+                beyond.take(frame, &plan, &mut frame_messages);
+            }
             if let Some(c) = plan.world.instances {
                 frame_messages.push(Message {
                     level: Level::Info,
@@ -499,7 +511,62 @@ impl Animation {
         if let Some(v) = video {
             written.push(v.finish()?);
         }
+        messages.extend(beyond.note(count));
         Ok((written, messages))
+    }
+}
+
+/// The frames where the shot's one rig, fitted to the depths of a few of
+/// them, exceeds the depth budget or makes far points diverge. The rig is
+/// the automatic one, so each frame's warning would blame a choice the user
+/// did not make: they become one note for the shot.
+#[derive(Default)]
+struct BeyondTheRig {
+    frames: Vec<u32>,
+    /// The widest disparities between adjacent views, in per cent of the width.
+    near: f64,
+    far: f64,
+}
+
+impl BeyondTheRig {
+    /// Takes the rig's own warnings out of a frame's `messages`.
+    fn take(&mut self, frame: u32, plan: &crate::job::Plan, messages: &mut Vec<Message>) {
+        let Some(settled) = &plan.settled else {
+            return;
+        };
+        let report = &settled.report;
+        let own: Vec<String> = report
+            .budget_warning()
+            .into_iter()
+            .chain(report.divergence_warning())
+            .collect();
+        if own.is_empty() {
+            return;
+        }
+        messages.retain(|m| {
+            m.level != Level::Warning || !own.iter().any(|w| m.text.starts_with(w.as_str()))
+        });
+        self.frames.push(frame);
+        if let Some(p) = report.adjacent_percent {
+            self.near = self.near.min(p.near);
+            self.far = self.far.max(p.far);
+        }
+    }
+
+    fn note(&self, count: u32) -> Option<Message> {
+        let first = self.frames.first()?;
+        Some(Message {
+            level: Level::Note,
+            text: format!(
+                "the shot's one rig, fitted to a few of its frames, goes beyond the depth budget \
+                 (or makes far points diverge) on {} of {count} frames from frame {first} on, \
+                 with disparities of {:+.2}% to {:+.2}% of the width; --rig per-frame fits each \
+                 frame on its own",
+                self.frames.len(),
+                self.near,
+                self.far
+            ),
+        })
     }
 }
 
@@ -544,5 +611,6 @@ fn is_animated(scene: &std::path::Path) -> bool {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
     matches!(ext.as_deref(), Some("gltf" | "glb"))
-        && std::fs::read(scene).is_ok_and(|b| crate::loaders::gltf::animation::has_animations(&b))
+        && crate::loaders::files::read_user_file(scene, crate::loaders::files::MAX_FILE_BYTES)
+            .is_ok_and(|b| crate::loaders::gltf::animation::has_animations(&b))
 }

@@ -95,10 +95,7 @@ pub struct CameraPath {
 impl CameraPath {
     /// Reads a path file (see the module documentation); errors name the file and line.
     pub fn read(path: &Path) -> Result<CameraPath> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::loaders::files::read_user_text(path, "--path")?;
         CameraPath::parse(&text, path)
     }
 

@@ -218,7 +218,7 @@ pub fn primitive_box(b: &Aabb) -> Aabb {
 /// `Aabb::grow`'s numbers, NaN and signed zeros included: glam's
 /// `min`/`max` are `if a < b { a } else { b }`, which is what
 /// `minps`/`maxps` compute with the operands in the same order. So the
-/// tree is the one the scalar `Aabb` arithmetic built (`tests/bvh_build.rs`).
+/// tree is the one the scalar `Aabb` arithmetic built (`tests/all/bvh_build.rs`).
 #[derive(Clone, Copy)]
 struct Box4 {
     lo: f32x4,

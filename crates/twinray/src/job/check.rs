@@ -92,6 +92,11 @@ pub(super) fn invalid(message: impl Into<String>) -> Error {
 impl Checked {
     fn of(spec: &JobSpec) -> Result<Checked> {
         let (rig, out) = (&spec.rig, &spec.output);
+        if let Some([w, h]) = spec.camera.size.filter(|[w, h]| *w == 0 || *h == 0) {
+            return Err(invalid(format!(
+                "--size {w}x{h}: width and height must be at least 1"
+            )));
+        }
         let quilt_layout = out.layout == LayoutSpec::Quilt;
         let several_views =
             rig.stereo || rig.views.is_some_and(|n| n > 1) || (quilt_layout && rig.views.is_none());

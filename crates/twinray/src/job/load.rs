@@ -43,6 +43,8 @@ impl Job {
             max_triangles: limits.max_triangles,
             animation_time: time,
             animation: self.spec.animation.clip.clone(),
+            allow_dirs: limits.allow_dirs.clone(),
+            memory_limit: None,
         }
     }
 
@@ -69,7 +71,8 @@ impl Job {
             self.up_axis(viewpoint, up)
         };
         let given_lights = &self.spec.studio.lights;
-        if scene.format != SceneFormat::Nff && scene.lights.is_empty() && given_lights.is_empty() {
+        let unlit = scene.format != SceneFormat::Nff && scene.lights.is_empty();
+        if unlit && given_lights.is_empty() {
             scene.lights =
                 crate::lights::three_point_rig(viewpoint.from, viewpoint.at, viewpoint.up);
             supplied.push("no lights: added a key, a fill and a rim light around the camera");
@@ -80,14 +83,17 @@ impl Job {
             let model = scene.bounds();
             studio::add_ground(&mut scene, model, up);
         }
-        if !supplied.is_empty() {
-            messages.push(Message::info(format!("{path}: {}", supplied.join("; "))));
-        }
         if let Some(rgb) = self.spec.studio.background {
             scene.background = Vec3::from(rgb);
         }
         if let Some(path) = &self.spec.studio.env {
             scene.environment = Some(self.environment(path, up)?);
+        } else if unlit && given_lights.is_empty() && self.spec.studio.background.is_none() {
+            scene.environment = Some(studio::surroundings(up));
+            supplied.push(studio::SURROUNDINGS);
+        }
+        if !supplied.is_empty() {
+            messages.push(Message::info(format!("{path}: {}", supplied.join("; "))));
         }
         Ok(Loaded {
             scene: Arc::new(scene),

@@ -42,7 +42,7 @@ mod studio;
 pub mod tiles;
 
 pub use check::sampling;
-pub use outputs::numbered;
+pub use outputs::{job_inputs, numbered};
 pub use preflight::{
     available_memory, check_memory, check_threads, estimate_render_memory, human_bytes,
     lights_warning, ViewsKeptAs, MANY_LIGHTS, MAX_THREADS,

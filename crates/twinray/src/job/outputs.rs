@@ -4,7 +4,7 @@
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
-use super::spec::{AnaglyphSpec, InterlaceSpec, LayoutSpec, OutputSpec, TonemapSpec};
+use super::spec::{AnaglyphSpec, InterlaceSpec, JobSpec, LayoutSpec, OutputSpec, TonemapSpec};
 use super::Message;
 use crate::output::{
     self, AnaglyphMethod, DepthChannels, DisplayTransform, InterlaceMode, Layout, QuiltSpec,
@@ -13,7 +13,21 @@ use crate::output::{
 use crate::render::ViewStorage;
 use crate::rig::Camera;
 use crate::rig::Rig;
-use crate::{Error, Image, Result, Rgb8Image, World};
+use crate::{Error, Image, Result, Rgb8Image, Scene, World};
+
+/// Every file a job reads, which no output may replace: the scene file
+/// and the files its load read (buffers, textures, material libraries),
+/// the environment image, the camera path, and the files read to make the
+/// spec (a job file).
+pub fn job_inputs(spec: &JobSpec, scene: &Scene) -> Vec<PathBuf> {
+    std::iter::once(&spec.scene)
+        .chain(&scene.inputs)
+        .chain(&spec.studio.env)
+        .chain(&spec.animation.path)
+        .chain(&spec.read_files)
+        .cloned()
+        .collect()
+}
 
 /// Checks that `out`'s name suits the layout (an MPO's `.mpo`, a multi-view
 /// EXR's `.exr`, an image format otherwise).
@@ -188,8 +202,8 @@ impl Targets<'_> {
 
     /// The files this render will write, checked before rendering: formats,
     /// size limits, directories, targets that may be replaced, and no output
-    /// that is an input or another output.
-    pub fn plan(&self, (width, height): (u32, u32), scene: &Path) -> Result<Vec<PathBuf>> {
+    /// that is one of `inputs` ([`job_inputs`]) or another output.
+    pub fn plan(&self, (width, height): (u32, u32), inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
         let out = &self.output.path;
         let (w, h) = (u64::from(width), u64::from(height));
         let mut files = if self.views == 1 {
@@ -224,7 +238,8 @@ impl Targets<'_> {
             output::check_file_target(stats)?;
             files.push(stats.clone());
         }
-        output::check_distinct(&files, &[scene])?;
+        let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+        output::check_distinct(&files, &inputs)?;
         Ok(files)
     }
 

@@ -9,7 +9,9 @@ use std::time::Instant;
 
 use super::outputs::{self, Targets};
 use super::panorama;
-use super::preflight::{available_memory, check_memory, estimate_render_memory, ViewsKeptAs};
+use super::preflight::{
+    available_memory, build_memory, check_memory, estimate_render_memory, ViewsKeptAs,
+};
 use super::report::plan_messages;
 use super::spec::CutSpec;
 use super::stages::Message;
@@ -69,14 +71,25 @@ impl Job {
             Some(t) => tiles::tile_rows(height, t)?,
             None => 0..height,
         };
-        let memory = self.check_memory(width, height, self.kept_for_writing())?;
+        // The hierarchy built for this plan (the whole one at the first
+        // plan of a scene, again with a cut) counts: its copy of the scene
+        // and its nodes.
+        let may_cut = !matches!(self.options.method, ViewMethod::Independent)
+            && (self.cut.is_some() || matches!(self.options.method, ViewMethod::Fast { .. }));
+        let building = if loaded.built_world().is_none() || may_cut {
+            build_memory(&loaded.scene)
+        } else {
+            0
+        };
+        let memory = self.check_memory(width, height, self.kept_for_writing(), building)?;
         let mut build_seconds = 0.0;
         let whole = self.world_for(loaded, None, &mut build_seconds);
         let rig = self.rig(&whole, &camera, at_distance)?;
         let written = (width, rows.len() as u32);
+        let inputs = outputs::job_inputs(&self.spec, &loaded.scene);
         let files = self
             .targets(&rig.rig, rig.interaxial)
-            .plan(written, &self.spec.scene)?;
+            .plan(written, &inputs)?;
         let cut = self.cut(&camera, &rig.rig, &whole)?;
         let world = match cut {
             None => whole,
@@ -104,7 +117,11 @@ impl Job {
             && r.interaxial.is_none()
             && r.view_cone.is_none()
             && r.depth_budget.is_none();
-        plan.messages = plan_messages(&plan, rig_by_default);
+        let interaxial_given = r
+            .interaxial
+            .as_deref()
+            .is_some_and(|i| !i.eq_ignore_ascii_case("auto"));
+        plan.messages = plan_messages(&plan, rig_by_default, interaxial_given);
         if let Some(p) = &plan.panorama {
             plan.messages
                 .extend(p.report_lines().into_iter().map(Message::info));
@@ -221,8 +238,15 @@ impl Job {
     }
 
     /// The memory a render needs with its views kept as `kept` (bytes);
-    /// refused where the machine has less.
-    pub(super) fn check_memory(&self, width: u32, height: u32, kept: ViewsKeptAs) -> Result<u64> {
+    /// refused where the machine has less. `building`: the bytes of a
+    /// hierarchy still to build.
+    pub(super) fn check_memory(
+        &self,
+        width: u32,
+        height: u32,
+        kept: ViewsKeptAs,
+        building: u64,
+    ) -> Result<u64> {
         let quilt_tiles = self.quilt.map_or(0, |q| q.layout.tiles());
         let needed = estimate_render_memory(width, height, self.views, self.options.sampling, kept)
             .saturating_add(outputs::extra_memory(
@@ -232,11 +256,20 @@ impl Job {
                 quilt_tiles,
                 outputs::quilt_pixel_bytes(&self.spec.output.path),
                 self.spec.output.depth,
-            ));
+            ))
+            .saturating_add(building);
+        let build = if building > 0 {
+            "building the scene's hierarchy and "
+        } else {
+            ""
+        };
         check_memory(
             needed,
             available_memory(),
-            &format!("rendering {} view(s) of {width}x{height}", self.views),
+            &format!(
+                "{build}rendering {} view(s) of {width}x{height}",
+                self.views
+            ),
         )?;
         Ok(needed)
     }

@@ -8,6 +8,7 @@
 //! output paths and format limits in [`output::check_image_target`](crate::output::check_image_target) and [`output::check_stereo_targets`](crate::output::check_stereo_targets).
 //! docs/reliability.md lists them all.
 
+pub use crate::memory::{available_memory, human_bytes};
 use crate::render::Sampling;
 use crate::{Error, Result};
 
@@ -144,36 +145,16 @@ fn bytes_estimate(w: u64, h: u64, views: u64, sampling: Sampling) -> u64 {
     rendering.max(writing)
 }
 
-/// Memory this process may still use, in bytes, as far as the system tells:
-/// the least of the memory available (`MemAvailable`), what is left of a cgroup
-/// limit and what is left of an address-space limit (`ulimit -v`). `None`
-/// where none is known (then nothing is refused).
-pub fn available_memory() -> Option<u64> {
-    let read = |path: &str| std::fs::read_to_string(path).ok();
-    let kib_field = |text: &str, key: &str| -> Option<u64> {
-        let line = text.lines().find(|l| l.starts_with(key))?;
-        let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-        Some(kib.saturating_mul(1024))
-    };
-    let mut limits = Vec::new();
-    if let Some(meminfo) = read("/proc/meminfo") {
-        limits.extend(kib_field(&meminfo, "MemAvailable:"));
-    }
-    let cgroup_max = read("/sys/fs/cgroup/memory.max").and_then(|s| s.trim().parse::<u64>().ok());
-    let cgroup_now =
-        read("/sys/fs/cgroup/memory.current").and_then(|s| s.trim().parse::<u64>().ok());
-    if let (Some(max), Some(now)) = (cgroup_max, cgroup_now) {
-        limits.push(max.saturating_sub(now));
-    }
-    let address_limit = read("/proc/self/limits").and_then(|text| {
-        let line = text.lines().find(|l| l.starts_with("Max address space"))?;
-        line.split_whitespace().nth(3)?.parse::<u64>().ok()
-    });
-    let address_used = read("/proc/self/status").and_then(|s| kib_field(&s, "VmSize:"));
-    if let (Some(limit), Some(used)) = (address_limit, address_used) {
-        limits.push(limit.saturating_sub(used));
-    }
-    limits.into_iter().min()
+/// Bytes a scene's hierarchy takes per primitive beyond the scene: its
+/// binary, four-wide and eight-wide trees, leaf order and blocks, and the
+/// build's working arrays (docs/reliability.md has the measurements).
+pub const HIERARCHY_BYTES_PER_PRIMITIVE: u64 = 160;
+
+/// The memory building a hierarchy over `scene` takes, in bytes: the copy
+/// of the scene that the hierarchy keeps, and the hierarchy.
+pub fn build_memory(scene: &crate::Scene) -> u64 {
+    (scene.memory_bytes() as u64)
+        .saturating_add((scene.shapes.len() as u64).saturating_mul(HIERARCHY_BYTES_PER_PRIMITIVE))
 }
 
 /// Refuses a job of `needed` bytes when `available` is known and smaller.
@@ -187,17 +168,6 @@ pub fn check_memory(needed: u64, available: Option<u64>, what: &str) -> Result<(
             human_bytes(available)
         ))),
         _ => Ok(()),
-    }
-}
-
-/// `1.5 GB`, `340 MB`, `12 kB`: decimal units, for messages.
-pub fn human_bytes(bytes: u64) -> String {
-    let b = bytes as f64;
-    match bytes {
-        0..=999 => format!("{bytes} bytes"),
-        1_000..=999_999 => format!("{:.0} kB", b / 1e3),
-        1_000_000..=999_999_999 => format!("{:.0} MB", b / 1e6),
-        _ => format!("{:.1} GB", b / 1e9),
     }
 }
 
@@ -297,13 +267,5 @@ mod tests {
             "{err}"
         );
         assert!(err.contains("only 8.0 GB"), "{err}");
-    }
-
-    #[test]
-    fn this_machine_reports_some_memory() {
-        // On Linux /proc/meminfo is always there.
-        if cfg!(target_os = "linux") {
-            assert!(available_memory().is_some_and(|b| b > 0));
-        }
     }
 }

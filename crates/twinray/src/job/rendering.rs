@@ -15,7 +15,7 @@ use crate::Result;
 
 impl Job {
     /// Renders the views. `progress(done, total)` is called from worker
-    /// threads; raising `cancel` stops the render with [`Error::Cancelled`].
+    /// threads; raising `cancel` stops the render with [`Error::Cancelled`](crate::Error::Cancelled).
     pub fn render(
         &self,
         plan: &Plan,
@@ -25,7 +25,7 @@ impl Job {
         // The plan checked the memory for views kept as bytes where the
         // files allow it; floats take up to four times as much.
         if self.kept_for_writing() == ViewsKeptAs::Bytes {
-            self.check_memory(plan.width, plan.height, ViewsKeptAs::Floats)?;
+            self.check_memory(plan.width, plan.height, ViewsKeptAs::Floats, 0)?;
         }
         self.render_with(plan, &self.options, ViewStorage::Float, progress, cancel)
     }

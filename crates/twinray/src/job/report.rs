@@ -112,7 +112,11 @@ impl Job {
 
 /// The verbose account of a plan: scene, rig, the rig's choice and report,
 /// the cut; and the report's warnings.
-pub(super) fn plan_messages(plan: &Plan, rig_by_default: bool) -> Vec<Message> {
+pub(super) fn plan_messages(
+    plan: &Plan,
+    rig_by_default: bool,
+    interaxial_given: bool,
+) -> Vec<Message> {
     let world = &plan.world;
     let mut m = vec![Message::info(format!(
         "scene: {} primitives, {} lights, hierarchy {} nodes (depth {}), built in {:.3} s",
@@ -169,8 +173,22 @@ pub(super) fn plan_messages(plan: &Plan, rig_by_default: bool) -> Vec<Message> {
         } else {
             Message::warning
         };
-        m.extend(s.report.budget_warning().map(budget));
-        m.extend(s.report.divergence_warning().map(Message::warning));
+        // Only an interaxial the user gave is theirs to change.
+        let advice = if interaxial_given {
+            "; --interaxial auto fits them"
+        } else {
+            ""
+        };
+        m.extend(
+            s.report
+                .budget_warning()
+                .map(|w| budget(format!("{w}{advice}"))),
+        );
+        if rig_by_default {
+            m.extend(s.report.quilt_divergence_note().map(Message::note));
+        } else {
+            m.extend(s.report.divergence_warning().map(Message::warning));
+        }
     }
     m
 }

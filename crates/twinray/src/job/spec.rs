@@ -44,6 +44,10 @@ pub struct JobSpec {
     /// What surrounds a model: the background.
     #[serde(default)]
     pub studio: StudioSpec,
+    /// Files read to make this spec (its job file, an animation's camera
+    /// path), which no output may replace; not part of the spec's JSON.
+    #[serde(skip)]
+    pub read_files: Vec<PathBuf>,
 }
 
 /// What surrounds the scene, replacing the file's where given.
@@ -384,6 +388,9 @@ pub struct LimitSpec {
     pub max_vertices: usize,
     /// Most triangles of an OBJ or glTF file.
     pub max_triangles: u64,
+    /// Folders beside the scene's own whose files the scene may name
+    /// (`--allow-dir`): textures and buffers kept elsewhere.
+    pub allow_dirs: Vec<PathBuf>,
 }
 
 impl Default for LimitSpec {
@@ -393,6 +400,7 @@ impl Default for LimitSpec {
             max_resolution: load.max_resolution,
             max_vertices: load.max_vertices,
             max_triangles: load.max_triangles,
+            allow_dirs: load.allow_dirs,
         }
     }
 }

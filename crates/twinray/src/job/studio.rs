@@ -1,5 +1,6 @@
-//! What the command line adds around a model: point lights (`--light`) and a
-//! shadow-catching floor (`--ground`).
+//! What the job adds around a model: point lights (`--light`), a
+//! shadow-catching floor (`--ground`), and for a model file without lights
+//! (and without `--light`, `--env` or `--background`) a grey studio around it.
 //!
 //! The floor is added by [`Job::prepare`](super::Job::prepare) after the
 //! viewpoint and the light rig are chosen from the model alone, and it is
@@ -12,7 +13,18 @@ use crate::math::{Aabb, Color, Vec3};
 use crate::scene::{Light, Material, MeshPolygon, Scene};
 
 use super::spec::LightSpec;
+use crate::environment::Environment;
 use crate::rig::up_axis::UpAxis;
+
+/// What `-v` says of [`surroundings`].
+pub(super) const SURROUNDINGS: &str =
+    "a grey studio around it for ambient light and background (--light, --background or --env replace it)";
+
+/// The studio around a model file without lights
+/// ([`crate::lights::studio_environment`]), turned for its up axis.
+pub(super) fn surroundings(up: UpAxis) -> std::sync::Arc<Environment> {
+    std::sync::Arc::new(crate::lights::studio_environment(up == UpAxis::Z))
+}
 
 /// Grey of the floor (linear): light enough for shadows to read, neutral so
 /// that it does not tint the model's reflections.

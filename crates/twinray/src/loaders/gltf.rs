@@ -27,14 +27,14 @@ use glam::{Mat3, Mat4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::khr_lights_punctual::Kind as LightType;
 
-use super::material_model::phong_from_roughness;
-use super::{fold_warnings, read_file, reserve_triangles, LoadOptions};
+use super::material_model::{phong_from_roughness, Inputs};
+use super::{decode_texture, fold_warnings, reserve_triangles, LoadContext, LoadOptions};
 use crate::error::{Error, Result};
 use crate::lights::{Light, LightKind};
 use crate::math::{Color, Vec3};
 use crate::scene::{
     AlphaMode, AngleSpan, Material, MeshPolygon, NamedCamera, NormalMap, NormalMapKind, Scene,
-    SceneFormat, Uv, Viewpoint,
+    SceneFormat, Uv, Viewpoint, MAX_RADIANCE,
 };
 use crate::shapes::{Shape, TriangleNormals};
 use crate::texture::{Texels, Texture, Wrap};
@@ -48,8 +48,9 @@ const MAX_NODE_VISITS: usize = 1 << 20;
 pub mod animation;
 
 pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene> {
-    let bytes = read_file(path)?;
-    parse_gltf(&bytes, path, opts)
+    Ok(GltfFile::open(path, opts)?
+        .pose(opts.animation_time, None)?
+        .scene)
 }
 
 /// Parse glTF or GLB bytes; `file` names it in messages and locates its
@@ -99,25 +100,38 @@ pub struct PosedInstance {
 impl GltfFile {
     /// Reads a `.gltf` or `.glb` file, its buffers, materials and textures.
     pub fn open(path: &Path, opts: &LoadOptions) -> Result<GltfFile> {
-        GltfFile::read(&read_file(path)?, path, opts)
+        let cx = LoadContext::new(path, opts);
+        let bytes = cx.files.read_scene(&cx.memory)?;
+        GltfFile::read_in(&bytes, path, opts, &cx)
     }
 
     /// Reads the document, its buffers, materials and textures.
     pub fn read(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<GltfFile> {
-        let gltf =
+        GltfFile::read_in(bytes, file, opts, &LoadContext::new(file, opts))
+    }
+
+    fn read_in(
+        bytes: &[u8],
+        file: &Path,
+        opts: &LoadOptions,
+        cx: &LoadContext,
+    ) -> Result<GltfFile> {
+        let mut gltf =
             gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| gltf_error(file, e))?;
         validate(&gltf, file)?;
         let doc = &gltf.document;
         let loader = Loader {
             file,
-            dir: file.parent().unwrap_or(Path::new("")),
             opts,
             doc,
+            cx,
         };
-        let buffers = doc
-            .buffers()
-            .map(|b| loader.buffer(&b, gltf.blob.as_deref()))
-            .collect::<Result<Vec<_>>>()?;
+        // The binary chunk is the first buffer's, moved rather than copied.
+        let mut blob = gltf.blob.take();
+        let mut buffers = Vec::new();
+        for b in doc.buffers() {
+            buffers.push(loader.buffer(&b, &mut blob)?);
+        }
         let (scene, default_material) = loader.materials(&buffers)?;
         let clip = loader.chosen_animation()?;
         Ok(GltfFile {
@@ -125,19 +139,10 @@ impl GltfFile {
             buffers,
             file: file.to_path_buf(),
             opts: opts.clone(),
-            base: scene,
+            base: cx.finish(scene),
             default_material,
             clip,
         })
-    }
-
-    fn loader(&self) -> Loader<'_> {
-        Loader {
-            file: &self.file,
-            dir: self.file.parent().unwrap_or(Path::new("")),
-            opts: &self.opts,
-            doc: &self.doc,
-        }
     }
 
     /// Whether the file has animations.
@@ -154,7 +159,15 @@ impl GltfFile {
         time: Option<f32>,
         previous: Option<(&Scene, &[PosedInstance])>,
     ) -> Result<Posed> {
-        let loader = self.loader();
+        // A budget of the memory left now: the file's buffers and textures
+        // are taken already.
+        let cx = LoadContext::new(&self.file, &self.opts);
+        let loader = Loader {
+            file: &self.file,
+            opts: &self.opts,
+            doc: &self.doc,
+            cx: &cx,
+        };
         let doc = &self.doc;
         let buffers = &self.buffers;
         let file = self.file.as_path();
@@ -176,7 +189,7 @@ impl GltfFile {
             p.get(&gltf::Semantic::Normals).is_some()
                 || p.get(&gltf::Semantic::TexCoords(0)).is_some()
         });
-        reserve_triangles(&mut scene, triangles, with_corners, file, opts)?;
+        reserve_triangles(&mut scene, triangles, with_corners, file, opts, &cx)?;
 
         let first_warning = scene.warnings.len();
         let mut cameras = Vec::new();
@@ -227,7 +240,18 @@ impl GltfFile {
                 }
             }
             if let Some(light) = node.light() {
-                scene.lights.push(light_at(&light, world));
+                let (l, changed) = light_at(&light, world);
+                if !changed.is_empty() {
+                    loader.warn(
+                        &mut scene,
+                        format!(
+                            "KHR_lights_punctual lights[{}]: {}",
+                            light.index(),
+                            changed.join(", ")
+                        ),
+                    );
+                }
+                scene.lights.push(l);
             }
         }
         fold_warnings(&mut scene, first_warning, 10);
@@ -385,9 +409,9 @@ fn gltf_error(file: &Path, e: gltf::Error) -> Error {
 /// as orthographic) and panic; the fuzzer found the first.
 struct Loader<'a> {
     file: &'a Path,
-    dir: &'a Path,
     opts: &'a LoadOptions,
     doc: &'a gltf::Document,
+    cx: &'a LoadContext,
 }
 
 /// A morph target with its weight: displacements of positions and normals.
@@ -444,12 +468,11 @@ impl Loader<'_> {
         let (loader, doc) = (self, self.doc);
         let mut scene = Scene::new();
         scene.format = SceneFormat::Gltf;
-        scene.viewpoint.width = 640;
-        scene.viewpoint.height = 480;
         let mut textures = HashMap::new();
         for m in doc.materials() {
-            let mut texture = |t: Option<gltf::Texture>, kind: Texels| {
-                t.and_then(|t| loader.texture(&mut scene, &mut textures, &t, kind, buffers))
+            let mut texture = |t: Option<gltf::Texture>, kind: Texels| match t {
+                Some(t) => loader.texture(&mut scene, &mut textures, &t, kind, buffers),
+                None => Ok(None),
             };
             let base_texture = || {
                 m.pbr_metallic_roughness()
@@ -457,23 +480,31 @@ impl Loader<'_> {
                     .map(|i| i.texture())
             };
             let uses_alpha = m.alpha_mode() != gltf::material::AlphaMode::Opaque;
-            let alpha = texture(base_texture().filter(|_| uses_alpha), Texels::Alpha);
-            let normal = texture(m.normal_texture().map(|n| n.texture()), Texels::Data);
+            let alpha = texture(base_texture().filter(|_| uses_alpha), Texels::Alpha)?;
+            let normal = texture(m.normal_texture().map(|n| n.texture()), Texels::Data)?;
             let maps = MaterialTextures {
-                base: texture(base_texture(), Texels::Colour),
-                emission: texture(m.emissive_texture().map(|i| i.texture()), Texels::Colour),
-                occlusion: texture(m.occlusion_texture().map(|o| o.texture()), Texels::Data),
+                base: texture(base_texture(), Texels::Colour)?,
+                emission: texture(m.emissive_texture().map(|i| i.texture()), Texels::Colour)?,
+                occlusion: texture(m.occlusion_texture().map(|o| o.texture()), Texels::Data)?,
                 metal_rough_mean: texture(
                     m.pbr_metallic_roughness()
                         .metallic_roughness_texture()
                         .map(|i| i.texture()),
                     Texels::Data,
-                )
+                )?
                 .map(|t| mean_texel(&scene.textures[t as usize])),
                 alpha,
                 normal,
             };
-            scene.add_material(material_from_pbr(&m, maps));
+            let (material, changed) = material_from_pbr(&m, maps);
+            if !changed.is_empty() {
+                let index = m.index().map_or("default".into(), |i| i.to_string());
+                loader.warn(
+                    &mut scene,
+                    format!("materials[{index}]: {}", changed.join(", ")),
+                );
+            }
+            scene.add_material(material);
         }
         let default_material = scene.add_material(Material {
             kd: 0.8,
@@ -492,15 +523,19 @@ impl Loader<'_> {
             .push(format!("{}: {message}", self.file.display()));
     }
 
-    /// The bytes of a buffer: the GLB's binary chunk, a `data:` URI, or a file
-    /// next to the glTF file.
-    fn buffer(&self, b: &gltf::Buffer, blob: Option<&[u8]>) -> Result<Vec<u8>> {
+    /// The bytes of a buffer: the GLB's binary chunk (taken from `blob`:
+    /// one buffer holds it), a `data:` URI, or a file in the scene's folder.
+    fn buffer(&self, b: &gltf::Buffer, blob: &mut Option<Vec<u8>>) -> Result<Vec<u8>> {
         let what = format!("buffers[{}]", b.index());
         let data = match b.source() {
-            gltf::buffer::Source::Bin => blob
-                .ok_or_else(|| self.err(format!("{what}: the file has no binary chunk")))?
-                .to_vec(),
-            gltf::buffer::Source::Uri(uri) => self.uri_bytes(uri, &what)?,
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                self.err(format!(
+                    "{what}: the file has no binary chunk (or another buffer took it)"
+                ))
+            })?,
+            gltf::buffer::Source::Uri(uri) => self
+                .uri_bytes(uri, &what)?
+                .map_err(|why| self.err(format!("{what}: {why}")))?,
         };
         if data.len() < b.length() {
             return Err(self.err(format!(
@@ -512,22 +547,36 @@ impl Loader<'_> {
         Ok(data)
     }
 
-    fn uri_bytes(&self, uri: &str, what: &str) -> Result<Vec<u8>> {
+    /// The bytes a URI names: a `data:` URI's, or a file's in the scene's
+    /// folder (`files::SceneFiles`: after its `%xx` escapes are decoded).
+    /// `Ok(Err(why))` when they cannot be had; `Err` when they do not fit
+    /// in the memory left.
+    fn uri_bytes(&self, uri: &str, what: &str) -> Result<std::result::Result<Vec<u8>, String>> {
         if let Some(rest) = uri.strip_prefix("data:") {
             let Some((_, payload)) = rest.split_once(";base64,") else {
-                return Err(self.err(format!("{what}: data URI is not base64")));
+                return Ok(Err("data URI is not base64".into()));
             };
-            return base64::engine::general_purpose::STANDARD
-                .decode(payload)
-                .map_err(|e| self.err(format!("{what}: bad base64 in data URI ({e})")));
+            let engine = &base64::engine::general_purpose::STANDARD;
+            let estimate = base64::decoded_len_estimate(payload.len());
+            let room = || format!("{}: {what}: a data URI", self.file.display());
+            self.cx.memory.take(estimate as u64, &room)?;
+            let mut bytes = Vec::new();
+            crate::memory::try_reserve(&mut bytes, estimate, &room)?;
+            return Ok(match engine.decode_vec(payload, &mut bytes) {
+                Ok(()) => Ok(bytes),
+                Err(e) => Err(format!("bad base64 in data URI ({e})")),
+            });
         }
         if uri.contains("://") {
-            return Err(self.err(format!(
-                "{what}: '{uri}' is not a local file (network URIs are not fetched)"
+            return Ok(Err(format!(
+                "'{}' is not a local file (network URIs are not fetched)",
+                super::excerpt(uri, 200)
             )));
         }
-        let path = self.dir.join(percent_decode(uri));
-        std::fs::read(&path).map_err(|source| Error::Io { path, source })
+        Ok(self
+            .cx
+            .files
+            .read_named(&percent_decode(uri), &self.cx.memory))
     }
 
     /// Checks an accessor against its buffer view and buffer; refuses sparse
@@ -832,7 +881,7 @@ impl Loader<'_> {
         texture: &gltf::Texture,
         kind: Texels,
         buffers: &[Vec<u8>],
-    ) -> Option<u32> {
+    ) -> Result<Option<u32>> {
         let image = texture.source();
         let sampler = texture.sampler();
         let key = (
@@ -842,26 +891,40 @@ impl Loader<'_> {
             kind,
         );
         if let Some(&t) = cache.get(&key) {
-            return t;
+            return Ok(t);
         }
         let what = format!("images[{}]", image.index());
         let json = &self.doc.as_json().images[image.index()];
         let view = json
             .buffer_view
             .and_then(|v| self.doc.views().nth(v.value()));
-        let bytes = match (view, &json.uri) {
+        let owned;
+        let bytes: std::result::Result<&[u8], String> = match (view, &json.uri) {
             (Some(view), _) => {
                 let buffer = &buffers[view.buffer().index()];
                 view.offset()
                     .checked_add(view.length())
                     .and_then(|end| buffer.get(view.offset()..end))
-                    .map(|b| b.to_vec())
-                    .ok_or_else(|| format!("bufferViews[{}] is outside its buffer", view.index()))
+                    .ok_or_else(|| {
+                        format!(
+                            "{what}: bufferViews[{}] is outside its buffer",
+                            view.index()
+                        )
+                    })
             }
-            (None, Some(uri)) => self.uri_bytes(uri, &what).map_err(|e| e.to_string()),
+            (None, Some(uri)) => match self.uri_bytes(uri, &what)? {
+                Ok(b) => {
+                    owned = b;
+                    Ok(&owned[..])
+                }
+                Err(why) => Err(format!("{what}: {why}")),
+            },
             (None, None) => Err(format!("{what} has neither a uri nor a bufferView")),
         };
-        let decoded = bytes.and_then(|b| Texture::decode_as(&b, &what, kind));
+        let decoded = match bytes {
+            Ok(b) => decode_texture(b, &what, kind, self.cx)?,
+            Err(e) => Err(e),
+        };
         let index = match decoded {
             Ok(mut tex) => {
                 (tex.wrap_s, tex.wrap_t) = (key.1, key.2);
@@ -869,15 +932,12 @@ impl Loader<'_> {
                 Some((scene.textures.len() - 1) as u32)
             }
             Err(e) => {
-                self.warn(
-                    scene,
-                    format!("{what}: {e}; the material's factors are used"),
-                );
+                self.warn(scene, format!("{e}; the material's factors are used"));
                 None
             }
         };
         cache.insert(key, index);
-        index
+        Ok(index)
     }
 
     fn camera(
@@ -995,34 +1055,48 @@ fn mean_texel(t: &Texture) -> Color {
 /// base colour. Emission is `emissiveFactor` × `emissiveTexture` ×
 /// `KHR_materials_emissive_strength`; the occlusion texture darkens the
 /// ambient term.
-pub fn material_from_pbr(m: &gltf::Material, maps: MaterialTextures) -> Material {
+pub fn material_from_pbr(m: &gltf::Material, maps: MaterialTextures) -> (Material, Vec<String>) {
     let pbr = m.pbr_metallic_roughness();
-    let unit = |x: f32| {
-        if x.is_finite() {
-            x.clamp(0.0, 1.0)
-        } else {
-            0.0
-        }
-    };
-    let [r, g, b, alpha] = pbr.base_color_factor().map(unit);
+    let mut inputs = Inputs::default();
+    let [r, g, b, alpha] = inputs.clamp_all("baseColorFactor", pbr.base_color_factor(), 0.0, 1.0);
     let mean = maps.metal_rough_mean.unwrap_or(Color::ONE);
-    let metal = unit(pbr.metallic_factor() * mean.z);
-    let rough = unit(pbr.roughness_factor() * mean.y);
-    let transmission = unit(m.transmission().map_or(0.0, |t| t.transmission_factor()));
-    let ior = m
-        .ior()
-        .filter(|n| n.is_finite() && *n >= 1.0)
-        .unwrap_or(1.5);
+    let metal = inputs.clamp("metallicFactor", pbr.metallic_factor(), 0.0, 1.0) * mean.z;
+    let rough = inputs.clamp("roughnessFactor", pbr.roughness_factor(), 0.0, 1.0) * mean.y;
+    let transmission = match m.transmission() {
+        Some(t) => inputs.clamp("transmissionFactor", t.transmission_factor(), 0.0, 1.0),
+        None => 0.0,
+    };
+    let ior = match m.ior() {
+        Some(n) if !(n.is_finite() && n >= 1.0) => {
+            inputs.changed.push(format!("ior {n} replaced by 1.5"));
+            1.5
+        }
+        Some(n) => n,
+        None => 1.5,
+    };
     let phong = phong_from_roughness(0.04 + 0.96 * metal, rough);
-    let strength = m
-        .emissive_strength()
-        .filter(|s| s.is_finite() && *s >= 0.0)
-        .unwrap_or(1.0);
-    let emissive = m
-        .emissive_factor()
-        .map(|x| if x.is_finite() { x.max(0.0) } else { 0.0 });
+    let strength = match m.emissive_strength() {
+        Some(s) => inputs.clamp("emissiveStrength", s, 0.0, MAX_RADIANCE),
+        None => 1.0,
+    };
+    let emissive = inputs.clamp_all("emissiveFactor", m.emissive_factor(), 0.0, 1.0);
+    let occlusion_strength = match m.occlusion_texture() {
+        Some(o) => inputs.clamp("occlusionTexture.strength", o.strength(), 0.0, 1.0),
+        None => 1.0,
+    };
+    let alpha_mode = match m.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+        gltf::material::AlphaMode::Mask => AlphaMode::Mask {
+            cutoff: inputs.clamp("alphaCutoff", m.alpha_cutoff().unwrap_or(0.5), 0.0, 1.0),
+        },
+        gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+    };
+    let normal_scale = match m.normal_texture() {
+        Some(n) => inputs.clamp("normalTexture.scale", n.scale(), -100.0, 100.0),
+        None => 1.0,
+    };
     let color = Color::new(r, g, b);
-    Material {
+    inputs.finish(Material {
         color,
         kd: (1.0 - metal) * (1.0 - transmission) + metal * rough,
         ks: phong.ks,
@@ -1035,40 +1109,27 @@ pub fn material_from_pbr(m: &gltf::Material, maps: MaterialTextures) -> Material
         specular_color: Color::ONE.lerp(color, metal),
         emission_texture: maps.emission,
         occlusion_texture: maps.occlusion,
-        occlusion_strength: m.occlusion_texture().map_or(1.0, |o| unit(o.strength())),
-        alpha_mode: match m.alpha_mode() {
-            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
-            gltf::material::AlphaMode::Mask => AlphaMode::Mask {
-                cutoff: m.alpha_cutoff().filter(|c| c.is_finite()).unwrap_or(0.5),
-            },
-            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
-        },
+        occlusion_strength,
+        alpha_mode,
         alpha,
         alpha_texture: maps.alpha,
         normal_map: maps.normal.map(|texture| NormalMap {
             texture,
-            scale: m
-                .normal_texture()
-                .map(|n| n.scale())
-                .filter(|s| s.is_finite())
-                .unwrap_or(1.0)
-                .clamp(-100.0, 100.0),
+            scale: normal_scale,
             kind: NormalMapKind::Tangent,
         }),
-    }
+    })
 }
 
 /// A glTF light placed by its node: position from the node's origin, direction
-/// its −z axis; colour times intensity.
-fn light_at(light: &gltf::khr_lights_punctual::Light, world: &Mat4) -> Light {
+/// its −z axis; colour times intensity (at most [`MAX_RADIANCE`]); and what
+/// was clamped, for a warning.
+fn light_at(light: &gltf::khr_lights_punctual::Light, world: &Mat4) -> (Light, Vec<String>) {
     let position = world.transform_point3(Vec3::ZERO);
     let direction = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
-    let intensity = light.intensity();
-    let intensity = if intensity.is_finite() {
-        intensity.max(0.0)
-    } else {
-        0.0
-    };
+    let mut inputs = Inputs::default();
+    let color = inputs.clamp_all("color", light.color(), 0.0, 1.0);
+    let intensity = inputs.clamp("intensity", light.intensity(), 0.0, MAX_RADIANCE);
     let range = light.range().filter(|r| r.is_finite() && *r > 0.0);
     let kind = match light.kind() {
         LightType::Directional => LightKind::Directional { direction },
@@ -1088,10 +1149,11 @@ fn light_at(light: &gltf::khr_lights_punctual::Light, world: &Mat4) -> Light {
             range,
         },
     };
-    Light {
+    let light = Light {
         kind,
-        color: Some(Color::from(light.color()) * intensity),
-    }
+        color: Some(Color::from(color) * intensity),
+    };
+    (light, inputs.changed)
 }
 
 #[cfg(test)]

@@ -9,6 +9,64 @@
 //! weight `F0 · (1 − r)²`: roughness widens the highlight and dims it, and
 //! at `r = 1` neither is left.
 
+/// A file's material inputs brought into the ranges the shading model is
+/// defined for, as NFF's are ([`Material::clamped`](crate::scene::Material::clamped)),
+/// and what was changed, for a warning that names the file and material:
+/// out of range, a colour of 3.4e38 or an emission of 1e38 gave infinite
+/// pixels.
+#[derive(Debug, Default)]
+pub struct Inputs {
+    pub changed: Vec<String>,
+}
+
+impl Inputs {
+    /// `value` of input `name` in `lo..=hi` (NaN: `lo`).
+    pub fn clamp(&mut self, name: &str, value: f32, lo: f32, hi: f32) -> f32 {
+        let fixed = if value.is_nan() {
+            lo
+        } else {
+            value.clamp(lo, hi)
+        };
+        if fixed != value || value.is_nan() {
+            self.changed
+                .push(format!("{name} {value} clamped to {fixed}"));
+        }
+        fixed
+    }
+
+    /// Each component of `values` in `lo..=hi`.
+    pub fn clamp_all<const N: usize>(
+        &mut self,
+        name: &str,
+        values: [f32; N],
+        lo: f32,
+        hi: f32,
+    ) -> [f32; N] {
+        let fixed = values.map(|v| if v.is_nan() { lo } else { v.clamp(lo, hi) });
+        if fixed.iter().zip(&values).any(|(f, v)| f != v) {
+            let show = |a: &[f32]| a.iter().map(f32::to_string).collect::<Vec<_>>().join(" ");
+            self.changed.push(format!(
+                "{name} {} clamped to {}",
+                show(&values),
+                show(&fixed)
+            ));
+        }
+        fixed
+    }
+
+    /// The material after its inputs, with the final guard of
+    /// [`Material::clamped`](crate::scene::Material::clamped) (which
+    /// should find nothing left to change).
+    pub fn finish(
+        mut self,
+        material: crate::scene::Material,
+    ) -> (crate::scene::Material, Vec<String>) {
+        let (material, more) = material.clamped();
+        self.changed.extend(more);
+        (material, self.changed)
+    }
+}
+
 /// The highlight and mirror of a surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PhongTerms {

@@ -4,13 +4,19 @@
 //! Procedural Databases), Wavefront OBJ with its MTL materials, and glTF 2.0
 //! (`.gltf`, `.glb`), STL (`.stl`, binary or ASCII) and PLY (`.ply`);
 //! [`load_scene`] picks the loader by extension.
+//!
+//! Every load reads its files through [`files::SceneFiles`] (confined to
+//! the scene's folder, regular files only, each read bounded) and counts
+//! what it keeps against a [`Budget`] of memory before allocating it.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::math::Color;
+use crate::memory::Budget;
 use crate::scene::{Material, Scene};
 
+pub mod files;
 pub mod gltf;
 pub mod material_model;
 pub mod nff;
@@ -36,6 +42,12 @@ pub struct LoadOptions {
     /// glTF: the one animation that plays, by name or index (`None`: all of
     /// them at once).
     pub animation: Option<String>,
+    /// Folders beside the scene's own whose files the scene may name
+    /// (textures kept elsewhere); each with what is below it.
+    pub allow_dirs: Vec<PathBuf>,
+    /// Most memory the load may take, in bytes (`None`: what the machine
+    /// has available when it begins).
+    pub memory_limit: Option<u64>,
 }
 
 impl Default for LoadOptions {
@@ -46,12 +58,46 @@ impl Default for LoadOptions {
             max_triangles: 100_000_000,
             animation_time: None,
             animation: None,
+            allow_dirs: Vec::new(),
+            memory_limit: None,
         }
+    }
+}
+
+/// What one load reads and takes: the files a scene may name, and the
+/// memory it may keep.
+pub(crate) struct LoadContext {
+    pub files: files::SceneFiles,
+    pub memory: Budget,
+}
+
+impl LoadContext {
+    /// The context of a load of `scene` (a file, or bytes said to be one).
+    pub fn new(scene: &Path, opts: &LoadOptions) -> LoadContext {
+        LoadContext {
+            files: files::SceneFiles::new(scene, &opts.allow_dirs),
+            memory: match opts.memory_limit {
+                Some(limit) => Budget::new(Some(limit)),
+                None => Budget::of_this_machine(),
+            },
+        }
+    }
+
+    /// The scene loaded: the files read are recorded as its inputs.
+    pub fn finish(&self, mut scene: Scene) -> Scene {
+        scene.inputs = self.files.inputs();
+        scene
     }
 }
 
 /// Load a scene, choosing the format by file extension (any case).
 pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
+    if path.is_dir() {
+        return Err(Error::Invalid(format!(
+            "{}: is a directory; give a scene file in it ({SUPPORTED})",
+            path.display()
+        )));
+    }
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
@@ -72,12 +118,24 @@ pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     }
 }
 
-/// Reads a whole file, naming it in the error.
-fn read_file(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+/// `text` as a message quotes what a file holds: at most `max` bytes
+/// (then `...`), control characters escaped (a 100 MB line of NULs is not
+/// a message).
+pub(crate) fn excerpt(text: &str, max: usize) -> String {
+    let mut out = String::new();
+    for c in text.chars() {
+        let piece: String = if c.is_control() {
+            c.escape_default().collect()
+        } else {
+            c.to_string()
+        };
+        if out.len() + piece.len() > max {
+            out.push_str("...");
+            break;
+        }
+        out.push_str(&piece);
+    }
+    out
 }
 
 /// The grey material of mesh faces that name none (OBJ faces without
@@ -89,15 +147,31 @@ fn default_mesh_material() -> Material {
     }
 }
 
-/// Refuses a mesh file of more than `opts.max_triangles` triangles, before
-/// taking their memory; reserves it otherwise (corner records too when the
-/// mesh has normals or texture coordinates).
+/// Bytes a triangle of a mesh file keeps in the scene: its shape, material
+/// and group, and its corner record when the mesh has normals or texture
+/// coordinates.
+pub(crate) fn triangle_bytes(with_corners: bool) -> u64 {
+    let shape = std::mem::size_of::<crate::shapes::Shape>() + 2 * std::mem::size_of::<u32>();
+    let corners = if with_corners {
+        std::mem::size_of::<crate::scene::Corners>()
+    } else {
+        0
+    };
+    (shape + corners) as u64
+}
+
+/// Refuses a mesh file of more than `opts.max_triangles` triangles, or of
+/// more than the memory left, before taking their memory; reserves it
+/// otherwise (corner records too when the mesh has normals or texture
+/// coordinates). `what` says where the triangles come from (a glTF file's
+/// node instances) for the message.
 fn reserve_triangles(
     scene: &mut Scene,
     triangles: u64,
     with_corners: bool,
     file: &Path,
     opts: &LoadOptions,
+    cx: &LoadContext,
 ) -> Result<()> {
     if triangles > opts.max_triangles {
         return Err(Error::Invalid(format!(
@@ -106,11 +180,59 @@ fn reserve_triangles(
             opts.max_triangles
         )));
     }
-    scene.shapes.reserve(triangles as usize);
+    let what = || format!("{}: {triangles} triangles", file.display());
+    cx.memory.take(
+        triangles.saturating_mul(triangle_bytes(with_corners)),
+        &what,
+    )?;
+    let n = triangles as usize;
+    crate::memory::try_reserve(&mut scene.shapes, n, &what)?;
+    crate::memory::try_reserve(&mut scene.shape_material, n, &what)?;
+    crate::memory::try_reserve(&mut scene.shape_group, n, &what)?;
     if with_corners {
-        scene.corners.reserve(triangles as usize);
+        crate::memory::try_reserve(&mut scene.corners, n, &what)?;
     }
     Ok(())
+}
+
+/// Decodes an image a scene names into texels of `kind`, its memory
+/// counted from its header before it is decoded: `Ok(Err(why))` when the
+/// image cannot be had (a warning: the material goes without it), `Err`
+/// when it does not fit in the memory left (the load fails).
+fn decode_texture(
+    bytes: &[u8],
+    what: &str,
+    kind: crate::texture::Texels,
+    cx: &LoadContext,
+) -> Result<std::result::Result<crate::texture::Texture, String>> {
+    use crate::texture::Texture;
+    let (w, h) = match Texture::dimensions(bytes, what) {
+        Ok(size) => size,
+        Err(why) => return Ok(Err(why)),
+    };
+    let texture = || format!("{what}: a {w}x{h} texture");
+    cx.memory.check(
+        Texture::kept_bytes(w, h) + Texture::decoding_bytes(w, h),
+        &texture,
+    )?;
+    cx.memory.take(Texture::kept_bytes(w, h), &texture)?;
+    Ok(Texture::decode_as(bytes, what, kind))
+}
+
+/// Refuses a scene without one triangle to render (an empty or faceless
+/// mesh file, or one whose faces were all degenerate), naming the file.
+fn refuse_empty(scene: &Scene, file: &Path, what: &str) -> Result<()> {
+    if !scene.shapes.is_empty() {
+        return Ok(());
+    }
+    let skipped = match scene.warnings.first() {
+        None => String::new(),
+        Some(w) => format!(" (every face was skipped; the first: {})", excerpt(w, 200)),
+    };
+    Err(Error::Invalid(format!(
+        "{}: no {what} to render{skipped}",
+        file.display()
+    )))
 }
 
 /// A mesh file's warnings past the first `keep` folded into one line, so that
@@ -128,6 +250,15 @@ fn fold_warnings(scene: &mut Scene, from: usize, keep: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn excerpts_are_short_and_escaped() {
+        assert_eq!(excerpt("abc", 10), "abc");
+        assert_eq!(excerpt("abcdef", 4), "abcd...");
+        let nuls = excerpt(&"\0".repeat(1000), 200);
+        assert!(nuls.len() <= 203 && nuls.starts_with("\\u{0}"), "{nuls}");
+        assert_eq!(excerpt("a\nb", 10), "a\\nb");
+    }
 
     #[test]
     fn unknown_extension_is_invalid() {

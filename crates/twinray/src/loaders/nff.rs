@@ -23,7 +23,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::LoadOptions;
+use super::{LoadContext, LoadOptions};
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 use crate::scene::{Light, Material, Scene, Viewpoint, MAX_COORDINATE};
@@ -32,12 +32,18 @@ const ENTITIES: &str = "v, b, l, f, c, s, p, pp";
 
 /// Read and parse an NFF file.
 pub fn load_nff(path: &Path, opts: &LoadOptions) -> Result<Scene> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    parse_nff_bytes(&bytes, path, opts)
+    let cx = LoadContext::new(path, opts);
+    let bytes = cx.files.read_scene(&cx.memory)?;
+    // A sphere is 10 bytes of text (`s 0 0 0 1`) and about 80 of shape.
+    cx.memory.check(
+        (bytes.len() as u64).saturating_mul(SHAPE_BYTES_PER_BYTE),
+        &|| format!("parsing {}", path.display()),
+    )?;
+    Ok(cx.finish(parse_nff_bytes(&bytes, path, opts)?))
 }
+
+/// Bytes of shapes a byte of NFF text can become, at most.
+const SHAPE_BYTES_PER_BYTE: u64 = 8;
 
 /// Parse NFF from raw bytes, refusing what is not UTF-8 text.
 fn parse_nff_bytes(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {

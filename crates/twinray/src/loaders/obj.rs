@@ -3,6 +3,9 @@
 //! * Objects (`o`) and groups (`g`) become scene groups (one id per name).
 //! * Polygons of any size are cut into triangles exactly as NFF's are.
 //! * `vn` normals give smooth shading, `vt` texture coordinates feed `map_Kd`.
+//! * Vertex colours (`v x y z r g b`, as MeshLab and scanners write them) are
+//!   interpolated across each triangle and multiply the material's colour;
+//!   faces without `usemtl` are then white under them, not the default grey.
 //! * MTL `Kd`, `Ks`, `Ns`, `d`/`Tr`, `Ni`, `Ke`, `illum`, `map_Kd`, `map_d`,
 //!   `map_Ke`, `norm` and `map_Bump` map to twinray's Whitted material as
 //!   docs/formats.md explains.
@@ -15,21 +18,26 @@
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::io::{BufRead, Read};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
+use super::material_model::Inputs;
 use super::material_model::{phong_from_roughness, roughness_from_ns};
-use super::{fold_warnings, read_file, reserve_triangles, LoadOptions};
+use super::{
+    decode_texture, fold_warnings, refuse_empty, reserve_triangles, LoadContext, LoadOptions,
+};
 use crate::error::{Error, Result};
 use crate::math::{Color, Vec3};
 use crate::scene::{
     AlphaMode, Material, MeshPolygon, NormalMap, NormalMapKind, Scene, SceneFormat, Uv,
+    MAX_RADIANCE,
 };
-use crate::texture::{Texels, Texture, Wrap};
+use crate::texture::{Texels, Wrap};
 
 /// Read and parse an OBJ file and the MTL files it names.
 pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene> {
-    let bytes = read_file(path)?;
-    parse_obj(&bytes, path, opts)
+    let cx = LoadContext::new(path, opts);
+    let bytes = cx.files.read_scene(&cx.memory)?;
+    obj_scene(&bytes, path, opts, &cx)
 }
 
 /// A `BufRead` that counts the lines handed out, so that a parse error can
@@ -111,18 +119,41 @@ fn explain(e: tobj::LoadError) -> String {
 /// Parse OBJ bytes; `file` names it in messages and locates its MTL files and
 /// textures.
 pub fn parse_obj(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {
-    let dir = file.parent().unwrap_or(Path::new("")).to_path_buf();
+    obj_scene(bytes, file, opts, &LoadContext::new(file, opts))
+}
+
+/// Bytes tobj's arrays may hold per byte of OBJ text while it is parsed
+/// (`v 0 0 0` is 8 bytes of text and 12 of floats).
+const PARSE_BYTES_PER_BYTE: u64 = 2;
+
+fn obj_scene(bytes: &[u8], file: &Path, opts: &LoadOptions, cx: &LoadContext) -> Result<Scene> {
+    // A NUL is in no text file: a gigabyte of them was read as one
+    // unknown statement and rendered as an empty scene.
+    if let Some(at) = bytes.iter().position(|&b| b == 0) {
+        return Err(Error::Parse {
+            file: file.to_path_buf(),
+            line: 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count(),
+            message: "not a text file (a NUL byte)".into(),
+        });
+    }
+    cx.memory.check(
+        (bytes.len() as u64).saturating_mul(PARSE_BYTES_PER_BYTE),
+        &|| format!("parsing {}", file.display()),
+    )?;
     let warnings = RefCell::new(Vec::<String>::new());
     let mtl_error = RefCell::new(None::<Error>);
     let material_loader = |name: &Path| -> tobj::MTLLoadResult {
-        let mtl_path = dir.join(name);
-        let Ok(mtl_bytes) = std::fs::read(&mtl_path) else {
-            warnings.borrow_mut().push(format!(
-                "{}: material library {} not found; default materials used",
-                file.display(),
-                mtl_path.display()
-            ));
-            return Err(tobj::LoadError::OpenFileFailed);
+        let name = name.to_string_lossy();
+        let mtl_path = file.with_file_name(name.as_ref());
+        let mtl_bytes = match cx.files.read_named(&name, &cx.memory) {
+            Ok(b) => b,
+            Err(why) => {
+                warnings.borrow_mut().push(format!(
+                    "{}: material library {why}; default materials used",
+                    file.display(),
+                ));
+                return Err(tobj::LoadError::OpenFileFailed);
+            }
         };
         let mtl_bytes = match normalize_mtl_colors(&mtl_bytes) {
             Ok(b) => b,
@@ -165,22 +196,34 @@ pub fn parse_obj(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
     let mut scene = Scene::new();
     scene.format = SceneFormat::Obj;
     scene.warnings = warnings.into_inner();
-    let mut textures = TextureCache::new(&dir);
+    let mut textures = TextureCache::new(cx);
     for m in &materials {
-        let maps = MtlTextures::load(m, &mut textures, &mut scene, file);
-        scene.add_material(material_from_mtl(m, maps));
+        let maps = MtlTextures::load(m, &mut textures, &mut scene, file)?;
+        let (material, changed) = material_from_mtl(m, maps);
+        if !changed.is_empty() {
+            scene.warnings.push(format!(
+                "{}: material '{}': {}",
+                file.display(),
+                super::excerpt(&m.name, 200),
+                changed.join(", ")
+            ));
+        }
+        scene.add_material(material);
     }
-    // Faces without `usemtl`: the default material, after the file's.
+    // Faces without `usemtl`: the default material, after the file's; white
+    // under vertex colours, which then are the surface's colour.
+    let colored = models.iter().any(|m| vertex_colors(&m.mesh).is_some());
     let default_material = scene.add_material(Material {
-        color: Color::splat(0.8),
+        color: Color::splat(if colored { 1.0 } else { 0.8 }),
         ..Material::default()
     });
 
     let triangles: u64 = models.iter().map(|m| face_triangles(&m.mesh)).sum::<u64>();
-    let with_corners = models
-        .iter()
-        .any(|m| !m.mesh.normals.is_empty() || !m.mesh.texcoords.is_empty());
-    reserve_triangles(&mut scene, triangles, with_corners, file, opts)?;
+    let with_corners = colored
+        || models
+            .iter()
+            .any(|m| !m.mesh.normals.is_empty() || !m.mesh.texcoords.is_empty());
+    reserve_triangles(&mut scene, triangles, with_corners, file, opts, cx)?;
 
     let given = FaceAttributes::of(bytes);
     let total_faces: usize = models.iter().map(|m| face_count(&m.mesh)).sum();
@@ -209,8 +252,9 @@ pub fn parse_obj(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
         )?;
     }
     fold_warnings(&mut scene, first_warning, 10);
+    refuse_empty(&scene, file, "faces")?;
     scene.frame_bounds();
-    Ok(scene)
+    Ok(cx.finish(scene))
 }
 
 /// MTL colour statements (`Ka`, `Kd`, `Ks`, `Ke`) as tobj takes them: three
@@ -316,6 +360,8 @@ fn add_mesh(
     let has_uv = mesh.texcoord_indices.len() == n && !mesh.texcoords.is_empty();
     let position = |i: u32| vec3_at(&mesh.positions, i);
     let normal = |i: u32| vec3_at(&mesh.normals, i);
+    let colors = vertex_colors(mesh);
+    let color = |i: u32| colors.as_ref().and_then(|c| c.get(i as usize).copied());
     let uv = |i: u32| {
         let i = i as usize * 2;
         let (u, v) = (mesh.texcoords.get(i)?, mesh.texcoords.get(i + 1)?);
@@ -327,7 +373,8 @@ fn add_mesh(
     } else {
         Box::new(mesh.face_arities.iter().map(|&a| a as usize))
     };
-    let (mut vertices, mut normals, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut vertices, mut normals, mut uvs, mut corner_colors) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut start = 0;
     for (face, arity) in arities.enumerate() {
         let end = start + arity;
@@ -354,8 +401,12 @@ fn add_mesh(
         vertices.clear();
         normals.clear();
         uvs.clear();
+        corner_colors.clear();
         for k in start..end {
             vertices.push(position(mesh.indices[k]).ok_or_else(out_of_range)?);
+            if colors.is_some() {
+                corner_colors.push(color(mesh.indices[k]).ok_or_else(out_of_range)?);
+            }
             if has_normals {
                 normals.push(normal(mesh.normal_indices[k]).ok_or_else(out_of_range)?);
             }
@@ -377,7 +428,7 @@ fn add_mesh(
                 face + 1
             )));
         }
-        scene.add_mesh_polygon(
+        scene.add_colored_mesh_polygon(
             &MeshPolygon {
                 vertices: &vertices,
                 normals: (has_normals && face_has(1)).then_some(&normals[..]),
@@ -385,6 +436,7 @@ fn add_mesh(
                 material,
                 group,
             },
+            colors.is_some().then_some(&corner_colors[..]),
             &|| {
                 format!(
                     "{}: object '{}', face {}",
@@ -396,6 +448,36 @@ fn add_mesh(
         );
     }
     Ok(())
+}
+
+/// A mesh's vertex colours, one per position, where the file gives them
+/// (tobj keeps them beside the positions). Values in 0–1 as written; a file
+/// with any channel above 1 is read as 8-bit (0–255). Channels that are not
+/// finite, or negative, are black.
+fn vertex_colors(mesh: &tobj::Mesh) -> Option<Vec<Color>> {
+    let values = &mesh.vertex_color;
+    if values.is_empty() || values.len() != mesh.positions.len() {
+        return None;
+    }
+    // Divided, not multiplied by 1/255: 51 is then exactly 0.2.
+    let scale = if values.iter().any(|&v| v > 1.0 && v.is_finite()) {
+        255.0
+    } else {
+        1.0
+    };
+    let channel = |v: f32| {
+        if v.is_finite() {
+            (v / scale).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    };
+    Some(
+        values
+            .chunks_exact(3)
+            .map(|c| Color::new(channel(c[0]), channel(c[1]), channel(c[2])))
+            .collect(),
+    )
 }
 
 fn vec3_at(values: &[f32], i: u32) -> Option<Vec3> {
@@ -418,29 +500,29 @@ fn vec3_at(values: &[f32], i: u32) -> Option<Vec3> {
 /// `map_d` makes a cut-out (MASK at 0.5) when `d` is 1, else scales the
 /// BLEND alpha; `Ke` (× `map_Ke`) is emitted light; `norm` and `map_Bump`
 /// bend the shading normal ([`MtlTextures`]).
-pub fn material_from_mtl(m: &tobj::Material, maps: MtlTextures) -> Material {
-    let finite = |x: f32| if x.is_finite() { x.max(0.0) } else { 0.0 };
-    let kd_rgb = m.diffuse.unwrap_or([0.8; 3]).map(finite);
+pub fn material_from_mtl(m: &tobj::Material, maps: MtlTextures) -> (Material, Vec<String>) {
+    let mut inputs = Inputs::default();
+    let kd_rgb = inputs.clamp_all("Kd", m.diffuse.unwrap_or([0.8; 3]), 0.0, 1.0);
     let kd = kd_rgb.iter().copied().fold(0.0, f32::max);
     let color = if kd > 0.0 {
         Color::from(kd_rgb) / kd
     } else {
         Color::ZERO
     };
-    let ks_max = m
-        .specular
-        .unwrap_or([0.0; 3])
-        .map(finite)
+    let ks_max = inputs
+        .clamp_all("Ks", m.specular.unwrap_or([0.0; 3]), 0.0, 1.0)
         .iter()
         .copied()
         .fold(0.0, f32::max);
     let illum = m.illumination_model.unwrap_or(2);
     let opacity = match (m.dissolve, m.unknown_param.get("Tr")) {
-        (Some(d), _) => d,
-        (None, Some(tr)) => 1.0 - tr.trim().parse::<f32>().unwrap_or(0.0),
+        (Some(d), _) => inputs.clamp("d", d, 0.0, 1.0),
+        (None, Some(tr)) => {
+            let tr = tr.trim().parse::<f32>().unwrap_or(0.0);
+            1.0 - inputs.clamp("Tr", tr, 0.0, 1.0)
+        }
         (None, None) => 1.0,
     };
-    let opacity = finite(opacity).clamp(0.0, 1.0);
     let refracts = matches!(illum, 6 | 7);
     let t = if refracts { 1.0 - opacity } else { 0.0 };
     let alpha = if refracts { 1.0 } else { opacity };
@@ -451,18 +533,22 @@ pub fn material_from_mtl(m: &tobj::Material, maps: MtlTextures) -> Material {
     };
     // `map_Ke` without `Ke`: the texture is the emitted light.
     let ke = match (m.emissive, maps.emission) {
-        (Some(ke), _) => ke,
+        (Some(ke), _) => inputs.clamp_all("Ke", ke, 0.0, MAX_RADIANCE),
         (None, Some(_)) => [1.0; 3],
         (None, None) => [0.0; 3],
     };
-    let ior = m
-        .optical_density
-        .map(finite)
-        .filter(|&n| n > 0.0)
-        .unwrap_or(1.0);
+    let ior = match m.optical_density {
+        Some(n) if !(n.is_finite() && n > 0.0) => {
+            inputs.changed.push(format!("Ni {n} replaced by 1"));
+            1.0
+        }
+        Some(n) => n,
+        None => 1.0,
+    };
     // Blender's importer: Ns is a roughness; absent, it is 0 (fully rough).
-    let phong = phong_from_roughness(ks_max, roughness_from_ns(m.shininess.unwrap_or(0.0)));
-    Material {
+    let ns = inputs.clamp("Ns", m.shininess.unwrap_or(0.0), 0.0, 1000.0);
+    let phong = phong_from_roughness(ks_max, roughness_from_ns(ns));
+    inputs.finish(Material {
         color,
         kd,
         ks: if illum >= 2 { phong.ks } else { 0.0 },
@@ -470,7 +556,7 @@ pub fn material_from_mtl(m: &tobj::Material, maps: MtlTextures) -> Material {
         t,
         ior,
         mirror: if illum >= 3 { phong.mirror } else { 0.0 },
-        emission: Color::from(ke.map(finite)),
+        emission: Color::from(ke),
         texture: maps.diffuse,
         emission_texture: maps.emission,
         alpha_mode,
@@ -478,7 +564,7 @@ pub fn material_from_mtl(m: &tobj::Material, maps: MtlTextures) -> Material {
         alpha_texture: maps.alpha,
         normal_map: maps.normal,
         ..Material::default()
-    }
+    })
 }
 
 /// The textures of an MTL material, as indices into `Scene::textures`.
@@ -508,18 +594,19 @@ impl MtlTextures {
         cache: &mut TextureCache,
         scene: &mut Scene,
         file: &Path,
-    ) -> MtlTextures {
-        let mut get = |spec: Option<&str>, kind: Texels| {
-            spec.and_then(|spec| cache.get(scene, spec, kind, &m.name, file))
+    ) -> Result<MtlTextures> {
+        let mut get = |spec: Option<&str>, kind: Texels| match spec {
+            Some(spec) => cache.get(scene, spec, kind, &m.name, file),
+            None => Ok(None),
         };
         let unknown = |key: &str| m.unknown_param.get(key).map(String::as_str);
-        let diffuse = get(m.diffuse_texture.as_deref(), Texels::Colour);
-        let alpha = get(m.dissolve_texture.as_deref(), Texels::Coverage);
-        let emission = get(unknown("map_Ke"), Texels::Colour);
+        let diffuse = get(m.diffuse_texture.as_deref(), Texels::Colour)?;
+        let alpha = get(m.dissolve_texture.as_deref(), Texels::Coverage)?;
+        let emission = get(unknown("map_Ke"), Texels::Colour)?;
         let norm = unknown("norm");
         let bump = m.normal_texture.as_deref();
         let spec = norm.or(bump);
-        let normal = get(spec, Texels::Data).map(|texture| {
+        let normal = get(spec, Texels::Data)?.map(|texture| {
             let t = &scene.textures[texture as usize];
             let mean: Color =
                 t.texels.iter().copied().sum::<Color>() / t.texels.len().max(1) as f32;
@@ -540,12 +627,12 @@ impl MtlTextures {
                 kind,
             }
         });
-        MtlTextures {
+        Ok(MtlTextures {
             diffuse,
             alpha,
             emission,
             normal,
-        }
+        })
     }
 }
 
@@ -557,23 +644,23 @@ fn texture_option(spec: &str, name: &str) -> Option<f32> {
     words.next()?.parse().ok()
 }
 
-/// Textures by file, each decoded once however many materials use it.
+/// Textures by name, each decoded once however many materials use it.
 struct TextureCache<'a> {
-    dir: &'a Path,
-    loaded: HashMap<(PathBuf, Texels), Option<u32>>,
+    cx: &'a LoadContext,
+    loaded: HashMap<(String, Texels), Option<u32>>,
 }
 
 impl<'a> TextureCache<'a> {
-    fn new(dir: &'a Path) -> Self {
+    fn new(cx: &'a LoadContext) -> Self {
         TextureCache {
-            dir,
+            cx,
             loaded: HashMap::new(),
         }
     }
 
     /// The texture of a `map_Kd` (`map_d`, ...) statement (options, then
     /// the file name), decoded as `kind`; `None`, with a warning, when it
-    /// cannot be read.
+    /// cannot be read; an error when it does not fit in memory.
     fn get(
         &mut self,
         scene: &mut Scene,
@@ -581,14 +668,21 @@ impl<'a> TextureCache<'a> {
         kind: Texels,
         material: &str,
         file: &Path,
-    ) -> Option<u32> {
+    ) -> Result<Option<u32>> {
         let (name, wrap) = texture_file_name(spec);
-        let path = self.dir.join(name.replace('\\', "/"));
-        let key = (path, kind);
+        let key = (name, kind);
         if let Some(&index) = self.loaded.get(&key) {
-            return index;
+            return Ok(index);
         }
-        let index = match Texture::load_as(&key.0, kind) {
+        let name = &key.0;
+        let decoded = match self.cx.files.read_named(name, &self.cx.memory) {
+            Ok(bytes) => {
+                let what = format!("'{}'", super::excerpt(name, 200));
+                decode_texture(&bytes, &what, kind, self.cx)?
+            }
+            Err(why) => Err(why),
+        };
+        let index = match decoded {
             Ok(mut tex) => {
                 tex.wrap_s = wrap;
                 tex.wrap_t = wrap;
@@ -597,14 +691,15 @@ impl<'a> TextureCache<'a> {
             }
             Err(e) => {
                 scene.warnings.push(format!(
-                    "{}: material '{material}': texture {e}; the material's colour is used",
-                    file.display()
+                    "{}: material '{}': texture {e}; the material's colour is used",
+                    file.display(),
+                    super::excerpt(material, 200)
                 ));
                 None
             }
         };
         self.loaded.insert(key, index);
-        index
+        Ok(index)
     }
 }
 
@@ -637,6 +732,9 @@ fn texture_file_name(spec: &str) -> (String, Wrap) {
 mod tests {
     use super::*;
     use crate::shapes::{Shape, TriangleNormals};
+
+    /// One face, so that a file of materials has something to render.
+    const TRIANGLE: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
     fn load(dir: &Path, name: &str, text: &str) -> Result<Scene> {
         let path = dir.join(name);
@@ -765,7 +863,7 @@ mod tests {
             assert!(e.to_string().contains(&format!("bad.mtl:{line}: ")), "{e}");
         }
         std::fs::write(dir.path().join("grey.mtl"), "newmtl a\nKd 0.5\n").unwrap();
-        let s = load(dir.path(), "g.obj", "mtllib grey.mtl\nv 0 0 0\n").unwrap();
+        let s = load(dir.path(), "g.obj", &format!("mtllib grey.mtl\n{TRIANGLE}")).unwrap();
         assert_eq!(s.materials[0].kd, 0.5);
     }
 
@@ -784,7 +882,7 @@ mod tests {
              newmtl glass\nd 0.2\nNi 1.5\nillum 6\nnewmtl glow\nmap_Ke a.png\n",
         )
         .unwrap();
-        let s = load(dir.path(), "a.obj", "mtllib m.mtl\nv 0 0 0\n").unwrap();
+        let s = load(dir.path(), "a.obj", &format!("mtllib m.mtl\n{TRIANGLE}")).unwrap();
         let m = &s.materials;
         assert_eq!(
             (m[0].alpha_mode, m[0].alpha, m[0].t),
@@ -829,5 +927,32 @@ mod tests {
             texture_file_name("-bm 0.5 t.jpg"),
             ("t.jpg".into(), Wrap::Repeat)
         );
+    }
+
+    #[test]
+    fn vertex_colours_are_the_corners_colours_over_a_white_default() {
+        let dir = tempfile::tempdir().unwrap();
+        // MeshLab's `v x y z r g b`: a red, a green and a blue corner, and
+        // a quad of 8-bit colours (any channel above 1).
+        let s = load(
+            dir.path(),
+            "c.obj",
+            "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n",
+        )
+        .unwrap();
+        assert_eq!(s.materials[s.shape_material[0] as usize].color, Color::ONE);
+        assert_eq!(s.corner_colors, vec![[Color::X, Color::Y, Color::Z]]);
+        let bytes = load(
+            dir.path(),
+            "b.obj",
+            "v 0 0 0 255 51 0\nv 1 0 0 255 51 0\nv 1 1 0 255 51 0\nv 0 1 0 255 51 0\nf 1 2 3 4\n",
+        )
+        .unwrap();
+        assert_eq!(bytes.corner_colors.len(), 2);
+        assert_eq!(bytes.corner_colors[1][0], Color::new(1.0, 0.2, 0.0));
+        // Without colours: the grey default and no corner colours.
+        let plain = load(dir.path(), "p.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert!(plain.corner_colors.is_empty());
+        assert_eq!(plain.materials[0].color, Color::splat(0.8));
     }
 }

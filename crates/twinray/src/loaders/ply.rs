@@ -17,21 +17,37 @@ use std::path::Path;
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult};
 
-use super::{read_file, reserve_triangles, LoadOptions};
+use super::{reserve_triangles, LoadContext, LoadOptions};
 use crate::error::{Error, Result};
 use crate::math::{Color, Vec3};
 use crate::scene::{Material, MeshPolygon, Scene, SceneFormat};
 
 /// Read and parse a PLY file.
 pub fn load_ply(path: &Path, opts: &LoadOptions) -> Result<Scene> {
-    let bytes = read_file(path)?;
-    parse_ply(&bytes, path, opts)
+    let cx = LoadContext::new(path, opts);
+    let bytes = cx.files.read_scene(&cx.memory)?;
+    ply_scene(&bytes, path, opts, &cx)
 }
 
 /// Parse PLY bytes; `file` names it in messages.
 pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {
-    let invalid =
-        |what: String| Error::Invalid(format!("{}: not a valid PLY file: {what}", file.display()));
+    ply_scene(bytes, file, opts, &LoadContext::new(file, opts))
+}
+
+/// Bytes a face of the file may hold while it is read: its record and its
+/// list of three or more indices.
+const FACE_BYTES: u64 = (std::mem::size_of::<PlyFace>() + 4 * std::mem::size_of::<usize>()) as u64;
+
+fn ply_scene(bytes: &[u8], file: &Path, opts: &LoadOptions, cx: &LoadContext) -> Result<Scene> {
+    // The parser's errors quote the line they stopped on: of a file of
+    // NULs, the whole file.
+    let invalid = |what: String| {
+        Error::Invalid(format!(
+            "{}: not a valid PLY file: {}",
+            file.display(),
+            super::excerpt(&what, 200)
+        ))
+    };
     // Elements are read in the header's order, each into a type of ours
     // that keeps only what twinray uses (not ply-rs-bw's map of named
     // properties per element, five times slower: docs/decisions.md).
@@ -39,6 +55,22 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
     let header = Parser::<PlyVertex>::new()
         .read_header(&mut reader)
         .map_err(|e| invalid(e.to_string()))?;
+    // Every element takes at least a byte of the file: what the header
+    // announces is bounded by the size before its memory is counted.
+    let count = |name: &str| {
+        header
+            .elements
+            .values()
+            .filter(|e| e.name == name)
+            .map(|e| (e.count as u64).min(bytes.len() as u64))
+            .sum::<u64>()
+    };
+    let payload = count("vertex")
+        .saturating_mul(std::mem::size_of::<PlyVertex>() as u64 + 12)
+        .saturating_add(count("face").saturating_mul(FACE_BYTES));
+    cx.memory.check(payload, &|| {
+        format!("reading the elements of {}", file.display())
+    })?;
     let (mut vertices, mut faces) = (None, Vec::new());
     for element in header.elements.values() {
         match element.name.as_str() {
@@ -131,7 +163,7 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
         }
         if f == 0 {
             let triangles = faces.len() as u64 * (polygon.len() as u64 - 2);
-            reserve_triangles(&mut scene, triangles, false, file, opts)?;
+            reserve_triangles(&mut scene, triangles, false, file, opts, cx)?;
         } else if scene.shapes.len() as u64 >= opts.max_triangles {
             return Err(Error::Invalid(format!(
                 "{}: more than {} triangles",
@@ -152,8 +184,9 @@ pub fn parse_ply(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
         );
     }
     super::fold_warnings(&mut scene, first_warning, 10);
+    super::refuse_empty(&scene, file, "faces")?;
     scene.frame_bounds();
-    Ok(scene)
+    Ok(cx.finish(scene))
 }
 
 /// A vertex as read: its position and colour channels, where the file has them.

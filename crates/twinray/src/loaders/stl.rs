@@ -9,25 +9,36 @@
 use std::io::Cursor;
 use std::path::Path;
 
-use super::{read_file, reserve_triangles, LoadOptions};
+use super::{refuse_empty, reserve_triangles, LoadContext, LoadOptions};
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 use crate::scene::{MeshPolygon, Scene, SceneFormat};
 
 /// Read and parse an STL file.
 pub fn load_stl(path: &Path, opts: &LoadOptions) -> Result<Scene> {
-    let bytes = read_file(path)?;
-    parse_stl(&bytes, path, opts)
+    let cx = LoadContext::new(path, opts);
+    let bytes = cx.files.read_scene(&cx.memory)?;
+    stl_scene(&bytes, path, opts, &cx)
 }
 
 /// Parse STL bytes (binary or ASCII); `file` names it in messages.
 pub fn parse_stl(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene> {
-    let invalid =
-        |what: String| Error::Invalid(format!("{}: not a valid STL file: {what}", file.display()));
+    stl_scene(bytes, file, opts, &LoadContext::new(file, opts))
+}
+
+fn stl_scene(bytes: &[u8], file: &Path, opts: &LoadOptions, cx: &LoadContext) -> Result<Scene> {
+    let invalid = |what: String| {
+        Error::Invalid(format!(
+            "{}: not a valid STL file: {}",
+            file.display(),
+            super::excerpt(&what, 200)
+        ))
+    };
     // A binary STL says how many triangles follow; check it against the size
     // first, so that a truncated file is named as such (and no memory is
     // taken for a count the file cannot hold).
     let binary = !looks_ascii(bytes);
+    let mut announced = 0;
     if binary {
         let Some(count) = bytes.get(80..84) else {
             return Err(invalid(format!(
@@ -43,6 +54,12 @@ pub fn parse_stl(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
                 bytes.len()
             )));
         }
+        announced = count;
+    } else {
+        // An ASCII facet takes more text than its triangle takes memory.
+        cx.memory.check(bytes.len() as u64, &|| {
+            format!("parsing {}", file.display())
+        })?;
     }
     // stl_io takes a file for ASCII exactly when its first line starts with
     // "solid ": give it the first line it expects either way (a binary
@@ -71,8 +88,7 @@ pub fn parse_stl(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
     let material = scene.add_material(super::default_mesh_material());
     let group = scene.new_group();
     if binary {
-        let count = (bytes.len() as u64 - 84) / 50;
-        reserve_triangles(&mut scene, count, false, file, opts)?;
+        reserve_triangles(&mut scene, announced, false, file, opts, cx)?;
     }
     let first_warning = scene.warnings.len();
     for (i, triangle) in reader.enumerate() {
@@ -97,8 +113,9 @@ pub fn parse_stl(bytes: &[u8], file: &Path, opts: &LoadOptions) -> Result<Scene>
         );
     }
     super::fold_warnings(&mut scene, first_warning, 10);
+    refuse_empty(&scene, file, "triangles")?;
     scene.frame_bounds();
-    Ok(scene)
+    Ok(cx.finish(scene))
 }
 
 /// Whether `bytes` are an ASCII STL: they start with `solid` and hold a

@@ -57,6 +57,12 @@ impl ImageFormat {
             "exr" => Ok(ImageFormat::Exr),
             "pfm" => Ok(ImageFormat::Pfm),
             "jpg" | "jpeg" => Ok(ImageFormat::Jpeg),
+            // A video's frames are an animation's: a still cannot be one.
+            _ if crate::video::Container::of(path).is_some() => Err(Error::Invalid(format!(
+                "{}: a video needs --frames (an animation, e.g. --frames 0..59 --orbit 360); \
+                 a still is written as .png, .exr, .pfm or .jpg",
+                path.display()
+            ))),
             _ => {
                 let shown = if ext.is_empty() {
                     "no extension".to_string()

@@ -231,8 +231,25 @@ impl DisparityReport {
         };
         Some(format!(
             "the rig's disparities {:+.2}% to {:+.2}% of the width exceed the depth budget {} \
-             (visible depths {:.4} to {:.4}); --interaxial auto fits them",
+             (visible depths {:.4} to {:.4})",
             pct.near, pct.far, self.budget, d.nearest, d.farthest
+        ))
+    }
+
+    /// What far points diverging means for a quilt whose rig is the
+    /// defaults' own (its view cone), if they do: a note, not a warning, for
+    /// nothing the user set is at fault, and a Looking Glass does not show
+    /// two neighbouring views as a pair on a screen that wide.
+    pub fn quilt_divergence_note(&self) -> Option<String> {
+        let (Some(mm), true) = (self.far_on_screen_mm, self.diverges) else {
+            return None;
+        };
+        Some(format!(
+            "the quilt's neighbouring views put far points {mm:.0} mm apart on a {} m screen, \
+             more than the eyes' 65 mm: shown as a stereo pair that wide they would diverge; \
+             on a Looking Glass, which shows each eye views further apart through its lens, \
+             far points look soft instead (a narrower --view-cone brings them closer)",
+            self.screen_width_m
         ))
     }
 

@@ -379,15 +379,7 @@ impl World {
 
     /// Bytes held by shapes, materials, corner attributes, textures and the hierarchy.
     pub fn memory_bytes(&self) -> usize {
-        let s = &self.scene;
-        s.shapes.len() * std::mem::size_of::<crate::shapes::Shape>()
-            + s.shape_material.len() * 4
-            + s.shape_group.len() * 4
-            + s.corners.len() * std::mem::size_of::<crate::scene::Corners>()
-            + s.corner_colors.len() * std::mem::size_of::<[crate::math::Color; 3]>()
-            + s.corner_tangents.len() * std::mem::size_of::<[[f32; 4]; 3]>()
-            + s.materials.len() * std::mem::size_of::<crate::scene::Material>()
-            + s.textures.iter().map(|t| t.memory_bytes()).sum::<usize>()
+        self.scene.memory_bytes()
             + self.bvh.memory_bytes()
             + self.far.as_ref().map_or(0, Bvh::memory_bytes)
     }
