@@ -109,15 +109,19 @@ impl RowWorker for PanoramaWorker<'_, '_> {
         let camera = batch.camera;
         let none = PacketHits::<1>::none().hit[0];
         self.lanes.clear();
+        let frame = camera.frame();
+        // Every view's shift is 0 (`check`): one image position per sample,
+        // its direction computed once for the views.
         for i in 0..row.len() {
+            let (column, y) = row.camera_point(i, 0);
+            let ray = camera.projection.sample_ray(&frame, column, y);
             for (v, view) in batch.views.iter().enumerate() {
-                let (column, y) = row.camera_point(i, view.shift);
-                match camera.view_ray(view.offset, column, y) {
-                    Some((origin, dir)) => self.lanes.push(Lane {
+                match ray {
+                    Some(r) => self.lanes.push(Lane {
                         sample: i as u32,
                         view: v as u32,
-                        origin,
-                        dir,
+                        origin: r.origin(&frame, view.offset),
+                        dir: r.dir,
                         prim: NO_HIT,
                         hit: none,
                     }),

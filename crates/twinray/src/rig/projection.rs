@@ -138,6 +138,15 @@ impl Projection {
     /// fisheye position outside the circle). Pinhole: `None`.
     #[inline]
     pub fn ray(&self, f: &Frame, offset: f32, column: f32, row: f32) -> Option<(Vec3, Vec3)> {
+        let s = self.sample_ray(f, column, row)?;
+        Some((s.origin(f, offset), s.dir))
+    }
+
+    /// What every view's ray through image position (`column`, `row`)
+    /// shares: its direction, and what places its origin
+    /// ([`SampleRay::origin`]); `None` as for [`Projection::ray`].
+    #[inline]
+    pub fn sample_ray(&self, f: &Frame, column: f32, row: f32) -> Option<SampleRay> {
         let (w, h) = (f.width as f64, f.height as f64);
         let u = (column as f64 + 0.5) / w;
         let v = (row as f64 + 0.5) / h;
@@ -157,26 +166,18 @@ impl Projection {
                     false => (0.0, 0.0),
                 };
                 let (s, c) = theta.sin_cos();
-                let d = combine(f, c, s * sx, s * sy);
-                return Some((parallel_eye(f, offset), d));
+                let dir = combine(f, c, s * sx, s * sy);
+                return Some(SampleRay { dir, ods: None });
             }
         };
         let (sl, cl) = lon.sin_cos();
         let (sp, cp) = lat.sin_cos();
-        let d = combine(f, cp * cl, cp * sl, sp);
-        let origin = match self {
-            Projection::Ods(merge) => {
-                let scale = offset as f64 * merge.fade(lat);
-                if scale == 0.0 {
-                    f.eye
-                } else {
-                    // The horizontal right perpendicular of the direction.
-                    f.eye + combine(f, -sl * scale, cl * scale, 0.0)
-                }
-            }
-            _ => parallel_eye(f, offset),
+        let dir = combine(f, cp * cl, cp * sl, sp);
+        let ods = match self {
+            Projection::Ods(merge) => Some((sl, cl, merge.fade(lat))),
+            _ => None,
         };
-        Some((origin, d))
+        Some(SampleRay { dir, ods })
     }
 
     /// Where the world point `p` lands in the image of the view at
@@ -267,6 +268,36 @@ impl Projection {
         match self {
             Projection::Ods(_) => 2.0 * distance * (angle * 0.5).sin(),
             _ => 2.0 * distance * (angle * 0.5).tan(),
+        }
+    }
+}
+
+/// Every view's ray through one image position but for its origin: a
+/// pair's eyes share the direction (ODS by its definition, VR180's
+/// parallel cameras by theirs), so it is computed once for both.
+#[derive(Clone, Copy, Debug)]
+pub struct SampleRay {
+    pub dir: Vec3,
+    /// ODS: the sine and cosine of the longitude, and the pole merge's
+    /// share of the offset at this latitude; `None`: parallel cameras.
+    ods: Option<(f64, f64, f64)>,
+}
+
+impl SampleRay {
+    /// The origin of the view at `offset`: on the horizontal right
+    /// perpendicular of the direction (ODS), or on the right axis.
+    #[inline]
+    pub fn origin(&self, f: &Frame, offset: f32) -> Vec3 {
+        match self.ods {
+            Some((sl, cl, fade)) => {
+                let scale = offset as f64 * fade;
+                if scale == 0.0 {
+                    f.eye
+                } else {
+                    f.eye + combine(f, -sl * scale, cl * scale, 0.0)
+                }
+            }
+            None => parallel_eye(f, offset),
         }
     }
 }

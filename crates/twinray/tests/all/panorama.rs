@@ -4,7 +4,7 @@
 //! puts it, ODS's angular disparity, the pole merge, the seam, the
 //! fisheye's circle).
 
-mod common;
+use crate::common;
 
 use common::*;
 use twinray::math::Vec3;
