@@ -8,6 +8,7 @@ mod cli;
 mod hardening;
 mod job;
 mod messages;
+mod panorama;
 mod preview;
 mod spec_args;
 mod video;

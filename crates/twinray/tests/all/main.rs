@@ -26,6 +26,7 @@ mod lights;
 mod material_maps;
 mod materials;
 mod oracle;
+mod panorama;
 mod real_models;
 mod render;
 mod rgb8_views;
