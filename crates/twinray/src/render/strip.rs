@@ -615,7 +615,7 @@ mod tests {
                         mask: 1,
                     };
                     let shapes = &world.scene.shapes;
-                    let alone = world.bvh.closest_binary(
+                    let alone = world.bvh.closest(
                         &packet,
                         &mut single,
                         |prim: u32, _: usize, t_max: f32| {
