@@ -34,7 +34,6 @@ mod shared_shading;
 mod stereo;
 mod stl_ply;
 mod studio;
-mod traversal_stack;
 mod up_axis;
 mod wide_bvh;
-mod wide_pair;
+mod packet_lanes;
