@@ -442,12 +442,12 @@ impl Bvh {
         test: &mut impl AnyHitTest,
     ) {
         let singles = [0, 1 % K].map(|l| SingleRay::new(packet.origins[l], packet.dirs[l], 0.0));
+        let t_max = [packet.t_max[0], packet.t_max[1 % K]];
         let pair = PairSegments {
             rays: [WideRay::new(&singles[0]), WideRay::new(&singles[1])],
-            t_max: [packet.t_max[0], packet.t_max[1 % K]],
-            singles,
+            t_max,
         };
-        self.occlusion_lanes(&pair, 0b11, stats, test);
+        self.occlusion_lanes(&pair, (&singles, &t_max), 0b11, stats, test);
     }
 
     /// Any hit per lane of up to eight segments (`K <= 8`) in one descent.
@@ -474,29 +474,29 @@ impl Bvh {
         let t_max: [f32; EYE_PACKET] =
             std::array::from_fn(|l| if l < K { packet.t_max[l] } else { 0.0 });
         let eight = EightSegments {
-            singles,
             rays,
             ends: f32x8::from(t_max),
-            t_max,
         };
-        self.occlusion_lanes(&eight, mask, stats, test);
+        self.occlusion_lanes(&eight, (&singles, &t_max), mask, stats, test);
         true
     }
 
     /// The segments `mask` of `segs` in one any-hit descent: a child is
     /// stacked with the live lanes whose segments enter it; a lane leaves
-    /// when its test says stop.
+    /// when its test says stop. `alone`: each lane's segment prepared alone
+    /// and its end, for a subtree one lane finishes by itself.
     #[inline(always)]
     fn occlusion_lanes<S: Segments, T: AnyHitTest>(
         &self,
         segs: &S,
+        alone: (&[SingleRay], &[f32]),
         mask: u32,
         stats: &mut TraversalStats,
         test: &mut T,
     ) {
         let (mut nodes, mut boxes) = (0u64, 0u64);
         let mut live = mask;
-        let mut stack = ArrayVec::<(u32, u32, u32), STACK>::new();
+        let mut stack = LaneStack::new();
         stack.push((0, 0, mask));
         while let Some((child, count, entered)) = stack.pop() {
             let lanes = entered & live;
@@ -506,7 +506,7 @@ impl Bvh {
             if lanes & (lanes - 1) == 0 {
                 // One live segment in this subtree: finish it alone.
                 let l = lanes.trailing_zeros() as usize;
-                let (ray, t_max) = segs.lane(l);
+                let (ray, t_max) = (&alone.0[l], alone.1[l]);
                 if self.occlusion_one((child, count), ray, t_max, stats, test, l) {
                     live &= !lanes;
                     if live == 0 {
@@ -517,7 +517,7 @@ impl Bvh {
             }
             nodes += 1;
             if count > 0 {
-                segs.leaf(self.leaf(child, count), lanes, &mut live, stats, test);
+                segments_leaf::<S, T>(self.leaf(child, count), lanes, &mut live, stats, test);
                 if live == 0 {
                     break;
                 }
@@ -530,54 +530,62 @@ impl Bvh {
     }
 }
 
+/// An any-hit descent's stack of children (`count` > 0: a leaf) and the
+/// lanes that entered each.
+type LaneStack = ArrayVec<(u32, u32, u32), STACK>;
+
 /// Segments that go down one any-hit descent together, one per lane: how a
 /// node's children and a leaf meet them.
 trait Segments {
-    /// Lane `l`'s segment prepared alone, and its end.
-    fn lane(&self, l: usize) -> (&SingleRay, f32);
-
     /// Stacks the children of `node` that the lanes `lanes` enter, each with
     /// the lanes that enter it, so that they pop in slot order; returns the
     /// box tests made.
-    fn push_entered(
-        &self,
-        node: &WideNode,
-        lanes: u32,
-        stack: &mut ArrayVec<(u32, u32, u32), STACK>,
-    ) -> u64;
+    fn push_entered(&self, node: &WideNode, lanes: u32, stack: &mut LaneStack) -> u64;
 
-    /// The lanes `lanes` against a leaf; a lane whose test says stop leaves `live`.
-    fn leaf<T: AnyHitTest>(
-        &self,
-        leaf: Leaf,
-        lanes: u32,
-        live: &mut u32,
-        stats: &mut TraversalStats,
-        test: &mut T,
-    );
+    /// A stereo pair's two segments, which meet a leaf's triangle block at
+    /// once (`AnyHitTest::test_block_pair`); otherwise a block meets the
+    /// lanes one by one.
+    const PAIR: bool;
+}
+
+/// The lanes `lanes` of `S` against a leaf; a lane whose test says stop
+/// leaves `live`. Spheres and cones primitive by primitive, the lanes
+/// together (a pair's two, or up to eight through `test_lanes`). Each lane
+/// meets the primitives in the order it meets them alone.
+#[inline(always)]
+fn segments_leaf<S: Segments, T: AnyHitTest>(
+    leaf: Leaf,
+    lanes: u32,
+    live: &mut u32,
+    stats: &mut TraversalStats,
+    test: &mut T,
+) {
+    if S::PAIR || leaf.blocks.is_empty() {
+        occlusion_leaf(leaf, S::PAIR, lanes, live, stats, test);
+        return;
+    }
+    let mut each = lanes;
+    while each != 0 {
+        let l = each.trailing_zeros() as usize;
+        each &= each - 1;
+        if occlusion_lane(leaf, l, &mut stats.prim_tests, test) {
+            *live &= !(1 << l);
+        }
+    }
 }
 
 /// A stereo pair's two segments: each meets a node's eight children in one
 /// register, and a leaf's block, or primitive, meets both at once.
 struct PairSegments {
-    singles: [SingleRay; 2],
     rays: [WideRay; 2],
     t_max: [f32; 2],
 }
 
 impl Segments for PairSegments {
-    #[inline(always)]
-    fn lane(&self, l: usize) -> (&SingleRay, f32) {
-        (&self.singles[l], self.t_max[l])
-    }
+    const PAIR: bool = true;
 
     #[inline(always)]
-    fn push_entered(
-        &self,
-        node: &WideNode,
-        _lanes: u32,
-        stack: &mut ArrayVec<(u32, u32, u32), STACK>,
-    ) -> u64 {
+    fn push_entered(&self, node: &WideNode, _lanes: u32, stack: &mut LaneStack) -> u64 {
         let m0 = self.rays[0].enters(node, self.t_max[0]);
         let m1 = self.rays[1].enters(node, self.t_max[1]);
         let mut any = m0 | m1;
@@ -589,43 +597,21 @@ impl Segments for PairSegments {
         }
         2 * WIDTH as u64
     }
-
-    #[inline(always)]
-    fn leaf<T: AnyHitTest>(
-        &self,
-        leaf: Leaf,
-        lanes: u32,
-        live: &mut u32,
-        stats: &mut TraversalStats,
-        test: &mut T,
-    ) {
-        occlusion_leaf(leaf, true, lanes, live, stats, test);
-    }
 }
 
 /// Up to eight segments toward one light in the lanes of one register:
 /// each child meets all of them at once.
 struct EightSegments {
-    singles: [SingleRay; EYE_PACKET],
     rays: RayLanes,
     /// The segments' ends, per lane.
     ends: f32x8,
-    t_max: [f32; EYE_PACKET],
 }
 
 impl Segments for EightSegments {
-    #[inline(always)]
-    fn lane(&self, l: usize) -> (&SingleRay, f32) {
-        (&self.singles[l], self.t_max[l])
-    }
+    const PAIR: bool = false;
 
     #[inline(always)]
-    fn push_entered(
-        &self,
-        node: &WideNode,
-        lanes: u32,
-        stack: &mut ArrayVec<(u32, u32, u32), STACK>,
-    ) -> u64 {
+    fn push_entered(&self, node: &WideNode, lanes: u32, stack: &mut LaneStack) -> u64 {
         for c in (0..WIDTH).rev() {
             if node.child[c] == 0 && node.count[c] == 0 {
                 continue; // an unused slot (no segment enters its empty box)
@@ -637,32 +623,6 @@ impl Segments for EightSegments {
             }
         }
         WIDTH as u64 * lanes.count_ones() as u64
-    }
-
-    /// Spheres and cones primitive by primitive, the lanes that entered the
-    /// leaf together (`test_lanes`); triangle blocks lane by lane. Each lane
-    /// meets the primitives in the order it meets them alone.
-    #[inline(always)]
-    fn leaf<T: AnyHitTest>(
-        &self,
-        leaf: Leaf,
-        lanes: u32,
-        live: &mut u32,
-        stats: &mut TraversalStats,
-        test: &mut T,
-    ) {
-        if leaf.blocks.is_empty() {
-            occlusion_leaf(leaf, false, lanes, live, stats, test);
-            return;
-        }
-        let mut each = lanes;
-        while each != 0 {
-            let l = each.trailing_zeros() as usize;
-            each &= each - 1;
-            if occlusion_lane(leaf, l, &mut stats.prim_tests, test) {
-                *live &= !(1 << l);
-            }
-        }
     }
 }
 
@@ -830,23 +790,23 @@ mod tests {
             };
             let (met, _) = check(shapes, &bvh, 5, 600, pair);
             assert!(met > 200, "pairs: {met} lanes met something");
-            let four = |s: &SegmentPacket<4>, mut t: &mut Meets| {
-                bvh.occlusion_packet(s, &mut TraversalStats::default(), &mut t)
-            };
-            let (met, refused) = check(shapes, &bvh, 6, 600, four);
-            assert!(
-                met > 200 && refused < 600,
-                "fours: {met} met, {refused} refused"
-            );
-            let eight = |s: &SegmentPacket<8>, mut t: &mut Meets| {
-                bvh.occlusion_packet(s, &mut TraversalStats::default(), &mut t)
-            };
-            let (met, refused) = check(shapes, &bvh, 7, 300, eight);
-            assert!(
-                met > 200 && refused < 300,
-                "eights: {met} met, {refused} refused"
-            );
+            check_packets::<4>(shapes, &bvh, 6, 600);
+            check_packets::<8>(shapes, &bvh, 7, 300);
         }
+    }
+
+    /// `check` for `count` packets of `K` segments in one descent
+    /// (`occlusion_packet`): enough lanes met something, and not every
+    /// packet was refused.
+    fn check_packets<const K: usize>(shapes: &[Shape], bvh: &Bvh, seed: u64, count: usize) {
+        let one = |s: &SegmentPacket<K>, mut t: &mut Meets| {
+            bvh.occlusion_packet(s, &mut TraversalStats::default(), &mut t)
+        };
+        let (met, refused) = check(shapes, bvh, seed, count, one);
+        assert!(
+            met > 200 && refused < count,
+            "{K} lanes: {met} met, {refused} refused"
+        );
     }
 
     /// Coherent segments share their nodes: a pair, and a packet of four,
