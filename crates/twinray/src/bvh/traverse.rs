@@ -560,6 +560,14 @@ mod tests {
             .collect()
     }
 
+    /// `spheres(n)`, their boxes and their hierarchy.
+    fn sphere_tree(n: usize) -> (Vec<Sphere>, Vec<Aabb>, Bvh) {
+        let sph = spheres(n);
+        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
+        let bvh = build(&boxes, &BuildOptions::default());
+        (sph, boxes, bvh)
+    }
+
     fn brute(sph: &[Sphere], ray: &Ray) -> Option<(u32, f32)> {
         let mut best: Option<(u32, f32)> = None;
         for (i, s) in sph.iter().enumerate() {
@@ -574,9 +582,7 @@ mod tests {
 
     #[test]
     fn nearest_hit_matches_brute_force_for_every_lane() {
-        let sph = spheres(500);
-        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
-        let bvh = build(&boxes, &BuildOptions::default());
+        let (sph, _, bvh) = sphere_tree(500);
         let mut stats = TraversalStats::default();
         let mut rng = fastrand::Rng::with_seed(3);
         for _ in 0..2000 {
@@ -630,9 +636,7 @@ mod tests {
 
     #[test]
     fn masked_lanes_are_not_traced() {
-        let sph = spheres(50);
-        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
-        let bvh = build(&boxes, &BuildOptions::default());
+        let (sph, _, bvh) = sphere_tree(50);
         let packet = Packet {
             origins: [Vec3::ZERO; 2],
             dirs: [Vec3::Z; 2],
@@ -650,9 +654,7 @@ mod tests {
 
     #[test]
     fn occlusion_finds_every_occluder_on_the_segment() {
-        let sph = spheres(300);
-        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
-        let bvh = build(&boxes, &BuildOptions::default());
+        let (sph, _, bvh) = sphere_tree(300);
         let mut stats = TraversalStats::default();
         for i in 0..200 {
             let dirs = [
@@ -723,9 +725,7 @@ mod tests {
         // the traversal tests it too, for a lane alone, in a pair or in a packet.
         // Segments start near and very far (1e8, where a primitive's own test
         // can report hits outside its box) and graze the boxes' corners.
-        let sph = spheres(300);
-        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
-        let bvh = build(&boxes, &BuildOptions::default());
+        let (sph, boxes, bvh) = sphere_tree(300);
         let mut rng = fastrand::Rng::with_seed(5);
         let mut entered = 0;
         for _ in 0..300 {
