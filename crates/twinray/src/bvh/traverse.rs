@@ -725,7 +725,7 @@ mod tests {
         // the traversal tests it too, for a lane alone, in a pair or in a packet.
         // Segments start near and very far (1e8, where a primitive's own test
         // can report hits outside its box) and graze the boxes' corners.
-        let (sph, boxes, bvh) = sphere_tree(300);
+        let (_, boxes, bvh) = sphere_tree(300);
         let mut rng = fastrand::Rng::with_seed(5);
         let mut entered = 0;
         for _ in 0..300 {
