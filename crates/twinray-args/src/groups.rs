@@ -278,7 +278,7 @@ pub struct SpeedArgs {
     /// 1 is white; the bound holds where radiance is at most 1.
     #[arg(long, value_name = "E")]
     pub tolerance: Option<f32>,
-    /// Worker threads (default: all cores); the image is the same for any count.
+    /// Worker threads, 1 to 1024 (default: all cores); the image is the same for any count.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     /// The paper's merged secondary rays (approximate).
@@ -398,8 +398,8 @@ pub struct AnimationArgs {
     pub path: Option<PathBuf>,
     /// The automatic rig of a stereo animation: per-shot (the default) or per-frame.
     ///
-    /// per-shot: chosen once from depth passes over sampled frames (no
-    /// jumps); per-frame: for each frame.
+    /// per-shot: chosen once, from the depths of sampled frames (no jumps);
+    /// per-frame: for each frame.
     #[arg(long, value_name = "WHEN", default_value = "per-shot", requires = "frames",
           hide_short_help = true, value_parser = one_of::<ShotRigSpec>(ShotRigSpec::NAMES))]
     pub rig: ShotRigSpec,

@@ -62,7 +62,29 @@ fn has(leaf: u32, register: u32, bit: u32) -> bool {
     }
     let r = __cpuid_count(leaf, 0);
     let value = if register == 1 { r.ebx } else { r.ecx };
-    value >> bit & 1 == 1
+    bit_set(value, bit)
+}
+
+/// Whether bit `bit` of `value` is set, by the `bt` instruction: a shift
+/// written in Rust became BMI2's `shrx` in this build (seen under
+/// `qemu-x86_64 -cpu Nehalem`), the very instruction being asked about.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn bit_set(value: u32, bit: u32) -> bool {
+    let set: u8;
+    // SAFETY: `bt` and `setc` read two registers and write one byte
+    // register; no memory, no stack, and both are in every x86-64.
+    unsafe {
+        std::arch::asm!(
+            "bt {v:e}, {b:e}",
+            "setc {s}",
+            v = in(reg) value,
+            b = in(reg) bit,
+            s = out(reg_byte) set,
+            options(pure, nomem, nostack),
+        );
+    }
+    set != 0
 }
 
 const BEFORE: &[u8] = b"twinray: this build needs an x86-64-v3 processor (AVX2 and FMA: Intel \

@@ -71,10 +71,8 @@ impl Environment {
         }
         // A regular file, read with a bound: `--env /dev/zero` was read
         // until the memory ran out.
-        let bytes = crate::loaders::files::read_user_file(
-            path,
-            crate::loaders::files::MAX_FILE_BYTES,
-        )?;
+        let bytes =
+            crate::loaders::files::read_user_file(path, crate::loaders::files::MAX_FILE_BYTES)?;
         let reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
             .with_guessed_format()
             .map_err(|source| Error::Io {

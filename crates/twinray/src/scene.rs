@@ -320,7 +320,11 @@ impl Scene {
             + self.corner_colors.len() * size_of::<[Color; 3]>()
             + self.corner_tangents.len() * size_of::<[[f32; 4]; 3]>()
             + self.materials.len() * size_of::<Material>()
-            + self.textures.iter().map(Texture::memory_bytes).sum::<usize>()
+            + self
+                .textures
+                .iter()
+                .map(Texture::memory_bytes)
+                .sum::<usize>()
     }
 
     /// A new group id for the shapes that follow.

@@ -99,9 +99,8 @@ impl Texture {
             .map_err(|e| format!("{what}: not a PNG or JPEG image ({e})"))?;
         let texels = |n: usize| -> Result<Vec<Color>, String> {
             let mut v = Vec::new();
-            v.try_reserve_exact(n).map_err(|_| {
-                format!("{what}: no memory for {width}x{height} texels")
-            })?;
+            v.try_reserve_exact(n)
+                .map_err(|_| format!("{what}: no memory for {width}x{height} texels"))?;
             Ok(v)
         };
         let n = width as usize * height as usize;

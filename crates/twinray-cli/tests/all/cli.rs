@@ -1249,7 +1249,11 @@ fn obj_and_glb_render_framed_and_lit_saying_so_in_one_verbose_line() {
         assert!(!run.stderr.contains("no camera"), "{}", run.stderr);
         assert!(!run.stderr.contains("warning"), "{}", run.stderr);
         // -v says what the job supplied, in one line.
-        let run = render(&model(name), &out, &["--size", SIZE, "-v", "--allow-dir", s(&textures)]);
+        let run = render(
+            &model(name),
+            &out,
+            &["--size", SIZE, "-v", "--allow-dir", s(&textures)],
+        );
         run.ok();
         let lines: Vec<&str> = run
             .stderr

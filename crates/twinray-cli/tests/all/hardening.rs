@@ -39,7 +39,12 @@ fn refused(out: &Output, fragment: &str) -> String {
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(!out.status.success(), "should fail: {stderr}");
     assert_ne!(out.status.code(), Some(101), "panicked: {stderr}");
-    let lines: Vec<&str> = stderr.lines().collect();
+    // Notes printed before the refusal (the up axis guessed, how frames
+    // are named) are not part of the error.
+    let lines: Vec<&str> = stderr
+        .lines()
+        .filter(|l| !l.starts_with("twinray: note: "))
+        .collect();
     assert_eq!(lines.len(), 1, "one line expected:\n{stderr}");
     assert!(lines[0].starts_with("twinray: "), "{stderr}");
     assert!(lines[0].contains(fragment), "'{fragment}' not in: {stderr}");
@@ -513,7 +518,10 @@ fn outputs_never_overwrite_what_the_scene_read() {
     let env = d.join("env.exr");
     succeeded(&render(&gltf, &env, &["--quiet"]));
     let env_before = std::fs::read(&env).expect("env");
-    refused(&render(&gltf, &env, &["--env", s(&env)]), "would overwrite the input");
+    refused(
+        &render(&gltf, &env, &["--env", s(&env)]),
+        "would overwrite the input",
+    );
     assert_eq!(std::fs::read(&env).expect("env"), env_before);
     let job = d.join("job.png");
     let spec = twinray(&["render", s(&gltf), "-o", s(&out), "--print-job"]);
@@ -538,7 +546,15 @@ fn a_camera_path_is_never_a_frames_output() {
     let scene = scene();
     let pattern = dir.path().join("cam_####.png");
     let out = twinray(&[
-        "render", s(&scene), "-o", s(&pattern), "--size", SIZE, "--frames", "0..1", "--path",
+        "render",
+        s(&scene),
+        "-o",
+        s(&pattern),
+        "--size",
+        SIZE,
+        "--frames",
+        "0..1",
+        "--path",
         s(&path),
     ]);
     refused(&out, "would overwrite the input");
@@ -558,7 +574,14 @@ fn scenes_read_only_their_folder_unless_allowed() {
     )
     .expect("obj");
     let out = dir.path().join("o.png");
-    let stderr = succeeded(&twinray(&["render", s(&obj), "-o", s(&out), "--size", SIZE]));
+    let stderr = succeeded(&twinray(&[
+        "render",
+        s(&obj),
+        "-o",
+        s(&out),
+        "--size",
+        SIZE,
+    ]));
     assert!(
         stderr.contains("warning: ") && stderr.contains("is outside the scene's folder"),
         "{stderr}"
@@ -586,7 +609,10 @@ fn scenes_read_only_their_folder_unless_allowed() {
         "--print-job",
     ]);
     let text = String::from_utf8_lossy(&job.stdout);
-    assert!(text.contains("\"allow_dirs\"") && text.contains("secret"), "{text}");
+    assert!(
+        text.contains("\"allow_dirs\"") && text.contains("secret"),
+        "{text}"
+    );
 }
 
 #[cfg(unix)]
@@ -596,31 +622,73 @@ fn devices_fifos_and_folders_named_by_the_user_are_refused_at_once() {
     // a FIFO hung forever.
     let dir = TempDir::new().expect("tmp");
     let fifo = dir.path().join("fifo.nff");
-    assert!(Command::new("mkfifo").arg(&fifo).status().expect("mkfifo").success());
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .expect("mkfifo")
+        .success());
     std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.glb")).expect("symlink");
     std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.hdr")).expect("symlink");
     let out = dir.path().join("o.png");
     let start = std::time::Instant::now();
     for (args, says) in [
-        (vec!["render", s(&fifo), "-o", s(&out)], "not a regular file"),
-        (vec!["render", s(&dir.path().join("zero.glb")), "-o", s(&out)], "not a regular file"),
         (
-            vec!["render", s(&scene()), "-o", s(&out), "--env", s(&dir.path().join("zero.hdr"))],
+            vec!["render", s(&fifo), "-o", s(&out)],
             "not a regular file",
         ),
-        (vec!["render", "--job", "/dev/zero", "-o", s(&out)], "not a regular file"),
         (
-            vec!["render", s(&scene()), "-o", s(&out), "--frames", "0..1", "--path", "/dev/zero"],
+            vec!["render", s(&dir.path().join("zero.glb")), "-o", s(&out)],
             "not a regular file",
         ),
-        (vec!["render", s(&dir.path().join("zero.glb")), "-o", s(&out), "--frames", "0..1"], "not a regular file"),
+        (
+            vec![
+                "render",
+                s(&scene()),
+                "-o",
+                s(&out),
+                "--env",
+                s(&dir.path().join("zero.hdr")),
+            ],
+            "not a regular file",
+        ),
+        (
+            vec!["render", "--job", "/dev/zero", "-o", s(&out)],
+            "not a regular file",
+        ),
+        (
+            vec![
+                "render",
+                s(&scene()),
+                "-o",
+                s(&out),
+                "--frames",
+                "0..1",
+                "--path",
+                "/dev/zero",
+            ],
+            "not a regular file",
+        ),
+        (
+            vec![
+                "render",
+                s(&dir.path().join("zero.glb")),
+                "-o",
+                s(&out),
+                "--frames",
+                "0..1",
+            ],
+            "not a regular file",
+        ),
     ] {
         refused(&twinray(&args), says);
     }
     assert!(start.elapsed().as_secs() < 60, "{:?}", start.elapsed());
     let folder = dir.path().join("folder.obj");
     std::fs::create_dir(&folder).expect("mkdir");
-    refused(&twinray(&["render", s(&folder), "-o", s(&out)]), "is a directory");
+    refused(
+        &twinray(&["render", s(&folder), "-o", s(&out)]),
+        "is a directory",
+    );
 }
 
 /// A GLB of one mesh of `triangles` triangles (all one triangle) instanced
@@ -629,7 +697,7 @@ fn instanced_glb(triangles: usize, instances: usize) -> Vec<u8> {
     let positions: [f32; 9] = [0., 0., 0., 1., 0., 0., 0., 1., 0.];
     let mut bin: Vec<u8> = positions.iter().flat_map(|x| x.to_le_bytes()).collect();
     bin.extend(std::iter::repeat_n([0u8, 1, 2], triangles).flatten());
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let nodes: Vec<String> = (0..instances)
@@ -677,7 +745,10 @@ fn a_scene_larger_than_the_memory_is_refused_before_it_is_made() {
     let glb = dir.path().join("forty.glb");
     std::fs::write(&glb, instanced_glb(1_000_000, 40)).expect("glb");
     let out = dir.path().join("o.png");
-    let run = twinray_in(Some("ulimit -v 3000000"), &["render", s(&glb), "-o", s(&out)]);
+    let run = twinray_in(
+        Some("ulimit -v 3000000"),
+        &["render", s(&glb), "-o", s(&out)],
+    );
     let line = refused(&run, "forty.glb: 40000000 triangles: needs about");
     assert!(line.contains("is available"), "{line}");
     assert!(!String::from_utf8_lossy(&run.stderr).contains("memory allocation"));
@@ -706,12 +777,28 @@ fn small_items_are_refused_with_why() {
         "--size 0x0: width and height must be at least 1",
     );
     refused(
-        &twinray(&["render", s(&scene), "-o", s(&out), "--frames", "0..4294967295"]),
+        &twinray(&[
+            "render",
+            s(&scene),
+            "-o",
+            s(&out),
+            "--frames",
+            "0..4294967295",
+        ]),
         "at most 1000000",
     );
     let two_runs = dir.path().join("f_##_##.png");
     refused(
-        &twinray(&["render", s(&scene), "-o", s(&two_runs), "--frames", "0..1", "--size", SIZE]),
+        &twinray(&[
+            "render",
+            s(&scene),
+            "-o",
+            s(&two_runs),
+            "--frames",
+            "0..1",
+            "--size",
+            SIZE,
+        ]),
         "the frame number goes in one place",
     );
     assert_eq!(entries(dir.path()), vec!["job.json".to_string()]);

@@ -170,16 +170,24 @@ mod tests {
     fn two_places_for_the_number_are_refused() {
         for name in ["f_##_##.png", "#f#.png", "f_{frame}_##.png"] {
             let e = FramePattern::new(Path::new(name)).unwrap_err().to_string();
-            assert!(e.contains("the frame number goes in one place"), "{name}: {e}");
+            assert!(
+                e.contains("the frame number goes in one place"),
+                "{name}: {e}"
+            );
         }
     }
 
     #[test]
     fn ranges_are_bounded() {
-        let e = "0..4294967295".parse::<FrameRange>().unwrap_err().to_string();
+        let e = "0..4294967295"
+            .parse::<FrameRange>()
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("4294967296 frames; at most 1000000"), "{e}");
         let r: FrameRange = format!("5..{}", 5 + MAX_FRAMES - 1).parse().unwrap();
         assert_eq!(r.count(), MAX_FRAMES);
-        assert!(format!("5..{}", 5 + MAX_FRAMES).parse::<FrameRange>().is_err());
+        assert!(format!("5..{}", 5 + MAX_FRAMES)
+            .parse::<FrameRange>()
+            .is_err());
     }
 }

@@ -237,7 +237,10 @@ impl Job {
         check_memory(
             needed,
             available_memory(),
-            &format!("{build}rendering {} view(s) of {width}x{height}", self.views),
+            &format!(
+                "{build}rendering {} view(s) of {width}x{height}",
+                self.views
+            ),
         )?;
         Ok(needed)
     }

@@ -15,7 +15,7 @@ use crate::Result;
 
 impl Job {
     /// Renders the views. `progress(done, total)` is called from worker
-    /// threads; raising `cancel` stops the render with [`Error::Cancelled`].
+    /// threads; raising `cancel` stops the render with [`Error::Cancelled`](crate::Error::Cancelled).
     pub fn render(
         &self,
         plan: &Plan,

@@ -50,7 +50,10 @@ impl Unread {
                 "is not a regular file (a device, FIFO or socket): not read".into()
             }
             Unread::TooLarge { cap } => {
-                format!("is larger than {}, the most a file may be", human_bytes(*cap))
+                format!(
+                    "is larger than {}, the most a file may be",
+                    human_bytes(*cap)
+                )
             }
             Unread::Refused(e) => e.to_string(),
         }
@@ -92,12 +95,12 @@ fn read_regular(
     }
     reserve(len).map_err(Unread::Refused)?;
     let mut bytes = Vec::new();
-    bytes
-        .try_reserve_exact(len as usize)
-        .map_err(|_| Unread::Refused(Error::Invalid(format!(
+    bytes.try_reserve_exact(len as usize).map_err(|_| {
+        Unread::Refused(Error::Invalid(format!(
             "cannot allocate {} of memory to read it",
             human_bytes(len)
-        ))))?;
+        )))
+    })?;
     // The size can change after the check: the read stops past the cap.
     file.take(cap + 1)
         .read_to_end(&mut bytes)
@@ -117,8 +120,8 @@ pub fn read_user_file(path: &Path, cap: u64) -> Result<Vec<u8>> {
 /// [`read_user_file`] of a text file, at most [`MAX_TEXT_BYTES`]; `what`
 /// names it in errors (`--job`, `--path`).
 pub fn read_user_text(path: &Path, what: &str) -> Result<String> {
-    let bytes = read_user_file(path, MAX_TEXT_BYTES)
-        .map_err(|e| Error::Invalid(format!("{what} {e}")))?;
+    let bytes =
+        read_user_file(path, MAX_TEXT_BYTES).map_err(|e| Error::Invalid(format!("{what} {e}")))?;
     String::from_utf8(bytes).map_err(|e| {
         Error::Invalid(format!(
             "{what} {}: not a text file (invalid UTF-8 at byte {})",
@@ -317,7 +320,10 @@ mod tests {
         assert_eq!(files.read_named("a.bin", &budget()).unwrap(), b"inside");
         assert_eq!(files.read_named("sub/b.bin", &budget()).unwrap(), b"below");
         assert_eq!(files.read_named("sub\\b.bin", &budget()).unwrap(), b"below");
-        assert_eq!(files.read_named("sub/../a.bin", &budget()).unwrap(), b"inside");
+        assert_eq!(
+            files.read_named("sub/../a.bin", &budget()).unwrap(),
+            b"inside"
+        );
         let inputs = files.inputs();
         assert_eq!(inputs.len(), 2, "{inputs:?}");
         assert!(inputs[0].is_absolute() && inputs[0].ends_with("scene/a.bin"));
@@ -343,7 +349,10 @@ mod tests {
         assert!(files.inputs().is_empty());
         // Allowed: the folder given, and below it.
         let allowed = SceneFiles::new(&file, &[dir.path().join("secret")]);
-        assert_eq!(allowed.read_named("../secret/x.bin", &budget()).unwrap(), b"secret");
+        assert_eq!(
+            allowed.read_named("../secret/x.bin", &budget()).unwrap(),
+            b"secret"
+        );
     }
 
     #[cfg(unix)]
@@ -351,8 +360,7 @@ mod tests {
     fn links_are_followed_and_confined_where_they_lead() {
         let (dir, file) = tree();
         let scene = file.parent().unwrap();
-        std::os::unix::fs::symlink(dir.path().join("secret/x.bin"), scene.join("out.bin"))
-            .unwrap();
+        std::os::unix::fs::symlink(dir.path().join("secret/x.bin"), scene.join("out.bin")).unwrap();
         std::os::unix::fs::symlink(scene.join("a.bin"), scene.join("in.bin")).unwrap();
         let files = SceneFiles::new(&file, &[]);
         let e = files.read_named("out.bin", &budget()).unwrap_err();
@@ -386,8 +394,13 @@ mod tests {
             assert!(e.contains(says), "{name}: {e}");
         }
         for path in [Path::new("/dev/zero"), fifo.as_path(), dir.path()] {
-            let e = read_user_file(path, MAX_FILE_BYTES).unwrap_err().to_string();
-            assert!(e.contains("not a regular file") || e.contains("directory"), "{e}");
+            let e = read_user_file(path, MAX_FILE_BYTES)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("not a regular file") || e.contains("directory"),
+                "{e}"
+            );
         }
     }
 

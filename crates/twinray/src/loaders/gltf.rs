@@ -110,7 +110,12 @@ impl GltfFile {
         GltfFile::read_in(bytes, file, opts, &LoadContext::new(file, opts))
     }
 
-    fn read_in(bytes: &[u8], file: &Path, opts: &LoadOptions, cx: &LoadContext) -> Result<GltfFile> {
+    fn read_in(
+        bytes: &[u8],
+        file: &Path,
+        opts: &LoadOptions,
+        cx: &LoadContext,
+    ) -> Result<GltfFile> {
         let mut gltf =
             gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| gltf_error(file, e))?;
         validate(&gltf, file)?;
@@ -239,7 +244,11 @@ impl GltfFile {
                 if !changed.is_empty() {
                     loader.warn(
                         &mut scene,
-                        format!("KHR_lights_punctual lights[{}]: {}", light.index(), changed.join(", ")),
+                        format!(
+                            "KHR_lights_punctual lights[{}]: {}",
+                            light.index(),
+                            changed.join(", ")
+                        ),
                     );
                 }
                 scene.lights.push(l);
@@ -897,7 +906,10 @@ impl Loader<'_> {
                     .checked_add(view.length())
                     .and_then(|end| buffer.get(view.offset()..end))
                     .ok_or_else(|| {
-                        format!("{what}: bufferViews[{}] is outside its buffer", view.index())
+                        format!(
+                            "{what}: bufferViews[{}] is outside its buffer",
+                            view.index()
+                        )
                     })
             }
             (None, Some(uri)) => match self.uri_bytes(uri, &what)? {

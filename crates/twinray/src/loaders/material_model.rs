@@ -28,7 +28,8 @@ impl Inputs {
             value.clamp(lo, hi)
         };
         if fixed != value || value.is_nan() {
-            self.changed.push(format!("{name} {value} clamped to {fixed}"));
+            self.changed
+                .push(format!("{name} {value} clamped to {fixed}"));
         }
         fixed
     }
@@ -44,8 +45,11 @@ impl Inputs {
         let fixed = values.map(|v| if v.is_nan() { lo } else { v.clamp(lo, hi) });
         if fixed.iter().zip(&values).any(|(f, v)| f != v) {
             let show = |a: &[f32]| a.iter().map(f32::to_string).collect::<Vec<_>>().join(" ");
-            self.changed
-                .push(format!("{name} {} clamped to {}", show(&values), show(&fixed)));
+            self.changed.push(format!(
+                "{name} {} clamped to {}",
+                show(&values),
+                show(&fixed)
+            ));
         }
         fixed
     }
@@ -53,7 +57,10 @@ impl Inputs {
     /// The material after its inputs, with the final guard of
     /// [`Material::clamped`](crate::scene::Material::clamped) (which
     /// should find nothing left to change).
-    pub fn finish(mut self, material: crate::scene::Material) -> (crate::scene::Material, Vec<String>) {
+    pub fn finish(
+        mut self,
+        material: crate::scene::Material,
+    ) -> (crate::scene::Material, Vec<String>) {
         let (material, more) = material.clamped();
         self.changed.extend(more);
         (material, self.changed)

@@ -20,9 +20,11 @@ use std::collections::HashMap;
 use std::io::{BufRead, Read};
 use std::path::Path;
 
-use super::material_model::{phong_from_roughness, roughness_from_ns};
 use super::material_model::Inputs;
-use super::{decode_texture, fold_warnings, refuse_empty, reserve_triangles, LoadContext, LoadOptions};
+use super::material_model::{phong_from_roughness, roughness_from_ns};
+use super::{
+    decode_texture, fold_warnings, refuse_empty, reserve_triangles, LoadContext, LoadOptions,
+};
 use crate::error::{Error, Result};
 use crate::math::{Color, Vec3};
 use crate::scene::{

@@ -68,8 +68,9 @@ fn ply_scene(bytes: &[u8], file: &Path, opts: &LoadOptions, cx: &LoadContext) ->
     let payload = count("vertex")
         .saturating_mul(std::mem::size_of::<PlyVertex>() as u64 + 12)
         .saturating_add(count("face").saturating_mul(FACE_BYTES));
-    cx.memory
-        .check(payload, &|| format!("reading the elements of {}", file.display()))?;
+    cx.memory.check(payload, &|| {
+        format!("reading the elements of {}", file.display())
+    })?;
     let (mut vertices, mut faces) = (None, Vec::new());
     for element in header.elements.values() {
         match element.name.as_str() {

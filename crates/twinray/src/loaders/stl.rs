@@ -57,8 +57,9 @@ fn stl_scene(bytes: &[u8], file: &Path, opts: &LoadOptions, cx: &LoadContext) ->
         announced = count;
     } else {
         // An ASCII facet takes more text than its triangle takes memory.
-        cx.memory
-            .check(bytes.len() as u64, &|| format!("parsing {}", file.display()))?;
+        cx.memory.check(bytes.len() as u64, &|| {
+            format!("parsing {}", file.display())
+        })?;
     }
     // stl_io takes a file for ASCII exactly when its first line starts with
     // "solid ": give it the first line it expects either way (a binary

@@ -20,6 +20,8 @@ fn fill_of(obj_text: &str, width: u32, height: u32, up: UpAxisSpec) -> (f32, f32
     let mut spec = JobSpec::new(&obj, dir.path().join("cube.exr"));
     spec.camera.size = Some([width, height]);
     spec.studio.up_axis = up;
+    // Black around the model, not the grey studio: the cube is what is lit.
+    spec.studio.background = Some([0.0; 3]);
     spec.sampling.samples = Some(1);
     let job = Job::check(spec).unwrap();
     let loaded = job.load().unwrap();

@@ -274,12 +274,20 @@ fn gltf_uri_mutants() {
     let root = tempfile::tempdir().unwrap();
     let dir = root.path().join("scene");
     std::fs::create_dir_all(dir.join("sub")).unwrap();
-    for f in ["gltf/torus.gltf", "gltf/torus_textured.bin", "gltf/cube.png"] {
+    for f in [
+        "gltf/torus.gltf",
+        "gltf/torus_textured.bin",
+        "gltf/cube.png",
+    ] {
         let from = models().join(f);
         std::fs::copy(&from, dir.join(Path::new(f).file_name().unwrap())).unwrap();
     }
     // The secret: a valid buffer and image outside the folder.
-    std::fs::copy(dir.join("torus_textured.bin"), root.path().join("secret.bin")).unwrap();
+    std::fs::copy(
+        dir.join("torus_textured.bin"),
+        root.path().join("secret.bin"),
+    )
+    .unwrap();
     #[cfg(unix)]
     {
         std::os::unix::fs::symlink(root.path().join("secret.bin"), dir.join("link-out.bin"))
@@ -326,7 +334,11 @@ fn gltf_uri_mutants() {
             Err(_) => panic!("{what}: panicked the loader"),
             Ok(Ok(scene)) => {
                 for input in &scene.inputs {
-                    assert!(input.starts_with(&canonical_dir), "{what}: read {}", input.display());
+                    assert!(
+                        input.starts_with(&canonical_dir),
+                        "{what}: read {}",
+                        input.display()
+                    );
                 }
                 if let Err(e) = finite_pixels(scene, &scene_path) {
                     panic!("{what}: {e}");
@@ -336,14 +348,22 @@ fn gltf_uri_mutants() {
             Ok(Err(e)) => {
                 let msg = e.to_string();
                 assert!(!msg.contains('\n'), "{what}: not one line: {msg}");
-                assert!(msg.contains("torus.gltf"), "{what}: error does not name the file: {msg}");
+                assert!(
+                    msg.contains("torus.gltf"),
+                    "{what}: error does not name the file: {msg}"
+                );
                 // A short data URI may be described; no file is: every
                 // hostile URI that is not data names one it must not read.
                 let data = buffer.is_some_and(|u| u.starts_with("data:"));
-                assert!(data || !msg.contains("byteLength says"), "{what}: describes a file: {msg}");
+                assert!(
+                    data || !msg.contains("byteLength says"),
+                    "{what}: describes a file: {msg}"
+                );
                 errors += 1;
             }
         }
     }
-    eprintln!("gltf URIs: {iters} mutants, {ok} loaded, {errors} refused, no panic, nothing read outside");
+    eprintln!(
+        "gltf URIs: {iters} mutants, {ok} loaded, {errors} refused, no panic, nothing read outside"
+    );
 }

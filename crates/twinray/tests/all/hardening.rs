@@ -208,7 +208,6 @@ fn red_png(path: &Path) {
         .unwrap();
 }
 
-
 fn load(path: &Path) -> twinray::Result<twinray::Scene> {
     load_scene(path, &LoadOptions::default())
 }
@@ -239,7 +238,10 @@ fn gltf_images_outside_the_scenes_folder_are_not_read() {
     ] {
         let path = common::gltf_quad(&tree.scene(), material.clone(), &[&uri]);
         let scene = load(&path).unwrap();
-        assert!(scene.textures.is_empty(), "{uri}: the outside image was read");
+        assert!(
+            scene.textures.is_empty(),
+            "{uri}: the outside image was read"
+        );
         assert!(
             scene
                 .warnings
@@ -248,7 +250,12 @@ fn gltf_images_outside_the_scenes_folder_are_not_read() {
             "{uri}: {:?}",
             scene.warnings
         );
-        assert_eq!(scene.inputs.len(), 1, "only the scene itself: {:?}", scene.inputs);
+        assert_eq!(
+            scene.inputs.len(),
+            1,
+            "only the scene itself: {:?}",
+            scene.inputs
+        );
         // Allowed by the user, the same image is read.
         let allowed = load_allowing(&path, &[tree.secret()]).unwrap();
         assert_eq!(allowed.textures.len(), 1, "{uri}");
@@ -262,7 +269,12 @@ fn gltf_images_outside_the_scenes_folder_are_not_read() {
 #[test]
 fn gltf_buffers_outside_the_folder_are_refused_without_describing_them() {
     let tree = Tree::new();
-    for uri in ["/etc/passwd", "/etc/shadow", "../secret/x.png", "%2E%2E/secret/x.png"] {
+    for uri in [
+        "/etc/passwd",
+        "/etc/shadow",
+        "../secret/x.png",
+        "%2E%2E/secret/x.png",
+    ] {
         let mut doc: serde_json::Value = serde_json::from_str(
             &std::fs::read_to_string(common::gltf_quad(&tree.scene(), serde_json::json!({}), &[]))
                 .unwrap(),
@@ -275,7 +287,10 @@ fn gltf_buffers_outside_the_folder_are_refused_without_describing_them() {
         let e = load(&path).unwrap_err().to_string();
         assert!(e.contains("buffers[0]: '"), "{e}");
         assert!(e.contains("is outside the scene's folder"), "{uri}: {e}");
-        assert!(!e.contains("bytes") && !e.contains("byteLength"), "{uri}: {e}");
+        assert!(
+            !e.contains("bytes") && !e.contains("byteLength"),
+            "{uri}: {e}"
+        );
     }
 }
 
@@ -313,7 +328,9 @@ fn obj_material_libraries_and_maps_outside_the_folder_are_not_read() {
     let s = load(&obj).unwrap();
     assert!(s.textures.is_empty(), "the map outside was read");
     assert!(
-        s.warnings.iter().any(|w| w.contains("texture '..\\secret\\x.png' is outside")),
+        s.warnings
+            .iter()
+            .any(|w| w.contains("texture '..\\secret\\x.png' is outside")),
         "{:?}",
         s.warnings
     );
@@ -375,15 +392,24 @@ fn devices_and_fifos_are_not_read() {
     .unwrap();
     doc["buffers"][0]["uri"] = serde_json::json!("zero.bin");
     std::fs::write(dir.join("z.gltf"), doc.to_string()).unwrap();
-    let e = load_within_20_s(&dir.join("z.gltf")).unwrap_err().to_string();
-    assert!(e.contains("buffers[0]: 'zero.bin' is not a regular file"), "{e}");
+    let e = load_within_20_s(&dir.join("z.gltf"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("buffers[0]: 'zero.bin' is not a regular file"),
+        "{e}"
+    );
     std::fs::write(
         dir.join("f.obj"),
         "mtllib fifo.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
     )
     .unwrap();
     let s = load_within_20_s(&dir.join("f.obj")).unwrap();
-    assert!(s.warnings.iter().any(|w| w.contains("not a regular file")), "{:?}", s.warnings);
+    assert!(
+        s.warnings.iter().any(|w| w.contains("not a regular file")),
+        "{:?}",
+        s.warnings
+    );
     // Named by the user: the same.
     std::os::unix::fs::symlink("/dev/zero", dir.join("zero.obj")).unwrap();
     mkfifo(&dir.join("fifo.gltf"));
@@ -406,7 +432,11 @@ fn png_header(width: u32, height: u32) -> Vec<u8> {
         for &b in bytes {
             crc ^= u32::from(b);
             for _ in 0..8 {
-                crc = if crc & 1 == 1 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+                crc = if crc & 1 == 1 {
+                    (crc >> 1) ^ 0xEDB8_8320
+                } else {
+                    crc >> 1
+                };
             }
         }
         !crc
@@ -446,8 +476,12 @@ fn textures_are_counted_from_their_headers_before_they_are_decoded() {
     let png = data_uri("image/png", &png_header(8192, 8192));
     let images: Vec<&str> = vec![&png; 12];
     let mut doc: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(common::gltf_quad(dir.path(), serde_json::json!({}), &images))
-            .unwrap(),
+        &std::fs::read_to_string(common::gltf_quad(
+            dir.path(),
+            serde_json::json!({}),
+            &images,
+        ))
+        .unwrap(),
     )
     .unwrap();
     // Twelve materials, each with its own image.
@@ -476,7 +510,11 @@ fn textures_are_counted_from_their_headers_before_they_are_decoded() {
 /// instanced by `instances` nodes side by side.
 fn instanced_gltf(triangles: usize, instances: usize) -> String {
     let positions: [[f32; 3]; 3] = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]];
-    let mut bin: Vec<u8> = positions.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    let mut bin: Vec<u8> = positions
+        .iter()
+        .flatten()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
     bin.extend(std::iter::repeat_n([0u8, 1, 2], triangles).flatten());
     serde_json::json!({
         "asset": {"version": "2.0"},
@@ -514,8 +552,13 @@ fn instances_are_counted_before_their_triangles_are_made() {
         memory_limit: Some(limit),
         ..LoadOptions::default()
     };
-    let e = load_scene(&path, &opts(16_000_000)).unwrap_err().to_string();
-    assert!(e.contains("forty.gltf: 400000 triangles: needs about"), "{e}");
+    let e = load_scene(&path, &opts(16_000_000))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("forty.gltf: 400000 triangles: needs about"),
+        "{e}"
+    );
     assert!(e.ends_with("but only 16 MB is available"), "{e}");
     let scene = load_scene(&path, &opts(100_000_000)).unwrap();
     assert_eq!(scene.shapes.len(), 400_000);
@@ -535,8 +578,15 @@ fn job_pixels(scene: &Path) -> Vec<twinray::math::Color> {
     let job = Job::check(spec).expect("job");
     let loaded = job.load().expect("load");
     let plan = job.plan(&loaded).expect("plan");
-    let rendered = job.render(&plan, &|_, _| {}, &CancelToken::new()).expect("render");
-    rendered.output.images.into_iter().flat_map(|i| i.pixels).collect()
+    let rendered = job
+        .render(&plan, &|_, _| {}, &CancelToken::new())
+        .expect("render");
+    rendered
+        .output
+        .images
+        .into_iter()
+        .flat_map(|i| i.pixels)
+        .collect()
 }
 
 /// The attack: MTL `Kd 0.8 0.8 3.4e38`, glTF `emissiveFactor` 1e38 and
@@ -547,9 +597,15 @@ fn mtl_and_gltf_materials_are_clamped_with_a_warning_and_pixels_stay_finite() {
     let dir = tempfile::tempdir().unwrap();
     let quad = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nusemtl m\nf 1 2 3 4\n";
     for (mtl, says) in [
-        ("Kd 0.8 0.8 3.4e38", "Kd 0.8 0.8 340000000000000000000000000000000000000 clamped to 0.8 0.8 1"),
+        (
+            "Kd 0.8 0.8 3.4e38",
+            "Kd 0.8 0.8 340000000000000000000000000000000000000 clamped to 0.8 0.8 1",
+        ),
         ("Ke 1e38 1e38 1e38", "clamped to 1000000 1000000 1000000"),
-        ("Ks 1e38 0 0\nNs 1e38\nillum 3", "Ns 100000000000000000000000000000000000000 clamped to 1000"),
+        (
+            "Ks 1e38 0 0\nNs 1e38\nillum 3",
+            "Ns 100000000000000000000000000000000000000 clamped to 1000",
+        ),
         ("d -5\nNi 0", "d -5 clamped to 0"),
     ] {
         std::fs::write(dir.path().join("m.mtl"), format!("newmtl m\n{mtl}\n")).unwrap();
@@ -557,14 +613,23 @@ fn mtl_and_gltf_materials_are_clamped_with_a_warning_and_pixels_stay_finite() {
         std::fs::write(&obj, format!("mtllib m.mtl\n{quad}")).unwrap();
         let scene = load(&obj).unwrap();
         assert!(
-            scene.warnings.iter().any(|w| w.contains("material 'm'") && w.contains(says)),
+            scene
+                .warnings
+                .iter()
+                .any(|w| w.contains("material 'm'") && w.contains(says)),
             "{mtl}: {:?}",
             scene.warnings
         );
-        assert!(job_pixels(&obj).iter().all(|c| c.is_finite()), "{mtl}: a pixel is not finite");
+        assert!(
+            job_pixels(&obj).iter().all(|c| c.is_finite()),
+            "{mtl}: a pixel is not finite"
+        );
     }
     for (material, says) in [
-        (serde_json::json!({"emissiveFactor": [1e38, 1e38, 1e38]}), "emissiveFactor"),
+        (
+            serde_json::json!({"emissiveFactor": [1e38, 1e38, 1e38]}),
+            "emissiveFactor",
+        ),
         (
             serde_json::json!({"emissiveFactor": [1, 1, 1],
                 "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 1e38}}}),
@@ -578,13 +643,22 @@ fn mtl_and_gltf_materials_are_clamped_with_a_warning_and_pixels_stay_finite() {
         let path = common::gltf_quad(dir.path(), material.clone(), &[]);
         let scene = load(&path).unwrap();
         assert!(
-            scene.warnings.iter().any(|w| w.contains("materials[0]") && w.contains(says)),
+            scene
+                .warnings
+                .iter()
+                .any(|w| w.contains("materials[0]") && w.contains(says)),
             "{material}: {:?}",
             scene.warnings
         );
         let m = &scene.materials[0];
-        assert!(m.emission.max_element() <= twinray::scene::MAX_RADIANCE, "{material}");
-        assert!(job_pixels(&path).iter().all(|c| c.is_finite()), "{material}: a pixel is not finite");
+        assert!(
+            m.emission.max_element() <= twinray::scene::MAX_RADIANCE,
+            "{material}"
+        );
+        assert!(
+            job_pixels(&path).iter().all(|c| c.is_finite()),
+            "{material}: a pixel is not finite"
+        );
     }
 }
 
@@ -599,7 +673,10 @@ fn nul_empty_and_faceless_mesh_files_are_errors() {
     let dir = tempfile::tempdir().unwrap();
     for name in ["nul.obj", "nul.stl"] {
         let path = dir.path().join(name);
-        std::fs::File::create(&path).unwrap().set_len(64 << 20).unwrap();
+        std::fs::File::create(&path)
+            .unwrap()
+            .set_len(64 << 20)
+            .unwrap();
         let e = load(&path).unwrap_err().to_string();
         assert!(
             e.contains("not a text file (a NUL byte)") || e.contains("no triangles to render"),
@@ -608,8 +685,16 @@ fn nul_empty_and_faceless_mesh_files_are_errors() {
     }
     for (name, text, says) in [
         ("empty.obj", "", "no faces to render"),
-        ("points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "no faces to render"),
-        ("flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n", "every face was skipped"),
+        (
+            "points.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\n",
+            "no faces to render",
+        ),
+        (
+            "flat.obj",
+            "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n",
+            "every face was skipped",
+        ),
         ("empty.stl", "solid x\nendsolid x\n", "not a valid STL file"),
     ] {
         let path = dir.path().join(name);
@@ -629,11 +714,23 @@ fn nul_empty_and_faceless_mesh_files_are_errors() {
 fn ply_errors_quote_a_short_excerpt() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("nul.ply");
-    std::fs::File::create(&path).unwrap().set_len(100 << 20).unwrap();
+    std::fs::File::create(&path)
+        .unwrap()
+        .set_len(100 << 20)
+        .unwrap();
     let e = load(&path).unwrap_err().to_string();
-    assert!(e.starts_with(&format!("{}: not a valid PLY file", path.display())), "{}", &e[..e.len().min(300)]);
-    assert!(e.len() < 400 + path.display().to_string().len(), "{} bytes", e.len());
-    let mut text = b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n".to_vec();
+    assert!(
+        e.starts_with(&format!("{}: not a valid PLY file", path.display())),
+        "{}",
+        &e[..e.len().min(300)]
+    );
+    assert!(
+        e.len() < 400 + path.display().to_string().len(),
+        "{} bytes",
+        e.len()
+    );
+    let mut text =
+        b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n".to_vec();
     text.extend(std::iter::repeat_n(b'7', 10 << 20));
     std::fs::write(&path, text).unwrap();
     let e = load(&path).unwrap_err().to_string();

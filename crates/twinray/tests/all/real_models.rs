@@ -61,7 +61,8 @@ fn a_texture_outside_the_models_folder_needs_its_folder_allowed() {
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     let w = &s.warnings[0];
     assert!(
-        w.contains("texture '../cube.png' is outside the scene's folder") && w.contains("--allow-dir"),
+        w.contains("texture '../cube.png' is outside the scene's folder")
+            && w.contains("--allow-dir"),
         "{w}"
     );
     assert_eq!(s.shapes.len(), 1002);

@@ -114,6 +114,9 @@ fn ply_binary(p: &[[f32; 3]], t: &[[usize; 3]]) -> Vec<u8> {
 /// from the background, and the image.
 fn silhouette(file: &Path) -> (Vec<bool>, twinray::Image) {
     let mut spec = JobSpec::new(file, file.with_extension("exr"));
+    // Black around the model, not the grey studio, so the silhouette is
+    // every pixel that is not the background.
+    spec.studio.background = Some([0.0; 3]);
     spec.camera.size = Some([64, 48]);
     spec.sampling.samples = Some(1);
     let job = Job::check(spec).unwrap();

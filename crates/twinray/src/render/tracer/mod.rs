@@ -448,7 +448,7 @@ impl<'a> Tracer<'a> {
     /// each ray's own: the highlight depends on the view): lane `l` takes the
     /// transmittances `through[l * lights..]` and the secondary colour
     /// `secondary[l]` (each lane's colour is what it gets alone). A
-    /// transmittance below 0 ([`TRACE_LIGHT`]) is the lane's own: its shadow
+    /// transmittance below 0 (`TRACE_LIGHT`) is the lane's own: its shadow
     /// ray is traced, as the exact shading traces it, and what it found is
     /// written in its place (0 where the point faces away from the light).
     pub fn shade_from_donors<const K: usize>(
