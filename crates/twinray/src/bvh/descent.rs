@@ -839,8 +839,8 @@ mod tests {
                 mask: 0b11,
             };
             bvh.occlusion_pair(&two, &mut pair, &mut go);
-            for l in 0..4 {
-                let ray = SingleRay::new(origins[l], segs.dirs[l], 0.0);
+            for (l, &o) in origins.iter().enumerate() {
+                let ray = SingleRay::new(o, segs.dirs[l], 0.0);
                 bvh.occlusion_one((0, 0), &ray, segs.t_max[l], &mut alone, &mut go, l);
             }
         }
