@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The paper's approximations (sections 2.3-2.5) against two independent renders on
+# The paper's approximations (sections 2.3-2.5) against the views rendered alone (two mono renders) on
 # the SPD scenes and the bundled deep scene: time ratio, and the PSNR and largest
 # difference of the worst view against the exact images. The shape of the paper's
 # tables 2.3 and 2.4, with the quality columns it did not have, and --fast beside

@@ -2,7 +2,7 @@
 """Speed against quality of the approximations, one panel per scene, from
 `twinray bench-stereo --approx ... --csv` (bench/approx.sh).
 
-x: time / two independent renders; y: PSNR of the worst view against the exact
+x: time / two mono renders (the views rendered alone); y: PSNR of the worst view against the exact
 images (exact images drawn at the top edge). One point per size and interaxial.
 
 usage: python3 bench/plot_approx.py docs/approx-bench.csv docs/images/approx-speed-quality.png
@@ -53,7 +53,7 @@ def main(src, dst):
     for ax in axes[::cols]:
         ax.set_ylabel(f"PSNR, worst view (dB; exact at {TOP:.0f})")
     for ax in axes[-cols:]:
-        ax.set_xlabel("time / two independent renders")
+        ax.set_xlabel("time / two mono renders")
     axes[0].legend(fontsize=7, loc="lower left")
     fig.tight_layout()
     fig.savefig(dst, dpi=90)

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Plots twin / independent time ratios from `twinray bench-stereo --csv`.
+"""Plots the time ratios of `twinray bench-stereo --csv`: the pair over its views rendered alone (two mono renders).
 
 usage: python3 bench/plot_stereo.py docs/stereo-bench.csv docs/images/stereo-ratio.png
 """
@@ -35,7 +35,7 @@ def main(src, dst):
         ax.set_xticklabels(["128²", "256²", "512²", "1024²"])
         ax.set_title(f"interaxial {b:g}")
         ax.set_xlabel("image size")
-    axes[0].set_ylabel("twin / two independent renders")
+    axes[0].set_ylabel("pair / two mono renders")
     axes[-1].legend(fontsize=7, loc="upper right")
     fig.tight_layout()
     fig.savefig(dst, dpi=110)

@@ -2,24 +2,22 @@
 """Whole renders of the SPD scenes by CPU time, two or more binaries alternating.
 
 usage (from the project's root):
-    bench/render-cpu.py mono|stereo ROUNDS BIN BIN ...
+    bench/render-cpu.py mono ROUNDS BIN BIN ...
 
 mono:   each BIN renders ../shared/scenes/spd/NAME.nff at 512x512, --samples 1,
         one thread (the renders of ../shared/bench/vs-povray.sh, on one core);
         prints the medians and the last binary's time over the first's.
-stereo: each BIN renders the pair at 1024x1024, --interaxial 0.1, --samples 1,
-        one thread, --method independent and twin (the renders of bench-stereo);
-        prints the medians and twin / independent per binary.
+(A pair or N views against their views rendered alone: bench/views-cost.sh.)
 
 The clock is the CPU time of the child (user + system, getrusage), not wall time,
 so that a machine loaded by other work inflates it less. Scenes: $SCENES, default
 all seven (balls gears mount rings teapot tetra tree); an entry ending in .nff is
 a path (a scene of your own, e.g. an SPD scene without its lights:
 `grep -v '^l ' ../shared/scenes/spd/tetra.nff > /tmp/tetra-unlit.nff`). A BIN
-may carry flags for its mono and twin renders after commas
-(`target/release/twinray,--fast`: the same binary with an
-approximation, side by side with it plain). $SIZE
-overrides the mono size (512). Within a round every binary and method runs once,
+may carry flags for its renders after commas
+(`target/release/twinray,--fast`: the same binary with other flags,
+side by side with it plain). $SIZE
+overrides the mono size (512). Within a round every binary runs once,
 in turn. Mono also prints each binary's fastest run (`min`), the figure least
 moved by other work.
 """
@@ -31,7 +29,7 @@ import sys
 import tempfile
 
 mode, rounds, bins = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
-if mode not in ("mono", "stereo") or len(bins) < 1:
+if mode != "mono" or len(bins) < 1:
     sys.exit(__doc__)
 scenes = os.environ.get("SCENES", "balls gears mount rings teapot tetra tree").split()
 here = os.path.dirname(os.path.abspath(__file__))
@@ -53,33 +51,18 @@ def path(scene):
     return scene if scene.endswith(".nff") else spd % scene
 
 
-def command(b, scene, method):
-    # "BIN,FLAG,FLAG...": the flags go to that binary's mono and twin renders
-    # (not to --method independent, which takes no approximation).
+def command(b, scene):
+    # "BIN,FLAG,FLAG...": the flags go to that binary's renders.
     b, *flags = b.split(",")
-    if method is None:
-        return [b, "render", path(scene), "-o", out, "--size", "%sx%s" % (size, size),
-                "--samples", "1", "--threads", "1", "--quiet"] + flags
-    return [b, "render", path(scene), "-o", out, "--stereo", "--interaxial", "0.1",
-            "--size", "1024x1024", "--samples", "1", "--threads", "1",
-            "--method", method, "--quiet"] + (flags if method == "twin" else [])
+    return [b, "render", path(scene), "-o", out, "--size", "%sx%s" % (size, size),
+            "--samples", "1", "--threads", "1", "--quiet"] + flags
 
 
-methods = ["independent", "twin"] if mode == "stereo" else [None]
 for s in scenes:
-    t = {(b, m): [] for b in bins for m in methods}
+    t = {b: [] for b in bins}
     for _ in range(rounds):
         for b in bins:
-            for m in methods:
-                t[(b, m)].append(cpu(command(b, s, m)))
+            t[b].append(cpu(command(b, s)))
     med = {k: statistics.median(v) for k, v in t.items()}
-    if mode == "mono":
-        row = " ".join("%s %.3f s (min %.3f)" % (b, med[(b, None)], min(t[(b, None)]))
-                       for b in bins)
-        print("%-8s %s  last/first %.3f" % (s, row, med[(bins[-1], None)] / med[(bins[0], None)]),
-              flush=True)
-    else:
-        row = " | ".join("%s indep %.3f twin %.3f ratio %.3f" % (
-            b, med[(b, "independent")], med[(b, "twin")],
-            med[(b, "twin")] / med[(b, "independent")]) for b in bins)
-        print("%-8s %s" % (s, row), flush=True)
+    row = " ".join("%s %.3f s (min %.3f)" % (b, med[b], min(t[b])) for b in bins)
+    print("%-8s %s  last/first %.3f" % (s, row, med[bins[-1]] / med[bins[0]]), flush=True)

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The twin method against two independent renders on the SPD scenes: the shape of
+# The exact stereo pair against its views rendered alone (two mono renders, each
+# view's own camera) on the SPD scenes, by `twinray bench-stereo`: the shape of
 # the paper's tables 2.1 and 2.2. Prints Markdown; writes CSV and a plot.
 #
 # usage (from the project root):  bench/stereo.sh [SIZES] [INTERAXIALS]   (needs ../shared)

@@ -11,15 +11,18 @@ use clap::ValueEnum;
 
 use twinray::job::{
     AnaglyphSpec, AnimationSpec, CameraSpec, CutSpec, InterlaceSpec, JobSpec, LayoutSpec,
-    LightSpec, LimitSpec, MethodName, MethodSpec, OutputSpec, RigSpec, SamplingSpec, ShotRigSpec,
-    StudioSpec, TileSpec, TonemapSpec, TraceSpec, UpAxisSpec,
+    LightSpec, LimitSpec, MethodName, MethodSpec, OutputSpec, RigSpec, SamplingSpec, SceneUnits,
+    ShotRigSpec, StudioSpec, TileSpec, TonemapSpec, TraceSpec, UpAxisSpec,
 };
 use twinray::math::Vec3;
 use twinray::render::{Filter, ReprojectMode};
 use twinray::rig::choice::Interaxial;
 use twinray::rig::report as disparity;
+use twinray::rig::ProjectionName;
 
-use crate::values::{one_of, parse_budget, parse_light, parse_quilt, parse_size, parse_vec3};
+use crate::values::{
+    one_of, parse_budget, parse_light, parse_pole_merge, parse_quilt, parse_size, parse_vec3,
+};
 
 /// Everything `twinray render` (and `preview`) takes.
 #[derive(clap::Args, Clone, Debug)]
@@ -154,6 +157,19 @@ pub struct CameraArgs {
     /// Vertical field of view in degrees, top edge of the image to bottom.
     #[arg(long, value_name = "DEGREES")]
     pub fov: Option<f32>,
+    /// pinhole (the default), or a panorama: equirect, ods, vr180, vr180-fisheye.
+    ///
+    /// equirect: 360°x180°, one eye. ods: omni-directional stereo, 360°
+    /// with both eyes (--stereo; --layout tb puts the left on top). vr180:
+    /// 180°x180° equirectangular; vr180-fisheye: an equidistant 180° fisheye
+    /// (--stereo --layout sbs). The camera's from, at and up orient it;
+    /// the default size is the scene's height, twice it across for 360°.
+    #[arg(long, value_name = "PROJECTION", default_value = "pinhole",
+          hide_default_value = true, value_parser = one_of::<ProjectionName>(ProjectionName::NAMES))]
+    pub projection: ProjectionName,
+    /// --projection ods: the latitudes where the eyes start to merge toward the poles, and are one (default 60,75).
+    #[arg(long, value_name = "FROM,TO", value_parser = parse_pole_merge, hide_short_help = true)]
+    pub pole_merge: Option<[f64; 2]>,
 }
 
 /// How many views, how far apart, where they converge.
@@ -210,6 +226,18 @@ pub struct RigArgs {
     /// view, as wide as the violating disparity.
     #[arg(long, hide_short_help = true)]
     pub floating_window: bool,
+    /// A panorama's depth budget: the angular disparity of the nearest point, degrees (default 1).
+    ///
+    /// The automatic IPD (--interaxial auto) is the largest that keeps
+    /// every visible point within it, and at most 64 mm where the scene's
+    /// unit is known (--units).
+    #[arg(long, value_name = "DEGREES")]
+    pub angular_budget: Option<f64>,
+    /// The scene's length unit: m, cm, mm, in or ft (glTF: m).
+    ///
+    /// A panorama's automatic IPD is then at most the eyes' 64 mm.
+    #[arg(long, value_name = "UNIT", value_parser = one_of::<SceneUnits>(SceneUnits::NAMES))]
+    pub units: Option<SceneUnits>,
 }
 
 /// Anti-aliasing (default: the adaptive refinement).
@@ -533,6 +561,8 @@ impl RenderArgs {
                 at: c.at.map(|v| v.to_array()),
                 up: c.up.map(|v| v.to_array()),
                 fov: c.fov,
+                projection: c.projection,
+                pole_merge: c.pole_merge,
             },
             rig: RigSpec {
                 stereo: r.stereo,
@@ -543,6 +573,8 @@ impl RenderArgs {
                 view_cone: r.view_cone,
                 screen_width: r.screen_width,
                 floating_window: r.floating_window,
+                angular_budget: r.angular_budget,
+                units: r.units,
             },
             sampling: self.sampling.spec(),
             method: self.speed.spec(),

@@ -10,6 +10,7 @@ use twinray::job::{
     TraceSpec, UpAxisSpec,
 };
 use twinray::render::ReprojectMode;
+use twinray::rig::ProjectionName;
 
 /// The arguments of `twinray render` that give a spec.
 pub trait ToArgs {
@@ -76,6 +77,13 @@ fn camera_args(spec: &JobSpec, a: &mut Args) {
         a.maybe(flag, v.map(triple));
     }
     a.maybe("--fov", c.fov);
+    if c.projection != ProjectionName::Pinhole {
+        a.value("--projection", c.projection);
+    }
+    a.maybe(
+        "--pole-merge",
+        c.pole_merge.map(|[f, t]| format!("{f},{t}")),
+    );
 }
 
 fn rig_args(r: &RigSpec, a: &mut Args) {
@@ -90,6 +98,8 @@ fn rig_args(r: &RigSpec, a: &mut Args) {
         a.value("--screen-width", r.screen_width);
     }
     a.flag("--floating-window", r.floating_window);
+    a.maybe("--angular-budget", r.angular_budget);
+    a.maybe("--units", r.units);
 }
 
 fn method_args(spec: &JobSpec, a: &mut Args) {

@@ -32,6 +32,24 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+/// `FROM,TO`: two latitudes in degrees, `0 <= FROM <= TO <= 90`.
+pub fn parse_pole_merge(s: &str) -> Result<[f64; 2], String> {
+    let numbers: Vec<f64> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("'{s}' is not FROM,TO (two latitudes)"))
+        })
+        .collect::<Result<_, _>>()?;
+    match numbers[..] {
+        [from, to] if (0.0..=90.0).contains(&from) && (from..=90.0).contains(&to) => Ok([from, to]),
+        _ => Err(format!(
+            "'{s}': two latitudes in degrees, 0 <= FROM <= TO <= 90"
+        )),
+    }
+}
+
 /// `X,Y,Z`: three finite numbers.
 pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();

@@ -1,8 +1,7 @@
 //! Where the hierarchy build of a mesh spends its time: the whole
 //! `World::new` (what `--stats`' `build_s` reports), and apart from it the
-//! public pieces — the binned SAH build with its four-wide collapse
-//! (`bvh::build` without the eight-wide tree), the four-wide collapse and the
-//! eight-wide collapse alone, and the triangle blocks. Wall time and the
+//! public pieces — the binned SAH build with its eight-wide collapse
+//! (`bvh::build`), the collapse alone, and the triangle blocks. Wall time and the
 //! process's CPU time (both cores' work), medians over the rounds.
 //!
 //!   cargo bench -p twinray-bench --bench build_phases -- FILE [ROUNDS]
@@ -73,8 +72,7 @@ fn main() {
     );
     let names = [
         "World::new (build_s)",
-        "bvh::build (all trees)",
-        "  four-wide collapse",
+        "bvh::build (both trees)",
         "  eight-wide collapse",
         "  triangle blocks",
     ];
@@ -92,12 +90,9 @@ fn main() {
         let (w, c, wide) = timed(|| bvh::collapse(&tree.nodes));
         record(2, w, c);
         assert_eq!(wide, tree.wide);
-        let (w, c, wide8) = timed(|| bvh::collapse8(&tree.nodes));
-        record(3, w, c);
-        assert_eq!(wide8, tree.wide8);
         let mut blocks = world.bvh.clone();
         let (w, c, ()) = timed(|| blocks.attach_blocks(&world.scene.shapes));
-        record(4, w, c);
+        record(3, w, c);
         drop((world, tree, blocks));
     }
     println!("{:<26} {:>8} {:>8}", "phase", "wall_s", "cpu_s");

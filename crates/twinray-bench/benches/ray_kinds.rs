@@ -103,14 +103,14 @@ impl Kind {
             Kind::Shadow => sets
                 .shadow
                 .iter()
-                .filter(|s| shadow_blocked(world, s, Tree::Wide8))
+                .filter(|s| shadow_blocked(world, s, Tree::Packets))
                 .count(),
             _ => self
                 .rays(sets)
                 .iter()
                 .filter(|r| {
                     let (p, _) =
-                        closest(&world.bvh, world, r, Tree::Wide8, &mut Default::default());
+                        closest(&world.bvh, world, r, Tree::Packets, &mut Default::default());
                     p != u32::MAX
                 })
                 .count(),
@@ -120,16 +120,16 @@ impl Kind {
     /// One pass over every ray on one thread: a checksum of the hits.
     fn pass(self, sets: &RaySets) -> u64 {
         match self {
-            Kind::Shadow => shadow_pass(sets, Tree::Wide8, 1),
-            _ => rays_pass(sets, self.rays(sets), Tree::Wide8, 1),
+            Kind::Shadow => shadow_pass(sets, Tree::Packets, 1),
+            _ => rays_pass(sets, self.rays(sets), Tree::Packets, 1),
         }
     }
 
     /// The descent's work over every ray.
     fn work(self, sets: &RaySets) -> TraversalStats {
         match self {
-            Kind::Shadow => shadow_work(sets, Tree::Wide8),
-            _ => work(sets, self.rays(sets), Tree::Wide8),
+            Kind::Shadow => shadow_work(sets, Tree::Packets),
+            _ => work(sets, self.rays(sets), Tree::Packets),
         }
     }
 }

@@ -1,12 +1,14 @@
-//! The four-wide traversal against the binary one on three SPD scenes (teapot,
-//! tetra, sombrero from `../shared/scenes/spd`, skipped with a notice when
-//! absent), 256² rays of the file's viewpoint: eye rays alone, eye rays as
-//! stereo pairs (two-lane packets), shadow rays toward the first light (any
-//! hit; alone and as the pairs' two-lane packets), and the eye hits' mirror reflections; on 1 and 2 threads.
+//! The traversals on three SPD scenes (teapot, tetra, sombrero from
+//! `../shared/scenes/spd`, skipped with a notice when absent), 256² rays of
+//! the file's viewpoint: eye rays alone, eye rays as stereo pairs (two-lane
+//! packets), shadow rays toward the first light (any hit; alone and as the
+//! pairs' two-lane packets), and the eye hits' mirror reflections; on 1 and 2
+//! threads; leaves tested one by one, each lane alone, and as the renderer
+//! traces them.
 //!
 //! Run: `cargo bench -p twinray-bench --bench traversal`. For figures under
-//! load, `cargo bench -p twinray-bench --bench wide_vs_binary`
-//! prints the two side by side (docs/benchmarks.md).
+//! load, `cargo bench -p twinray-bench --bench packets` prints two ways side
+//! by side (docs/benchmarks.md).
 
 use std::path::Path;
 use std::time::Duration;
@@ -35,9 +37,9 @@ fn traversal(c: &mut Criterion) {
             g.sample_size(10)
                 .warm_up_time(Duration::from_millis(300))
                 .measurement_time(Duration::from_secs(2));
-            // Binary and Wide test leaves of triangles four at a time (as the
-            // renderer does); BinaryScalar one by one.
-            for tree in [Tree::BinaryScalar, Tree::Binary, Tree::Wide] {
+            // Leaves of triangles four at a time (as the renderer tests
+            // them), but for Scalar: one by one.
+            for tree in [Tree::Scalar, Tree::Lanes, Tree::Packets] {
                 let t = format!("{tree:?}").to_lowercase();
                 g.throughput(Throughput::Elements(sets.eye.len() as u64));
                 g.bench_function(format!("eye/{t}"), |b| {

@@ -1,13 +1,13 @@
-//! Ray sets for comparing the four-wide traversal with the binary one on real
-//! scenes: the eye rays of an NFF file's viewpoint through the pixel centres
-//! (as `../shared/bench/vs-embree.py` casts them), stereo pairs of those, and
-//! the shadow and reflected rays of their hits. Each pass returns a checksum of
-//! the hits so that both traversals can be seen to agree and nothing is
-//! optimised away.
+//! Ray sets for timing the traversals on real scenes: the eye rays of an NFF
+//! file's viewpoint through the pixel centres (as `../shared/bench/vs-embree.py`
+//! casts them), stereo pairs and packets of views of those, and the shadow and
+//! reflected rays of their hits. Each pass returns a checksum of the hits so
+//! that two ways of tracing can be seen to agree and nothing is optimised
+//! away.
 //!
 //! Nearest hits test leaves of triangles four at a time, as the renderer
-//! does (`Bvh::blocks`); the `*Scalar` trees test every primitive one by
-//! one, for comparison.
+//! does (`Bvh::blocks`); `Tree::Scalar` tests every primitive one by one, and
+//! `Tree::Lanes` traces each lane of a packet alone, for comparison.
 
 use std::path::Path;
 
@@ -18,38 +18,22 @@ use twinray::math::{reflect, Ray, Vec3};
 use twinray::shapes::{BlockHits, Shape, SurfaceHit, Triangle4};
 use twinray::World;
 
-/// Which traversal a pass uses.
+/// How a pass traces its rays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Tree {
-    Binary,
-    Wide,
-    /// The binary tree with every leaf primitive tested one by one.
-    BinaryScalar,
-    /// The four-wide tree with every leaf primitive tested one by one.
-    WideScalar,
-    /// The four-wide tree, each lane of a packet descending it alone
-    /// (`Bvh::closest_each_wide`), leaves as blocks.
-    WideEach,
-    /// The eight-wide tree, each lane of a packet (and each shadow segment)
-    /// descending it alone (`Bvh::closest_each_wide8`,
-    /// `Bvh::occlusion_wide8`), leaves as blocks.
-    Wide8,
-    /// The eight-wide tree, a stereo pair's two lanes in one descent
-    /// (`Bvh::closest_pair_wide8`, `Bvh::occlusion_pair_wide8`; wider
-    /// packets each lane alone), leaves as blocks.
-    Wide8Pair,
+    /// As the renderer does (`Bvh::closest`, `Bvh::occlusion`): a pair's
+    /// shadow segments and packets of eight in one descent, leaves of
+    /// triangles as blocks.
+    Packets,
+    /// Every lane of a packet, and every segment, alone, leaves as blocks.
+    Lanes,
+    /// As `Packets`, with every leaf primitive tested one by one.
+    Scalar,
 }
 
 impl Tree {
-    fn wide(self) -> bool {
-        matches!(self, Tree::Wide | Tree::WideScalar | Tree::WideEach)
-    }
-
     fn blocks(self) -> bool {
-        matches!(
-            self,
-            Tree::Binary | Tree::Wide | Tree::WideEach | Tree::Wide8 | Tree::Wide8Pair
-        )
+        self != Tree::Scalar
     }
 }
 
@@ -68,12 +52,6 @@ impl<const K: usize> NearestTest for Nearest<'_, K> {
     }
 
     #[inline(always)]
-    fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
-        let rays = [self.rays[0], self.rays[1 % K]];
-        self.shapes[prim as usize].intersect_pair(&rays, 0.0, t_max)
-    }
-
-    #[inline(always)]
     fn test_block(&mut self, block: &Triangle4, lane: usize, t_max: f32) -> Option<BlockHits> {
         self.blocks
             .then(|| block.intersect(&self.rays[lane], 0.0, t_max))
@@ -88,12 +66,6 @@ impl<const K: usize> NearestTest for Nearest<'_, K> {
     ) -> Option<[BlockHits; 2]> {
         self.blocks
             .then(|| Triangle4::intersect_two(blocks, &self.rays[lane], 0.0, t_max))
-    }
-
-    #[inline(always)]
-    fn test_block_pair(&mut self, block: &Triangle4, t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
-        self.blocks
-            .then(|| block.intersect_pair(&[self.rays[0], self.rays[1 % K]], 0.0, t_max))
     }
 }
 
@@ -113,26 +85,42 @@ fn nearest<const K: usize>(
         t_max: [f32::INFINITY; K],
         mask: (1 << K) - 1,
     };
-    let test = Nearest {
-        shapes: &world.scene.shapes,
-        blocks: tree.blocks(),
-        rays,
-    };
-    if tree == Tree::WideEach {
-        bvh.closest_each_wide(&p, st, test)
-    } else if tree == Tree::Wide8 {
-        bvh.closest_each_wide8(&p, st, test)
-    } else if tree == Tree::Wide8Pair {
-        if K == 2 {
-            bvh.closest_pair_wide8(&p, st, test)
-        } else {
-            bvh.closest_each_wide8(&p, st, test)
-        }
-    } else if tree.wide() {
-        bvh.closest_wide(&p, st, test)
-    } else {
-        bvh.closest_binary(&p, st, test)
+    let shapes = &world.scene.shapes;
+    let blocks = tree.blocks();
+    if tree != Tree::Lanes {
+        return bvh.closest(
+            &p,
+            st,
+            Nearest {
+                shapes,
+                blocks,
+                rays,
+            },
+        );
     }
+    let none = SurfaceHit {
+        t: f32::INFINITY,
+        u: 0.0,
+        v: 0.0,
+    };
+    let mut out = twinray::bvh::PacketHits {
+        prim: [u32::MAX; K],
+        hit: [none; K],
+    };
+    for l in 0..K {
+        let rays = &[rays[l]];
+        let h = bvh.closest(
+            &p.lane(l),
+            st,
+            Nearest {
+                shapes,
+                blocks,
+                rays,
+            },
+        );
+        (out.prim[l], out.hit[l]) = (h.prim[0], h.hit[0]);
+    }
+    out
 }
 
 /// A scene with the rays of one `size`² view of it.
@@ -213,7 +201,7 @@ impl RaySets {
                 &world.bvh,
                 &world,
                 ray,
-                Tree::Binary,
+                Tree::Packets,
                 &mut TraversalStats::default(),
             );
             if prim == u32::MAX {
@@ -395,20 +383,13 @@ fn any_hits<const K: usize>(
         lengths: segs.map(|s| s.2),
         blocked: 0,
     };
-    if tree == Tree::Wide8 {
-        w.bvh.occlusion_wide8(&p, st, &mut test)
-    } else if tree == Tree::Wide8Pair {
-        if K == 2 {
-            w.bvh.occlusion_pair_wide8(&p, st, &mut test)
-        } else {
-            w.bvh.occlusion_wide8(&p, st, &mut test)
-        }
-    } else if tree.wide() {
-        w.bvh.occlusion_wide(&p, st, &mut test)
-    } else {
-        w.bvh.occlusion_binary(&p, st, &mut test)
+    if tree != Tree::Lanes {
+        w.bvh.occlusion(&p, st, &mut test);
+        return test.blocked;
     }
-    test.blocked
+    (0..K).fold(0, |blocked, l| {
+        blocked | any_hits(w, [segs[l]], Tree::Packets, st) << l
+    })
 }
 
 /// The renderer's any-hit test for opaque scenes (`shading::ShadowTest`):

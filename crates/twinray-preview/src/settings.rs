@@ -144,7 +144,10 @@ impl Settings {
             spec.camera.from = Some(c.from);
             spec.camera.at = Some(c.at);
             spec.camera.up = Some(c.up);
-            spec.camera.fov = Some(c.fov);
+            // A panorama's field of view is its projection's.
+            if spec.camera.projection == twinray::rig::ProjectionName::Pinhole {
+                spec.camera.fov = Some(c.fov);
+            }
         }
         let r = &mut spec.rig;
         // A pair is --stereo; a quilt of as many views as tiles needs no --views.

@@ -25,6 +25,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::{Error, Result};
 
+mod spherical_video;
+
 /// The video codec, and the ffmpeg encoder that writes it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -151,6 +153,20 @@ pub struct VideoSpec {
     /// 0 lossless in YUV; [`Codec::default_crf`] looks lossless).
     pub crf: u32,
     pub codec: Codec,
+    /// A panorama's projection, for the MP4's `sv3d` box.
+    pub spherical: Spherical,
+}
+
+/// What a video's frames are, as Google's Spherical Video V2 says it in
+/// an MP4 (`sv3d`/`proj`/`equi`): each eye's picture an equirectangular
+/// panorama, whole or its middle half across (VR180).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Spherical {
+    /// A flat picture (and a fisheye, which `equi` cannot describe).
+    #[default]
+    None,
+    Equirect360,
+    Equirect180,
 }
 
 /// The ffmpeg program: `$TWINRAY_FFMPEG`, else `ffmpeg` on the PATH,
@@ -372,6 +388,14 @@ impl VideoWriter {
         } else {
             encoded
         };
+        if Container::of(&self.spec.path) == Some(Container::Mp4)
+            && self.spec.spherical != Spherical::None
+        {
+            let bytes = std::fs::read(&finished).map_err(io)?;
+            let tagged = spherical_video::with_sv3d(&bytes, self.spec.spherical)
+                .map_err(|e| self.failure(&format!("writing the spherical metadata: {e}")))?;
+            std::fs::write(&finished, tagged).map_err(io)?;
+        }
         finished.persist(&self.spec.path).map_err(|e| io(e.error))?;
         Ok(self.spec.path.clone())
     }

@@ -3,10 +3,12 @@
 //! `... --test all MODULE::` for one file's tests.
 
 mod animation;
+mod bench_stereo;
 mod cli;
 mod hardening;
 mod job;
 mod messages;
+mod panorama;
 mod preview;
 mod spec_args;
 mod video;

@@ -24,6 +24,8 @@ mod posing;
 pub use frames::{FramePattern, FrameRange};
 pub use motion::{CameraPath, FrameCamera, Motion};
 
+use crate::rig::Projection;
+use crate::video::Spherical;
 use std::path::PathBuf;
 use std::sync::Mutex;
 
@@ -484,6 +486,11 @@ impl Animation {
                             packing,
                             crf: self.crf,
                             codec: self.codec,
+                            spherical: match plan.camera.projection {
+                                Projection::Equirect | Projection::Ods(_) => Spherical::Equirect360,
+                                Projection::Vr180 => Spherical::Equirect180,
+                                _ => Spherical::None,
+                            },
                         })?),
                     };
                     let bytes = job

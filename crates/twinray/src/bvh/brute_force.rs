@@ -8,7 +8,7 @@
 //! ([`random_packet`]): rays from near and far, in every direction, lanes
 //! with their own origins, directions and `t_max`, some lanes masked off.
 
-use super::{Packet, PacketHits, SegmentPacket};
+use super::{AnyHit, Packet, PacketHits, SegmentPacket};
 use crate::math::{Ray, Vec3};
 use crate::shapes::{Cone, Shape, Sphere, SurfaceHit, Triangle, TriangleNormals};
 
@@ -70,6 +70,35 @@ pub fn occluders<const K: usize>(
                 .is_some()
         })
         .collect()
+}
+
+/// What each lane of `segments` meets (sorted; with `stop`, a lane stops at
+/// the first primitive it meets), as an any-hit traversal that `descend`
+/// runs with the test it is given reports it.
+pub fn met<const K: usize>(
+    shapes: &[Shape],
+    segments: &SegmentPacket<K>,
+    stop: bool,
+    descend: impl FnOnce(&mut dyn FnMut(u32, usize) -> AnyHit),
+) -> [Vec<u32>; K] {
+    let mut met: [Vec<u32>; K] = std::array::from_fn(|_| Vec::new());
+    descend(&mut |p: u32, l: usize| {
+        let ray = Ray::new(segments.origins[l], segments.dirs[l]);
+        if shapes[p as usize]
+            .intersect(&ray, 0.0, segments.t_max[l])
+            .is_some()
+        {
+            met[l].push(p);
+            if stop {
+                return AnyHit::Stop;
+            }
+        }
+        AnyHit::Continue
+    });
+    met.map(|mut m| {
+        m.sort_unstable();
+        m
+    })
 }
 
 fn random_point(rng: &mut fastrand::Rng, scale: f32) -> Vec3 {

@@ -93,8 +93,8 @@ const TWO_SETS: usize = 256;
 /// caller asks for more than 16.
 const MAX_BINS: usize = 16;
 
-/// Builds a hierarchy over primitives with the given boxes, and its four-
-/// and eight-wide forms. Boxes are padded so that the slab test stays
+/// Builds a hierarchy over primitives with the given boxes, and its
+/// eight-wide form. Boxes are padded so that the slab test stays
 /// conservative under rounding.
 pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
     build_by(boxes.len(), |i| boxes[i], || *opts)
@@ -160,38 +160,17 @@ pub fn build_pieces(pieces: &[(u32, Aabb)], opts: &BuildOptions) -> Bvh {
     finish(nodes, order, (tree, refs))
 }
 
-/// The hierarchy of `nodes` and `order` with its wide forms; `built` is the
-/// build's own tree, freed beside them.
+/// The hierarchy of `nodes` and `order` with its wide form; `built` is the
+/// build's own tree, freed beside it.
 fn finish(nodes: Vec<Node>, order: Vec<u32>, built: (BuildNode, Vec<PrimRef>)) -> Bvh {
-    // The four- and the eight-wide collapses (each serial) on two threads,
-    // and the build's own tree freed on a third task, off their path. Each
-    // wide tree is dropped in its own task if a descent could need more
-    // stack than the traversals hold (`fits`).
-    let ((wide, wide8), ()) = rayon::join(
-        || {
-            rayon::join(
-                || fits(super::collapse(&nodes)),
-                || fits(super::collapse8(&nodes)),
-            )
-        },
-        || drop(built),
-    );
+    // The collapse (serial) on one thread and the build's own tree freed on
+    // another, off its path.
+    let (wide, ()) = rayon::join(|| super::collapse(&nodes), || drop(built));
     Bvh {
         nodes,
         order,
         wide,
-        wide8,
         ..Bvh::default()
-    }
-}
-
-/// `tree`, or none if a descent of it could need more stack entries than the
-/// traversals hold (`stack_bound.rs`).
-fn fits<const W: usize>(tree: Vec<super::WideNode<W>>) -> Vec<super::WideNode<W>> {
-    if super::stack_bound::stack_need(&tree) > super::traverse::STACK {
-        Vec::new()
-    } else {
-        tree
     }
 }
 

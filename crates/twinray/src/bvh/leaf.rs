@@ -1,5 +1,5 @@
-//! The leaf tests of every descent, binary or four-wide, nearest or any hit,
-//! a lane alone or in a packet: a leaf's primitives one by one, or its
+//! The leaf tests of every descent, nearest or any hit, a lane alone or in
+//! a packet: a leaf's primitives one by one, or its
 //! triangles as SIMD blocks (`shapes::Triangle4`) where the tree holds them;
 //! a ray alone meets a leaf's blocks two at a time in one eight-wide test
 //! (`Triangle4::intersect_two`) where its test takes them so.
@@ -150,76 +150,6 @@ fn scalar_lane<T: NearestTest>(prims: &[u32], lane: usize, state: &mut LaneHit, 
     }
 }
 
-/// The lanes `mask` of a packet against a leaf, each lane's nearest hit
-/// improved in `best` and `out` (ties to the lower index).
-#[inline(always)]
-pub(super) fn test_leaf<const K: usize, T: NearestTest>(
-    leaf: Leaf,
-    mask: u32,
-    best: &mut [f32; K],
-    out: &mut PacketHits<K>,
-    stats: &mut TraversalStats,
-    test: &mut T,
-) {
-    stats.prim_tests += (leaf.prims.len() * mask.count_ones() as usize) as u64;
-    let lane = |l: usize, best: &[f32; K], out: &PacketHits<K>| LaneHit {
-        best: best[l],
-        prim: out.prim[l],
-        hit: out.hit[l],
-    };
-    if K == 2 && mask == 0b11 {
-        let bounds = [best[0].next_up(), best[1 % K].next_up()];
-        for (k, block) in leaf.blocks.iter().enumerate() {
-            let prims = leaf.block_prims(k);
-            match test.test_block_pair(block, bounds) {
-                // Both rays of the pair against the block at once.
-                Some(found) => {
-                    for (l, b) in found.iter().enumerate() {
-                        let mut state = lane(l, best, out);
-                        offer_block(prims, b, &mut state);
-                        (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
-                    }
-                }
-                None => scalar_pair(prims, best, out, test),
-            }
-        }
-        if leaf.blocks.is_empty() {
-            scalar_pair(leaf.prims, best, out, test);
-        }
-        return;
-    }
-    let mut lanes = mask;
-    while lanes != 0 {
-        let l = lanes.trailing_zeros() as usize;
-        lanes &= lanes - 1;
-        let mut state = lane(l, best, out);
-        leaf_lane(leaf, l, &mut state, test);
-        (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
-    }
-}
-
-/// Both rays of a pair against one primitive at once, primitive by primitive.
-#[inline(always)]
-fn scalar_pair<const K: usize, T: NearestTest>(
-    prims: &[u32],
-    best: &mut [f32; K],
-    out: &mut PacketHits<K>,
-    test: &mut T,
-) {
-    for &prim in prims {
-        let found = test.test_pair(prim, [best[0].next_up(), best[1 % K].next_up()]);
-        for (l, h) in found.into_iter().enumerate() {
-            if let Some(h) = h {
-                if h.t < best[l] || (h.t == best[l] && prim < out.prim[l]) {
-                    best[l] = h.t;
-                    out.prim[l] = prim;
-                    out.hit[l] = h;
-                }
-            }
-        }
-    }
-}
-
 /// One segment (lane `lane`) against one block of a leaf (its primitives
 /// `prims`): whether `test` said stop. The block's hits are met in index
 /// order, up to the first stop, as one by one.
@@ -356,7 +286,7 @@ pub(super) mod tests {
     use crate::shapes::{Triangle, TriangleNormals};
 
     /// A wavy height field of `n` x `n` quads, two triangles each (also the
-    /// eight-wide pair descent's test scene).
+    /// descents' test scene).
     pub(in crate::bvh) fn terrain(n: usize) -> Vec<Shape> {
         let v = |i: usize, j: usize| {
             let (x, y) = (i as f32, j as f32);
@@ -427,7 +357,7 @@ pub(super) mod tests {
         );
     }
 
-    /// The tree (binary, four- and eight-wide) is the same whatever the
+    /// The tree (binary and wide) is the same whatever the
     /// number of threads: the images do not depend on it (ties go to the
     /// lower index of a leaf order).
     #[test]
@@ -446,13 +376,12 @@ pub(super) mod tests {
             pool.install(|| build(&boxes, &BuildOptions::triangle_blocks()))
         };
         let one = on(1);
-        assert!(one.wide8.len() > 1000);
+        assert!(one.wide.len() > 1000);
         for threads in [2, 5] {
             let other = on(threads);
             assert_eq!(other.nodes, one.nodes, "{threads} threads");
             assert_eq!(other.order, one.order, "{threads} threads");
             assert_eq!(other.wide, one.wide, "{threads} threads");
-            assert_eq!(other.wide8, one.wide8, "{threads} threads");
         }
     }
 }

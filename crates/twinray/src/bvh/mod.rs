@@ -1,28 +1,29 @@
-//! The bounding-volume hierarchy: a binned-SAH build (`build.rs`) and the
-//! traversals the renderer needs (`traverse.rs`): nearest hit for a packet of
-//! rays (one lane per view: the paper's twin objects, realised as the views'
-//! rays traced as one), and any-hit for packets of shadow rays.
+//! The bounding-volume hierarchy: a binned-SAH build (`build.rs`) of a
+//! binary tree, collapsed eight-wide (`collapse.rs`), and the traversals the
+//! renderer needs (`traverse.rs`, descending the wide tree as `descent.rs`
+//! says): nearest hit for a packet of rays (one lane per view: the paper's
+//! twin objects, realised as the views' rays traced as one), and any hit for
+//! packets of shadow rays.
 //!
-//! The hierarchy holds boxes and a permutation of primitive indices (and the
-//! same tree four-wide, `wide.rs`, and eight-wide, `wide8.rs`), and asks a `NearestTest` or `AnyHitTest`
-//! to test primitives; the one thing it keeps of shapes is its leaves of
-//! triangles as SIMD blocks (`leaf.rs`), which a caller attaches.
+//! The hierarchy holds boxes and a permutation of primitive indices, and asks
+//! a `NearestTest` or `AnyHitTest` to test primitives; the one thing it keeps
+//! of shapes is its leaves of triangles as SIMD blocks (`leaf.rs`), which a
+//! caller attaches.
 
 #[cfg(test)]
 pub(crate) mod brute_force;
 mod build;
+mod collapse;
+mod descent;
 mod leaf;
 mod region;
 mod splice;
 mod stack_bound;
 mod traverse;
-mod wide;
-mod wide8;
-mod wide8_eye;
-mod wide8_pair;
-mod wide8_shadow;
 
 pub use build::{build_pieces, primitive_box, BuildOptions, PAD};
+pub use collapse::{collapse, WideNode, WIDTH};
+pub use descent::EYE_PACKET;
 pub use region::Region;
 pub use splice::{splice, Placed};
 pub use stack_bound::stack_need;
@@ -30,9 +31,6 @@ pub use traverse::{
     segment_enters, AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket,
     TraversalStats,
 };
-pub use wide::{collapse, collapse_sah, collapse_to, Node4, WideNode, WIDTH};
-pub use wide8::{collapse8, Node8, WIDTH8};
-pub use wide8_eye::EYE_PACKET;
 
 use crate::math::Aabb;
 use crate::shapes::LeafBlocks;
@@ -81,23 +79,18 @@ pub struct Bvh {
     /// Primitive indices in leaf order: leaf slots `first..first+count` index
     /// this. Slots between leaves hold `PAD` (a tree built for blocks).
     pub order: Vec<u32>,
-    /// The same tree collapsed four-wide (`wide.rs`), which the traversals
-    /// use when it is there; empty: they use `nodes`.
-    pub wide: Vec<Node4>,
+    /// The same tree collapsed eight-wide (`collapse.rs`), which every
+    /// traversal descends; empty only where `nodes` is, or for a tree that is
+    /// never traversed (an instance's, before the splice).
+    pub wide: Vec<WideNode>,
     /// The leaves made only of triangles as SIMD blocks, by slot
     /// (`Bvh::attach_blocks`); empty: every leaf is tested one by one.
     pub blocks: LeafBlocks,
-    /// The same tree collapsed eight-wide (`wide8.rs`), which every lane
-    /// of a nearest-hit packet and every shadow segment descends alone when
-    /// it is there, but a stereo pair's two shadow segments, which descend it
-    /// in one descent (`wide8_pair.rs`).
-    pub wide8: Vec<Node8>,
 }
 
 /// Builds a hierarchy over primitives with the given boxes (`build.rs`'s
-/// binned SAH), and its four- and eight-wide forms.
+/// binned SAH), and its eight-wide form.
 pub fn build(boxes: &[Aabb], opts: &BuildOptions) -> Bvh {
-    // (A wide tree beyond the traversals' stack is dropped there.)
     build::build(boxes, opts)
 }
 
@@ -161,8 +154,7 @@ impl Bvh {
     /// Memory held by the hierarchy, in bytes.
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node>()
-            + self.wide.len() * std::mem::size_of::<Node4>()
-            + self.wide8.len() * std::mem::size_of::<Node8>()
+            + self.wide.len() * std::mem::size_of::<WideNode>()
             + self.order.len() * 4
             + self.blocks.memory_bytes()
     }

@@ -9,7 +9,7 @@
 //! at once, but it bounds every primitive, so the nearest hit of a ray (where
 //! only one primitive is nearest) is the same.
 
-use super::{build, collapse, collapse8, BuildOptions, Bvh, Node, PAD};
+use super::{build, collapse, BuildOptions, Bvh, Node, PAD};
 use crate::math::Aabb;
 use crate::shapes::BLOCK;
 
@@ -119,22 +119,18 @@ pub fn splice(parts: &[Placed]) -> Bvh {
         }
     }
     let wide = collapse(&nodes);
-    let wide8 = collapse8(&nodes);
-    let mut bvh = Bvh {
+    Bvh {
         nodes,
         order,
         wide,
-        wide8,
         ..Bvh::default()
-    };
-    bvh.drop_trees_beyond_stack();
-    bvh
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::{brute_force, AnyHit, TraversalStats};
+    use crate::bvh::{brute_force, TraversalStats};
     use crate::math::Ray;
     use crate::shapes::Shape;
 
@@ -223,19 +219,10 @@ mod tests {
                     }
                 }
                 let segments = brute_force::segments_of(&packet);
-                let mut met: [Vec<u32>; 4] = std::array::from_fn(|_| Vec::new());
-                bvh.occlusion(&segments, &mut stats, &mut |p: u32, l: usize| {
-                    let ray = Ray::new(segments.origins[l], segments.dirs[l]);
-                    if shapes[p as usize]
-                        .intersect(&ray, 0.0, segments.t_max[l])
-                        .is_some()
-                    {
-                        met[l].push(p);
-                    }
-                    AnyHit::Continue
+                let met = brute_force::met(&shapes, &segments, false, |mut test| {
+                    bvh.occlusion(&segments, &mut stats, &mut test)
                 });
-                for (l, met) in met.iter_mut().enumerate() {
-                    met.sort_unstable();
+                for (l, met) in met.iter().enumerate() {
                     assert_eq!(*met, brute_force::occluders(&shapes, &segments, l));
                 }
             }

@@ -1,12 +1,14 @@
-//! Traversals: nearest hit per lane for a packet of rays, and any-hit per
-//! lane for a packet of segments (shadow rays).
+//! The traversals' contract and their entry points: nearest hit per lane for
+//! a packet of rays (`Bvh::closest`, and for the eye pass `closest_ray` and
+//! `closest_packet8`), and any hit per lane for a packet of segments (shadow
+//! rays, `Bvh::occlusion`). Each descends the eight-wide tree
+//! (`collapse.rs`); `descent.rs` holds the descents.
 //!
 //! A packet carries one ray per view — the paper's twin objects realised as
 //! rays: view `v`'s ray through the shared world is the same as one ray through
-//! view `v`'s translated twins. One descent serves every lane; each lane keeps
-//! its own nearest distance and is carried into a node only if its own box test
-//! passes. The lanes of a packet may have different directions (the twin method
-//! pairs the views' rays that see one surface point, see `render`).
+//! view `v`'s translated twins. The lanes of a packet may have different
+//! origins and directions (the twin method pairs the views' rays that see one
+//! surface point, see `render`).
 //!
 //! Exactness: every lane's box and primitive tests use that lane's own numbers,
 //! with the operations the single-ray descent uses; culling is conservative
@@ -14,12 +16,11 @@
 //! primitive index — does not depend on the order in which nodes are visited:
 //! a lane in any packet gets what the same ray traced alone gets.
 
-use super::leaf::{leaf_lane, occlusion_lane, occlusion_leaf, test_leaf};
+use super::descent::{Entry, EYE_PACKET};
 use super::{Bvh, Node};
 use crate::math::{Aabb, Vec3};
 use crate::shapes::{BlockHits, EightHits, SurfaceHit, Triangle4};
-use arrayvec::ArrayVec;
-use wide::{f32x4, f32x8};
+use wide::f32x8;
 
 /// Rays `origins[l] + t * dirs[l]`, `t_min < t < t_max[l]`, one per active
 /// lane. Lanes not in `mask` are ignored.
@@ -96,7 +97,7 @@ pub(crate) const NO_SURFACE: SurfaceHit = SurfaceHit {
 impl<const K: usize> PacketHits<K> {
     pub const NO_HIT: u32 = u32::MAX;
 
-    /// No lane has a hit yet: where both nearest-hit traversals start.
+    /// No lane has a hit yet: where the nearest-hit descents start.
     pub(crate) fn none() -> PacketHits<K> {
         PacketHits {
             prim: [Self::NO_HIT; K],
@@ -120,9 +121,9 @@ pub enum AnyHit {
 /// Work done, for statistics. Counting is one add per event: cheap next to the tests.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, derive_more::AddAssign)]
 pub struct TraversalStats {
-    /// Nodes popped and processed (one per node per packet, whatever its lanes).
+    /// Nodes popped and processed (one per node per descent, whatever its lanes).
     pub nodes: u64,
-    /// Box tests, one per lane and node.
+    /// Box tests, one per lane and child slot of a node tested.
     pub box_tests: u64,
     /// Primitive tests, one per lane and primitive.
     pub prim_tests: u64,
@@ -135,13 +136,6 @@ pub struct TraversalStats {
 pub trait NearestTest {
     /// Intersects primitive `prim` with lane `lane`'s ray: a hit with `t < t_max`, or `None`.
     fn test(&mut self, prim: u32, lane: usize, t_max: f32) -> Option<SurfaceHit>;
-
-    /// Lanes 0 and 1 against one primitive at once (a stereo pair in a leaf).
-    /// Must return what two calls of `test` return.
-    #[inline(always)]
-    fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
-        [self.test(prim, 0, t_max[0]), self.test(prim, 1, t_max[1])]
-    }
 
     /// The lanes `lanes` of a packet of eight against primitive `prim` at
     /// once, lane `l` with the bound `t_max[l]`: bit `l` and `t[l]` are what
@@ -173,16 +167,6 @@ pub trait NearestTest {
         Some([
             self.test_block(&blocks[0], lane, t_max)?,
             self.test_block(&blocks[1], lane, t_max)?,
-        ])
-    }
-
-    /// Lanes 0 and 1 against a block at once: what two calls of `test_block`
-    /// return.
-    #[inline(always)]
-    fn test_block_pair(&mut self, block: &Triangle4, t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
-        Some([
-            self.test_block(block, 0, t_max[0])?,
-            self.test_block(block, 1, t_max[1])?,
         ])
     }
 }
@@ -240,6 +224,7 @@ impl<F: FnMut(u32, usize) -> AnyHit> AnyHitTest for F {
     }
 }
 
+/// Entries a descent's stack holds (`stack_bound.rs` says why it is enough).
 pub(super) const STACK: usize = 128;
 /// A box is skipped when its entry lies beyond the nearest hit so far by more
 /// than this factor. The slack covers the rounding of a primitive's hit
@@ -251,8 +236,9 @@ pub(super) const CULL_SLACK: f32 = 1.0 + 1.0 / 4096.0;
 pub(super) const ROBUST: f32 =
     1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// `min` and `max` without the NaN rules of `f32::min` (one instruction each):
-/// the slab test never produces NaN, since `safe_inverse` keeps 1/d finite.
+/// `min` without the NaN rules of `f32::min` (one instruction, `minps`'s
+/// `a < b ? a : b`): the slab test never produces NaN, since `safe_inverse`
+/// keeps 1/d finite.
 #[inline(always)]
 pub(super) fn fmin(a: f32, b: f32) -> f32 {
     if a < b {
@@ -262,6 +248,7 @@ pub(super) fn fmin(a: f32, b: f32) -> f32 {
     }
 }
 
+/// `max` likewise (`maxps`'s `a > b ? a : b`).
 #[inline(always)]
 pub(super) fn fmax(a: f32, b: f32) -> f32 {
     if a > b {
@@ -269,22 +256,6 @@ pub(super) fn fmax(a: f32, b: f32) -> f32 {
     } else {
         b
     }
-}
-
-/// The planes through which a ray with direction signs `neg` enters and leaves
-/// `node`, per axis: `(near, far)`.
-#[inline(always)]
-fn slab_planes(node: &Node, neg: &[bool; 3]) -> ([f32; 3], [f32; 3]) {
-    let (min, max) = (&node.min, &node.max);
-    let pick = |a: usize| {
-        if neg[a] {
-            (max[a], min[a])
-        } else {
-            (min[a], max[a])
-        }
-    };
-    let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
-    ([nx, ny, nz], [fx, fy, fz])
 }
 
 /// 1/d with zero components replaced by a huge finite value of the right sign,
@@ -301,7 +272,9 @@ fn safe_inverse(d: Vec3) -> Vec3 {
     Vec3::new(fix(d.x), fix(d.y), fix(d.z))
 }
 
-/// One ray prepared for slab tests (see `Lanes` for the same per lane).
+/// One ray prepared for slab tests: the numbers every descent splats into
+/// its registers (`descent.rs`), so that a ray's entry and exit distances
+/// for a box are the same bits in every descent.
 #[derive(Clone, Copy)]
 pub(super) struct SingleRay {
     pub(super) inv: [f32; 3],
@@ -322,11 +295,21 @@ impl SingleRay {
         }
     }
 
-    /// Entry and (robustly widened) exit distance of the ray for `node`.
+    /// Entry and (robustly widened) exit distance of the ray for `node`'s
+    /// box: per lane what the descents' slab tests compute (the planes
+    /// picked by the ray's signs, `plane * inv - origin`, then `max` and
+    /// `min` in this order).
     #[inline(always)]
     pub(super) fn slabs(&self, node: &Node) -> (f32, f32) {
         let ([ix, iy, iz], [ox, oy, oz]) = (self.inv, self.origin);
-        let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &self.neg);
+        let pick = |a: usize| {
+            if self.neg[a] {
+                (node.max[a], node.min[a])
+            } else {
+                (node.min[a], node.max[a])
+            }
+        };
+        let ((nx, fx), (ny, fy), (nz, fz)) = (pick(0), pick(1), pick(2));
         let tn = fmax(
             fmax(nx * ix - ox, ny * iy - oy),
             fmax(nz * iz - oz, self.t_min),
@@ -334,22 +317,6 @@ impl SingleRay {
         let tf = fmin(fmin(fx * ix - ox, fy * iy - oy), fz * iz - oz) * ROBUST;
         (tn, tf)
     }
-}
-
-/// The any-hit slab test, written once for `Bvh::occlusion`'s descent and for
-/// `segment_enters`, which must agree with it bit for bit: whether the segment
-/// `0 < t < t_max` of a ray with inverse direction `inv`, origin scaled by it
-/// `org` and direction signs `neg` enters `node`. A macro: as an inline
-/// function it made the descent's code slower (6% more instructions rendering
-/// `shelf.nff`).
-macro_rules! segment_enters_node {
-    ($inv:expr, $org:expr, $neg:expr, $node:expr, $t_max:expr) => {{
-        let ([ix, iy, iz], [ox, oy, oz]) = ($inv, $org);
-        let ([nx, ny, nz], [fx, fy, fz]) = slab_planes($node, $neg);
-        let tn = fmax(fmax(nx * ix - ox, ny * iy - oy), fmax(nz * iz - oz, 0.0));
-        let tf = fmin(fmin(fx * ix - ox, fy * iy - oy), fz * iz - oz) * ROBUST;
-        tn <= fmin(tf, $t_max)
-    }};
 }
 
 /// Whether `Bvh::occlusion` carries the segment `origin + t * dir`, `0 < t <
@@ -370,7 +337,8 @@ pub fn segment_enters(b: &Aabb, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
         max: b.max.into(),
         meta: 0,
     };
-    segment_enters_node!(ray.inv, ray.origin, &ray.neg, &node, t_max)
+    let (tn, tf) = ray.slabs(&node);
+    tn <= fmin(tf, t_max)
 }
 
 /// One lane's nearest hit so far.
@@ -382,6 +350,37 @@ pub(super) struct LaneHit {
 }
 
 impl LaneHit {
+    /// No hit yet, nearer than `t_max`.
+    #[inline(always)]
+    pub(super) fn within(t_max: f32) -> LaneHit {
+        LaneHit {
+            best: t_max,
+            prim: PacketHits::<1>::NO_HIT,
+            hit: NO_SURFACE,
+        }
+    }
+
+    /// Lane `l` of a packet's hits so far (`best`, `out`).
+    #[inline(always)]
+    pub(super) fn of<const K: usize>(l: usize, best: &[f32; K], out: &PacketHits<K>) -> LaneHit {
+        LaneHit {
+            best: best[l],
+            prim: out.prim[l],
+            hit: out.hit[l],
+        }
+    }
+
+    /// Writes this lane back as lane `l` of a packet's hits so far.
+    #[inline(always)]
+    pub(super) fn store<const K: usize>(
+        &self,
+        l: usize,
+        best: &mut [f32; K],
+        out: &mut PacketHits<K>,
+    ) {
+        (best[l], out.prim[l], out.hit[l]) = (self.best, self.prim, self.hit);
+    }
+
     /// Takes hit `h` on `prim` if it is nearer, or as near on a lower index.
     #[inline(always)]
     pub(super) fn offer(&mut self, prim: u32, h: SurfaceHit) {
@@ -393,511 +392,147 @@ impl LaneHit {
     }
 }
 
-/// The lanes of a packet prepared for slab tests, as structure of arrays: each
-/// lane's inverse direction and its origin scaled by it.
-struct Lanes<const K: usize> {
-    ix: [f32; K],
-    iy: [f32; K],
-    iz: [f32; K],
-    ox: [f32; K],
-    oy: [f32; K],
-    oz: [f32; K],
-    /// Two lanes (a stereo pair) twice over, `[l0, l1, l0, l1]`: both children of
-    /// a node are tested for both lanes in one register. Unused for K != 2.
-    pair: [f32x4; 6],
-    /// Direction signs of the first active lane, which order the descent.
-    neg: [bool; 3],
-    t_min: f32,
-}
-
-/// Lanes `[a0, a1, b0, b1]` of a pair test split into child `a`'s and child
-/// `b`'s two-lane masks.
-#[inline(always)]
-fn split_pair(bits: u32) -> (u32, u32) {
-    (bits & 0b11, bits >> 2)
-}
-
-impl<const K: usize> Lanes<K> {
-    fn new(origins: &[Vec3; K], dirs: &[Vec3; K], mask: u32, t_min: f32) -> Lanes<K> {
-        let inv: [Vec3; K] = std::array::from_fn(|l| safe_inverse(dirs[l]));
-        let lead = (mask.trailing_zeros() as usize).min(K - 1);
-        let neg = [inv[lead].x < 0.0, inv[lead].y < 0.0, inv[lead].z < 0.0];
-        let mut lanes = Lanes {
-            ix: std::array::from_fn(|l| inv[l].x),
-            iy: std::array::from_fn(|l| inv[l].y),
-            iz: std::array::from_fn(|l| inv[l].z),
-            ox: std::array::from_fn(|l| origins[l].x * inv[l].x),
-            oy: std::array::from_fn(|l| origins[l].y * inv[l].y),
-            oz: std::array::from_fn(|l| origins[l].z * inv[l].z),
-            pair: [f32x4::ZERO; 6],
-            neg,
-            t_min,
-        };
-        if K == 2 {
-            let twice = |a: &[f32; K]| f32x4::from([a[0], a[1 % K], a[0], a[1 % K]]);
-            lanes.pair = [
-                twice(&lanes.ix),
-                twice(&lanes.iy),
-                twice(&lanes.iz),
-                twice(&lanes.ox),
-                twice(&lanes.oy),
-                twice(&lanes.oz),
-            ];
-        }
-        lanes
-    }
-
-    /// Lane `l` as a ray of its own, for the single-ray descent.
-    fn single(&self, l: usize) -> SingleRay {
-        let (ix, iy, iz) = (self.ix[l], self.iy[l], self.iz[l]);
-        SingleRay {
-            inv: [ix, iy, iz],
-            neg: [ix < 0.0, iy < 0.0, iz < 0.0],
-            origin: [self.ox[l], self.oy[l], self.oz[l]],
-            t_min: self.t_min,
-        }
-    }
-
-    /// Entry and (robustly widened) exit distances of the lanes `inv`, `org`
-    /// (scaled origins) for the boxes `min`, `max` given per register lane.
-    ///
-    /// Per lane these are the values `SingleRay::slabs` computes: it picks the
-    /// entry plane by the direction's sign, here the min/max of both planes is
-    /// taken, and the two agree because scaling and shifting preserve order
-    /// under rounding; min and max are exact, so their order does not matter.
-    #[inline(always)]
-    fn slabs4(
-        min: [f32x4; 3],
-        max: [f32x4; 3],
-        inv: &[f32x4],
-        org: &[f32x4],
-        t_min: f32,
-    ) -> (f32x4, f32x4) {
-        let x0 = min[0] * inv[0] - org[0];
-        let x1 = max[0] * inv[0] - org[0];
-        let y0 = min[1] * inv[1] - org[1];
-        let y1 = max[1] * inv[1] - org[1];
-        let z0 = min[2] * inv[2] - org[2];
-        let z1 = max[2] * inv[2] - org[2];
-        let tn = x0
-            .fast_min(x1)
-            .fast_max(y0.fast_min(y1))
-            .fast_max(z0.fast_min(z1).fast_max(f32x4::splat(t_min)));
-        let tf = x0
-            .fast_max(x1)
-            .fast_min(y0.fast_max(y1))
-            .fast_min(z0.fast_max(z1))
-            * f32x4::splat(ROBUST);
-        (tn, tf)
-    }
-
-    /// Every lane's entry and exit distance for `node` (see `slabs4`).
-    #[inline(always)]
-    fn slabs(&self, node: &Node) -> ([f32; K], [f32; K]) {
-        let (mut tn, mut tf) = ([0.0f32; K], [0.0f32; K]);
-        if K <= 4 {
-            let pad = |a: &[f32; K]| {
-                let mut v = [0.0f32; 4];
-                v[..K].copy_from_slice(a);
-                f32x4::from(v)
-            };
-            let inv = [pad(&self.ix), pad(&self.iy), pad(&self.iz)];
-            let org = [pad(&self.ox), pad(&self.oy), pad(&self.oz)];
-            let splat = |p: &[f32; 3]| p.map(f32x4::splat);
-            let (n, f) = Self::slabs4(splat(&node.min), splat(&node.max), &inv, &org, self.t_min);
-            tn.copy_from_slice(&n.to_array()[..K]);
-            tf.copy_from_slice(&f.to_array()[..K]);
-            return (tn, tf);
-        }
-        for l in 0..K {
-            let (near, far) = self.single(l).slabs(node);
-            tn[l] = near;
-            tf[l] = far;
-        }
-        (tn, tf)
-    }
-
-    /// Both children `a` and `b` of a node, for a pair of lanes: the entry
-    /// distances `[a0, a1, b0, b1]` and the exit distances.
-    #[inline(always)]
-    fn pair_slabs(&self, a: &Node, b: &Node) -> (f32x4, f32x4) {
-        let both = |x: f32, y: f32| f32x4::from([x, x, y, y]);
-        let min = [0, 1, 2].map(|i| both(a.min[i], b.min[i]));
-        let max = [0, 1, 2].map(|i| both(a.max[i], b.max[i]));
-        Self::slabs4(min, max, &self.pair[..3], &self.pair[3..], self.t_min)
-    }
-
-    /// The lanes of `mask` that enter `a` and `b` before their nearest hits so
-    /// far, with each lane's entry distances.
-    #[inline(always)]
-    fn enter_children(
-        &self,
-        a: &Node,
-        b: &Node,
-        mask: u32,
-        best: &[f32; K],
-    ) -> ((u32, [f32; K]), (u32, [f32; K])) {
-        if K == 2 {
-            let (tn, tf) = self.pair_slabs(a, b);
-            let bound = f32x4::from([best[0], best[1 % K], best[0], best[1 % K]])
-                * f32x4::splat(CULL_SLACK);
-            let (ma, mb) = split_pair((tn.simd_le(tf) & tn.simd_le(bound)).to_bitmask());
-            let t = tn.to_array();
-            let (mut ta, mut tb) = ([0.0; K], [0.0; K]);
-            ta[..2].copy_from_slice(&t[..2]);
-            tb[..2].copy_from_slice(&t[2..]);
-            return ((ma & mask, ta), (mb & mask, tb));
-        }
-        (self.enter(a, mask, best), self.enter(b, mask, best))
-    }
-
-    /// The lanes of `mask` that enter `node` before their nearest hits so far,
-    /// with each lane's entry distance.
-    #[inline(always)]
-    fn enter(&self, node: &Node, mask: u32, best: &[f32; K]) -> (u32, [f32; K]) {
-        let (tn, tf) = self.slabs(node);
-        let mut hit = 0;
-        for l in 0..K {
-            if tn[l] <= tf[l] && tn[l] <= best[l] * CULL_SLACK {
-                hit |= 1 << l;
-            }
-        }
-        (hit & mask, tn)
-    }
-
-    /// The lanes of `mask` whose segments `t_min < t < t_max` enter `a`, and `b`.
-    #[inline(always)]
-    fn enters_children(&self, a: &Node, b: &Node, mask: u32, t_max: &[f32; K]) -> (u32, u32) {
-        if K == 2 {
-            let (tn, tf) = self.pair_slabs(a, b);
-            let limit = f32x4::from([t_max[0], t_max[1 % K], t_max[0], t_max[1 % K]]);
-            let (ma, mb) = split_pair(tn.simd_le(tf.fast_min(limit)).to_bitmask());
-            return (ma & mask, mb & mask);
-        }
-        (self.enters(a, mask, t_max), self.enters(b, mask, t_max))
-    }
-
-    /// The lanes of `mask` whose segments enter `node`.
-    #[inline(always)]
-    fn enters(&self, node: &Node, mask: u32, t_max: &[f32; K]) -> u32 {
-        let (tn, tf) = self.slabs(node);
-        let mut hit = 0;
-        for l in 0..K {
-            if tn[l] <= fmin(tf[l], t_max[l]) {
-                hit |= 1 << l;
-            }
-        }
-        hit & mask
-    }
-}
-
 impl Bvh {
-    /// Nearest hit per lane, on the binary tree. `test(prim, lane, t_max)`
-    /// intersects one primitive with one lane's ray and returns a hit with
-    /// `t < t_max` or `None`.
+    /// Nearest hit per lane: `test(prim, lane, t_max)` intersects one
+    /// primitive with one lane's ray and returns a hit with `t < t_max` or
+    /// `None`; each active lane gets the nearest primitive its ray meets
+    /// (`t_min < t < t_max[lane]`), ties to the lower index, bit for bit
+    /// what it gets alone. Every lane descends the tree alone (a ray alone,
+    /// a stereo pair, the views of a batch), but for a packet of eight (a
+    /// shading packet's secondary rays), which goes down in one descent
+    /// where its lanes' direction signs agree (`closest_packet8`).
+    /// docs/benchmarks.md has the measurements: two rays of a pair alone
+    /// beat one descent for the pair; eight secondary rays in one descent
+    /// beat them alone.
     #[inline]
-    pub fn closest_binary<const K: usize>(
+    pub fn closest<const K: usize>(
+        &self,
+        packet: &Packet<K>,
+        stats: &mut TraversalStats,
+        mut test: impl NearestTest,
+    ) -> PacketHits<K> {
+        if K != EYE_PACKET || packet.mask.count_ones() < 2 {
+            return self.closest_each(packet, stats, test);
+        }
+        let mut eight = Packet::<EYE_PACKET> {
+            origins: [Vec3::ZERO; EYE_PACKET],
+            dirs: [Vec3::Z; EYE_PACKET],
+            t_min: packet.t_min,
+            t_max: [f32::INFINITY; EYE_PACKET],
+            mask: packet.mask,
+        };
+        for l in 0..K {
+            eight.origins[l] = packet.origins[l];
+            eight.dirs[l] = packet.dirs[l];
+            eight.t_max[l] = packet.t_max[l];
+        }
+        let hits = match self.closest_packet(&eight, stats, &mut test) {
+            Some(hits) => hits,
+            None => self.closest_each(&eight, stats, test),
+        };
+        let mut out = PacketHits::<K>::none();
+        for l in 0..K {
+            out.prim[l] = hits.prim[l];
+            out.hit[l] = hits.hit[l];
+        }
+        out
+    }
+
+    /// `closest` for a packet of one, for callers that trace rays one at a
+    /// time (the eye pass): lane 0's nearest hit and its primitive
+    /// (`NO_HIT` for none). Inlined, so the answer stays in registers:
+    /// returned through memory, its reload stalled on the stores that wrote
+    /// it (docs/benchmarks.md).
+    #[inline(always)]
+    pub fn closest_ray(
+        &self,
+        packet: &Packet<1>,
+        stats: &mut TraversalStats,
+        mut test: impl NearestTest,
+    ) -> (u32, SurfaceHit) {
+        let mut state = LaneHit::within(packet.t_max[0]);
+        if packet.mask & 1 != 0 && !self.wide.is_empty() {
+            let ray = SingleRay::new(packet.origins[0], packet.dirs[0], packet.t_min);
+            self.closest_one(Entry::root(&ray), &ray, &mut state, stats, &mut test, 0);
+        }
+        (state.prim, state.hit)
+    }
+
+    /// Nearest hit per lane of up to eight rays (the lanes of
+    /// `packet.mask`: eye rays of neighbouring samples, or a shading
+    /// packet's secondary rays) in one descent: each lane's hit bit for bit
+    /// its own descent's. `None` where the packet does not apply (no lane,
+    /// or the active lanes' direction signs differ): the caller traces its
+    /// rays alone.
+    #[inline]
+    pub fn closest_packet8(
+        &self,
+        packet: &Packet<EYE_PACKET>,
+        stats: &mut TraversalStats,
+        mut test: impl NearestTest,
+    ) -> Option<PacketHits<EYE_PACKET>> {
+        self.closest_packet(packet, stats, &mut test)
+    }
+
+    /// Each active lane of `packet` alone.
+    #[inline]
+    fn closest_each<const K: usize>(
         &self,
         packet: &Packet<K>,
         stats: &mut TraversalStats,
         mut test: impl NearestTest,
     ) -> PacketHits<K> {
         let mut out = PacketHits::<K>::none();
-        if self.nodes.is_empty() || packet.mask == 0 {
+        if self.wide.is_empty() {
             return out;
         }
-        if K == 1 || packet.mask.count_ones() == 1 {
-            // A ray alone: the same tests in the same order, without lane bookkeeping.
-            // (A constant lane for K = 1 lets the test closure fold its indexing.)
-            let l = if K == 1 {
-                0
-            } else {
-                packet.mask.trailing_zeros() as usize
-            };
+        let mut lanes = packet.mask & ((1u64 << K) - 1) as u32;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
             let ray = SingleRay::new(packet.origins[l], packet.dirs[l], packet.t_min);
-            let mut state = LaneHit {
-                best: packet.t_max[l],
-                prim: PacketHits::<K>::NO_HIT,
-                hit: NO_SURFACE,
-            };
-            self.descend_single(None, &ray, &mut state, stats, &mut test, l);
+            let mut state = LaneHit::within(packet.t_max[l]);
+            self.closest_one(Entry::root(&ray), &ray, &mut state, stats, &mut test, l);
             out.prim[l] = state.prim;
             out.hit[l] = state.hit;
-            return out;
-        }
-        let mut best = packet.t_max;
-        let rays = Lanes::<K>::new(&packet.origins, &packet.dirs, packet.mask, packet.t_min);
-        let neg = rays.neg;
-
-        let mut stack = ArrayVec::<(u32, u32, [f32; K]), STACK>::new();
-        stats.box_tests += packet.mask.count_ones() as u64;
-        let (root_mask, tn_root) = rays.enter(&self.nodes[0], packet.mask, &best);
-        if root_mask == 0 {
-            return out;
-        }
-        stack.push((0, root_mask, tn_root));
-
-        while let Some((index, mut mask, tnear)) = stack.pop() {
-            // A lane whose nearest hit is now closer than this box skips it.
-            for (l, tn) in tnear.iter().enumerate() {
-                if mask & (1 << l) != 0 && *tn > best[l] * CULL_SLACK {
-                    mask &= !(1 << l);
-                }
-            }
-            if mask == 0 {
-                continue;
-            }
-            if mask.count_ones() == 1 && K != 2 {
-                // One lane left in this subtree: finish it as a plain ray. (Not for
-                // a pair: its test of both children in one register measured
-                // faster than the single-ray descent, docs/benchmarks.md.)
-                let l = mask.trailing_zeros() as usize;
-                let mut state = LaneHit {
-                    best: best[l],
-                    prim: out.prim[l],
-                    hit: out.hit[l],
-                };
-                let ray = rays.single(l);
-                self.descend_single(
-                    Some((index, tnear[l])),
-                    &ray,
-                    &mut state,
-                    stats,
-                    &mut test,
-                    l,
-                );
-                (best[l], out.prim[l], out.hit[l]) = (state.best, state.prim, state.hit);
-                continue;
-            }
-            stats.nodes += 1;
-            let node = &self.nodes[index as usize];
-            if node.is_leaf() {
-                test_leaf(
-                    self.leaf(node.first, node.count()),
-                    mask,
-                    &mut best,
-                    &mut out,
-                    stats,
-                    &mut test,
-                );
-                continue;
-            }
-            let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
-            stats.box_tests += 2 * mask.count_ones() as u64;
-            let ((m_near, tn_near), (m_far, tn_far)) =
-                rays.enter_children(&self.nodes[near], &self.nodes[far], mask, &best);
-            if m_far != 0 {
-                let _ = stack.try_push((far as u32, m_far, tn_far));
-            }
-            if m_near != 0 {
-                let _ = stack.try_push((near as u32, m_near, tn_near));
-            }
         }
         out
     }
 
-    /// Any-hit for a packet of segments with their own origins and directions
-    /// (shadow rays of several views toward one light). `test(prim, lane)` is
-    /// called for every primitive whose boxes lane `lane`'s segment enters, until
-    /// it answers `Stop` for that lane. Which primitives a lane visits does not
-    /// depend on the other lanes, but the order may: callers must make their
-    /// result independent of the order (see `shading::Transmittance`).
-    pub fn occlusion_binary<const K: usize>(
+    /// Any hit per lane, for a packet of segments with their own origins and
+    /// directions (shadow rays of several views toward one light).
+    /// `test(prim, lane)` is called for every primitive whose boxes lane
+    /// `lane`'s segment enters, until it answers `Stop` for that lane. Which
+    /// primitives a lane visits does not depend on the other lanes, but the
+    /// order may: callers must make their result independent of the order
+    /// (see `shading::Transmittance`).
+    ///
+    /// A stereo pair's two segments go down in one descent; so do the live
+    /// segments of a packet of three to eight lanes (a mono row's
+    /// neighbouring samples, a group's views) where their direction signs
+    /// agree; any other segment alone (docs/benchmarks.md has the
+    /// measurements).
+    pub fn occlusion<const K: usize>(
         &self,
         packet: &SegmentPacket<K>,
         stats: &mut TraversalStats,
         test: &mut impl AnyHitTest,
     ) {
-        if self.nodes.is_empty() || packet.mask == 0 {
+        if self.wide.is_empty() {
             return;
         }
-        if K == 1 || packet.mask.count_ones() == 1 {
-            let l = if K == 1 {
-                0
-            } else {
-                packet.mask.trailing_zeros() as usize
-            };
-            let ray = SingleRay::new(packet.origins[l], packet.dirs[l], 0.0);
-            self.descend_occlusion(None, &ray, packet.t_max[l], stats, test, l);
-            return;
-        }
-        let segments = Lanes::<K>::new(&packet.origins, &packet.dirs, packet.mask, 0.0);
-        let neg = segments.neg;
-        let t_max = &packet.t_max;
-        let mut live = packet.mask;
-        stats.box_tests += live.count_ones() as u64;
-        let root_mask = segments.enters(&self.nodes[0], live, t_max);
-        if root_mask == 0 {
-            return;
-        }
-        let mut stack = ArrayVec::<(u32, u32), STACK>::new();
-        stack.push((0, root_mask));
-        while let Some((index, m)) = stack.pop() {
-            let mask = m & live;
-            if mask == 0 {
-                continue;
-            }
-            if mask.count_ones() == 1 && K != 2 {
-                // One live lane left in this subtree: finish it as a plain segment
-                // (a pair keeps it, as in `closest`).
-                let l = mask.trailing_zeros() as usize;
-                let ray = segments.single(l);
-                if self.descend_occlusion(Some(index), &ray, t_max[l], stats, test, l) {
-                    live &= !(1 << l);
-                }
-                continue;
-            }
-            stats.nodes += 1;
-            let node = &self.nodes[index as usize];
-            if node.is_leaf() {
-                occlusion_leaf(
-                    self.leaf(node.first, node.count()),
-                    K == 2,
-                    mask,
-                    &mut live,
-                    stats,
-                    test,
-                );
-                if live == 0 {
-                    return;
-                }
-                continue;
-            }
-            let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
-            stats.box_tests += 2 * mask.count_ones() as u64;
-            let (m_near, m_far) =
-                segments.enters_children(&self.nodes[near], &self.nodes[far], mask, t_max);
-            if m_far != 0 {
-                let _ = stack.try_push((far as u32, m_far));
-            }
-            if m_near != 0 {
-                let _ = stack.try_push((near as u32, m_near));
+        let mask = packet.mask & ((1u64 << K.min(32)) - 1) as u32;
+        if K == 2 && mask == 0b11 {
+            self.occlusion_pair(packet, stats, test);
+        } else if !(K > 2 && mask.count_ones() > 1 && self.occlusion_packet(packet, stats, test)) {
+            let mut lanes = mask;
+            while lanes != 0 {
+                let l = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let ray = SingleRay::new(packet.origins[l], packet.dirs[l], 0.0);
+                self.occlusion_one((0, 0), &ray, packet.t_max[l], stats, test, l);
             }
         }
-    }
-
-    /// One ray's depth-first descent of the subtree at `start` (entered at
-    /// `tn_start`; `None`: the root), improving `state`. A packet hands a lane
-    /// over to this when it is the only lane left in a subtree: depth-first order
-    /// visits that whole subtree next either way. A ray traced alone starts here.
-    #[inline(always)]
-    fn descend_single<T: NearestTest>(
-        &self,
-        start: Option<(u32, f32)>,
-        ray: &SingleRay,
-        state: &mut LaneHit,
-        stats: &mut TraversalStats,
-        test: &mut T,
-        lane: usize,
-    ) {
-        let ([ix, iy, iz], [ox, oy, oz]) = (ray.inv, ray.origin);
-        let (neg, t_min) = (ray.neg, ray.t_min);
-        let mut lh = *state;
-        let entry = |node: &Node, best: f32| -> Option<f32> {
-            let ([nx, ny, nz], [fx, fy, fz]) = slab_planes(node, &neg);
-            let tn = fmax(fmax(nx * ix - ox, ny * iy - oy), fmax(nz * iz - oz, t_min));
-            let tf = fmin(fmin(fx * ix - ox, fy * iy - oy), fz * iz - oz) * ROBUST;
-            (tn <= tf && tn <= best * CULL_SLACK).then_some(tn)
-        };
-        let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
-        let start = match start {
-            Some(s) => s,
-            None => {
-                stats.box_tests += 1;
-                match entry(&self.nodes[0], lh.best) {
-                    Some(tn) => (0, tn),
-                    None => return,
-                }
-            }
-        };
-        let mut stack = ArrayVec::<(u32, f32), STACK>::new();
-        stack.push(start);
-        while let Some((index, tnear)) = stack.pop() {
-            if tnear > lh.best * CULL_SLACK {
-                continue;
-            }
-            nodes += 1;
-            let node = &self.nodes[index as usize];
-            if node.is_leaf() {
-                prims += node.count() as u64;
-                leaf_lane(self.leaf(node.first, node.count()), lane, &mut lh, test);
-                continue;
-            }
-            let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
-            boxes += 2;
-            let t_near = entry(&self.nodes[near], lh.best);
-            if let Some(tn) = entry(&self.nodes[far], lh.best) {
-                let _ = stack.try_push((far as u32, tn));
-            }
-            if let Some(tn) = t_near {
-                let _ = stack.try_push((near as u32, tn));
-            }
-        }
-        *state = lh;
-        stats.nodes += nodes;
-        stats.box_tests += boxes;
-        stats.prim_tests += prims;
-    }
-
-    /// One segment's (`t_min < t < t_max` of `ray`) any-hit descent of the subtree
-    /// at `start` (`None`: the root); returns whether `test` said stop. A shadow
-    /// packet hands a lane over to this when it is the only live lane in a subtree.
-    #[inline(always)]
-    fn descend_occlusion<T: AnyHitTest>(
-        &self,
-        start: Option<u32>,
-        ray: &SingleRay,
-        t_max: f32,
-        stats: &mut TraversalStats,
-        test: &mut T,
-        lane: usize,
-    ) -> bool {
-        let ([ix, iy, iz], [ox, oy, oz]) = (ray.inv, ray.origin);
-        let neg = ray.neg;
-        let enters =
-            |node: &Node| segment_enters_node!([ix, iy, iz], [ox, oy, oz], &neg, node, t_max);
-        let (mut nodes, mut boxes, mut prims) = (0u64, 0u64, 0u64);
-        let mut stopped = false;
-        let start = match start {
-            Some(s) => s,
-            None => {
-                stats.box_tests += 1;
-                if !enters(&self.nodes[0]) {
-                    return false;
-                }
-                0
-            }
-        };
-        let mut stack = ArrayVec::<u32, STACK>::new();
-        stack.push(start);
-        'descent: while let Some(index) = stack.pop() {
-            nodes += 1;
-            let node = &self.nodes[index as usize];
-            if node.is_leaf() {
-                if occlusion_lane(self.leaf(node.first, node.count()), lane, &mut prims, test) {
-                    stopped = true;
-                    break 'descent;
-                }
-                continue;
-            }
-            let (a, b) = (node.first as usize, node.first as usize + 1);
-            let (near, far) = if neg[node.axis()] { (b, a) } else { (a, b) };
-            boxes += 2;
-            let near_in = enters(&self.nodes[near]);
-            if enters(&self.nodes[far]) {
-                let _ = stack.try_push(far as u32);
-            }
-            if near_in {
-                let _ = stack.try_push(near as u32);
-            }
-        }
-        stats.nodes += nodes;
-        stats.box_tests += boxes;
-        stats.prim_tests += prims;
-        stopped
     }
 }
 
@@ -925,6 +560,14 @@ mod tests {
             .collect()
     }
 
+    /// `spheres(n)`, their boxes and their hierarchy.
+    fn sphere_tree(n: usize) -> (Vec<Sphere>, Vec<Aabb>, Bvh) {
+        let sph = spheres(n);
+        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
+        let bvh = build(&boxes, &BuildOptions::default());
+        (sph, boxes, bvh)
+    }
+
     fn brute(sph: &[Sphere], ray: &Ray) -> Option<(u32, f32)> {
         let mut best: Option<(u32, f32)> = None;
         for (i, s) in sph.iter().enumerate() {
@@ -939,9 +582,7 @@ mod tests {
 
     #[test]
     fn nearest_hit_matches_brute_force_for_every_lane() {
-        let sph = spheres(500);
-        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
-        let bvh = build(&boxes, &BuildOptions::default());
+        let (sph, _, bvh) = sphere_tree(500);
         let mut stats = TraversalStats::default();
         let mut rng = fastrand::Rng::with_seed(3);
         for _ in 0..2000 {
@@ -995,9 +636,7 @@ mod tests {
 
     #[test]
     fn masked_lanes_are_not_traced() {
-        let sph = spheres(50);
-        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
-        let bvh = build(&boxes, &BuildOptions::default());
+        let (sph, _, bvh) = sphere_tree(50);
         let packet = Packet {
             origins: [Vec3::ZERO; 2],
             dirs: [Vec3::Z; 2],
@@ -1015,9 +654,7 @@ mod tests {
 
     #[test]
     fn occlusion_finds_every_occluder_on_the_segment() {
-        let sph = spheres(300);
-        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
-        let bvh = build(&boxes, &BuildOptions::default());
+        let (sph, _, bvh) = sphere_tree(300);
         let mut stats = TraversalStats::default();
         for i in 0..200 {
             let dirs = [
@@ -1088,9 +725,7 @@ mod tests {
         // the traversal tests it too, for a lane alone, in a pair or in a packet.
         // Segments start near and very far (1e8, where a primitive's own test
         // can report hits outside its box) and graze the boxes' corners.
-        let sph = spheres(300);
-        let boxes: Vec<Aabb> = sph.iter().map(|s| s.bounds()).collect();
-        let bvh = build(&boxes, &BuildOptions::default());
+        let (_, boxes, bvh) = sphere_tree(300);
         let mut rng = fastrand::Rng::with_seed(5);
         let mut entered = 0;
         for _ in 0..300 {
@@ -1136,7 +771,7 @@ mod tests {
         assert!(entered > 1000, "{entered}");
     }
 
-    /// The tracer's nearest test: a pair of lanes through `intersect_pair`.
+    /// A packet's rays against shapes, one lane and one primitive at a time.
     struct PacketTest<'a, const K: usize> {
         shapes: &'a [Shape],
         packet: &'a Packet<K>,
@@ -1146,12 +781,6 @@ mod tests {
         fn test(&mut self, prim: u32, lane: usize, t_max: f32) -> Option<SurfaceHit> {
             let ray = Ray::new(self.packet.origins[lane], self.packet.dirs[lane]);
             self.shapes[prim as usize].intersect(&ray, self.packet.t_min, t_max)
-        }
-
-        fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
-            let p = self.packet;
-            let rays = [0, 1 % K].map(|l| Ray::new(p.origins[l], p.dirs[l]));
-            self.shapes[prim as usize].intersect_pair(&rays, p.t_min, t_max)
         }
     }
 
@@ -1191,38 +820,15 @@ mod tests {
             // Any-hit: every primitive on each lane's segment is met, and a
             // lane that stops at its first is blocked exactly when one exists.
             let segments = brute_force::segments_of(&packet);
-            let mut met: [Vec<u32>; K] = std::array::from_fn(|_| Vec::new());
-            bvh.occlusion(&segments, &mut stats, &mut |p: u32, l: usize| {
-                let ray = Ray::new(segments.origins[l], segments.dirs[l]);
-                if shapes[p as usize]
-                    .intersect(&ray, 0.0, segments.t_max[l])
-                    .is_some()
-                {
-                    met[l].push(p);
-                }
-                AnyHit::Continue
+            let [all, first] = [false, true].map(|stop| {
+                brute_force::met(shapes, &segments, stop, |mut test| {
+                    bvh.occlusion(&segments, &mut stats, &mut test)
+                })
             });
-            let mut blocked = 0u32;
-            bvh.occlusion(&segments, &mut stats, &mut |p: u32, l: usize| {
-                let ray = Ray::new(segments.origins[l], segments.dirs[l]);
-                if shapes[p as usize]
-                    .intersect(&ray, 0.0, segments.t_max[l])
-                    .is_some()
-                {
-                    blocked |= 1 << l;
-                    return AnyHit::Stop;
-                }
-                AnyHit::Continue
-            });
-            for (l, met) in met.iter_mut().enumerate() {
+            for l in 0..K {
                 let expect = brute_force::occluders(shapes, &segments, l);
-                met.sort_unstable();
-                assert_eq!(*met, expect, "K={K}, packet {n}, lane {l}: occluders");
-                assert_eq!(
-                    blocked & (1 << l) != 0,
-                    !expect.is_empty(),
-                    "K={K}, lane {l}"
-                );
+                assert_eq!(all[l], expect, "K={K}, packet {n}, lane {l}: occluders");
+                assert_eq!(first[l].is_empty(), expect.is_empty(), "K={K}, lane {l}");
             }
         }
         hits_seen

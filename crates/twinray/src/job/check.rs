@@ -3,6 +3,8 @@
 //! method it asks for (`view_method`: each option against its method), and
 //! the render options the later stages use.
 
+use super::panorama;
+use crate::rig::Projection;
 use std::sync::Arc;
 
 use super::preflight::check_threads;
@@ -64,6 +66,7 @@ impl Job {
             interaxial: checked.interaxial,
             options: checked.options,
             cut: checked.cut,
+            projection: checked.projection,
             pool,
             messages,
             environments: Default::default(),
@@ -79,6 +82,7 @@ struct Checked {
     interaxial: Option<Interaxial>,
     options: RenderOptions,
     cut: Option<CutSpec>,
+    projection: Projection,
 }
 
 pub(super) fn invalid(message: impl Into<String>) -> Error {
@@ -136,7 +140,8 @@ impl Checked {
             invalid(format!("{flag}: {e}"))
         })?;
         let views = view_count(spec, quilt.filter(|_| quilt_layout))?;
-        if views > 1 {
+        let projection = panorama::check(spec, views)?;
+        if views > 1 && !projection.is_panorama() {
             // The request's own checks (convergence, view cone), on a stand-in
             // distance: the scene's is known only once it is loaded.
             let flags = RigFlags {
@@ -163,6 +168,7 @@ impl Checked {
             interaxial,
             options,
             cut,
+            projection,
         })
     }
 }

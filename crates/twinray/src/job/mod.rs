@@ -29,6 +29,7 @@
 mod check;
 mod load;
 mod outputs;
+mod panorama;
 mod plan;
 pub mod preflight;
 mod preview;
@@ -50,8 +51,8 @@ pub use preflight::{
 pub use preview::Pass;
 pub use spec::{
     AnaglyphSpec, AnimationSpec, CameraSpec, CutSpec, InterlaceSpec, JobSpec, LayoutSpec,
-    LightSpec, LimitSpec, MethodName, MethodSpec, OutputSpec, RigSpec, SamplingSpec, ShotRigSpec,
-    StudioSpec, TileSpec, TonemapSpec, TraceSpec, UpAxisSpec,
+    LightSpec, LimitSpec, MethodName, MethodSpec, OutputSpec, RigSpec, SamplingSpec, SceneUnits,
+    ShotRigSpec, StudioSpec, TileSpec, TonemapSpec, TraceSpec, UpAxisSpec,
 };
 pub use stages::{Job, Level, Loaded, Message, Plan, Rendered};
 

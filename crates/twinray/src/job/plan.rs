@@ -8,17 +8,20 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::outputs::{self, Targets};
+use super::panorama;
 use super::preflight::{
     available_memory, build_memory, check_memory, estimate_render_memory, ViewsKeptAs,
 };
 use super::report::plan_messages;
 use super::spec::CutSpec;
+use super::stages::Message;
 use super::stages::{Job, Loaded, Plan};
 use super::tiles;
 use crate::render::{fast_stages, SceneTraits, ViewMethod, ViewStorage};
 use crate::rig::camera_overrides as view;
 use crate::rig::choice::{self as rig_choice, RigFlags, RigRequest};
 use crate::rig::framing;
+use crate::rig::panorama_rig::PanoramaRig;
 use crate::rig::report::{self as rig_report, Settled};
 use crate::rig::{Camera, Rig};
 use crate::scene::Viewpoint;
@@ -32,6 +35,7 @@ struct RigPlan {
     interaxial: f32,
     convergence: Option<f64>,
     settled: Option<Settled>,
+    panorama: Option<PanoramaRig>,
 }
 
 impl Job {
@@ -43,6 +47,9 @@ impl Job {
             (Some([w, h]), _, _) => (w, h),
             (None, _, Some(p)) => (p.view_width, p.view_height),
             (None, true, None) => (512, 512),
+            (None, false, None) if self.projection.is_panorama() => {
+                panorama::default_size(self.projection, viewpoint.height)
+            }
             (None, false, None) => (viewpoint.width, viewpoint.height),
         };
         let max = self.spec.limits.max_resolution;
@@ -96,6 +103,7 @@ impl Job {
             interaxial: rig.interaxial,
             convergence: rig.convergence,
             settled: rig.settled,
+            panorama: rig.panorama,
             cut,
             world,
             files,
@@ -114,6 +122,12 @@ impl Job {
             .as_deref()
             .is_some_and(|i| !i.eq_ignore_ascii_case("auto"));
         plan.messages = plan_messages(&plan, rig_by_default, interaxial_given);
+        if let Some(p) = &plan.panorama {
+            plan.messages
+                .extend(p.report_lines().into_iter().map(Message::info));
+            plan.messages
+                .extend(p.budget_warning().map(Message::warning));
+        }
         Ok(plan)
     }
 
@@ -136,7 +150,8 @@ impl Job {
             framing::fit_bounds(&viewpoint, boxes, width, height, framing::FILL)
         };
         let at_distance = f64::from((viewpoint.at - viewpoint.from).length());
-        Ok((Camera::new(&viewpoint, width, height), at_distance))
+        let camera = Camera::new(&viewpoint, width, height).with_projection(self.projection);
+        Ok((camera, at_distance))
     }
 
     /// The rig of several views, from the depth pass on the whole
@@ -144,12 +159,25 @@ impl Job {
     /// the interaxial or convergence is automatic, and the disparity
     /// report); one view's rig.
     fn rig(&self, world: &World, camera: &Camera, at_distance: f64) -> Result<RigPlan> {
+        if camera.projection.is_panorama() && self.views == 2 {
+            let (rig, settled) = self.pool.install(|| {
+                panorama::pair(&self.spec, self.interaxial, world, camera, at_distance)
+            })?;
+            return Ok(RigPlan {
+                interaxial: settled.ipd as f32,
+                rig,
+                convergence: None,
+                settled: None,
+                panorama: Some(settled),
+            });
+        }
         let Some(request) = self.rig_request(at_distance)? else {
             return Ok(RigPlan {
                 rig: Rig::mono(),
                 interaxial: 0.0,
                 convergence: None,
                 settled: None,
+                panorama: None,
             });
         };
         let screen = self.spec.rig.screen_width;
@@ -161,6 +189,7 @@ impl Job {
             interaxial: settled.choice.interaxial,
             convergence: settled.choice.convergence,
             settled: Some(settled),
+            panorama: None,
         })
     }
 

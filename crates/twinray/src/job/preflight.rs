@@ -146,7 +146,7 @@ fn bytes_estimate(w: u64, h: u64, views: u64, sampling: Sampling) -> u64 {
 }
 
 /// Bytes a scene's hierarchy takes per primitive beyond the scene: its
-/// binary, four-wide and eight-wide trees, leaf order and blocks, and the
+/// binary and eight-wide trees, leaf order and blocks, and the
 /// build's working arrays (docs/reliability.md has the measurements).
 pub const HIERARCHY_BYTES_PER_PRIMITIVE: u64 = 160;
 

@@ -74,7 +74,7 @@ impl Job {
         let camera = if d == 1 {
             plan.camera.clone()
         } else {
-            Camera::new(&viewpoint, width, height)
+            Camera::new(&viewpoint, width, height).with_projection(plan.camera.projection)
         };
         let scale = |px: f64| px / f64::from(d);
         let rig = Rig {
@@ -105,6 +105,7 @@ impl Job {
             interaxial: plan.interaxial,
             convergence: plan.convergence,
             settled,
+            panorama: plan.panorama.clone(),
             cut: plan.cut,
             world: Arc::clone(&plan.world),
             files: plan.files.clone(),

@@ -132,6 +132,9 @@ impl Job {
                 targets.write_rgb8(&rendered.output.rgb8, &plan.files)
             }
         })?;
+        if plan.camera.projection.is_panorama() {
+            super::panorama::tag_jpegs(&self.spec, plan, self.views)?;
+        }
         let write_s = start.elapsed().as_secs_f64();
         if let Some(path) = &self.spec.output.stats {
             let report = self.report(loaded, plan, rendered, write_s);

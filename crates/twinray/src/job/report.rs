@@ -130,7 +130,7 @@ pub(super) fn plan_messages(
         "memory: about {} for the views and the files (the scene aside)",
         human_bytes(plan.memory)
     )));
-    if plan.rig.views.len() > 1 {
+    if plan.rig.views.len() > 1 && plan.panorama.is_none() {
         let conv = match plan.convergence {
             Some(c) => format!("{c}"),
             None => "infinity".into(),

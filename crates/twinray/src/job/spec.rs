@@ -17,6 +17,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::named::named_values;
 use crate::render::{Filter, ReprojectMode};
+pub use crate::rig::panorama_rig::SceneUnits;
+use crate::rig::ProjectionName;
 
 /// A whole render: what to load, how to look at it, which views, how to
 /// sample and trace them, and what to write.
@@ -116,6 +118,13 @@ pub struct CameraSpec {
     pub up: Option<[f32; 3]>,
     /// Vertical field of view in degrees.
     pub fov: Option<f32>,
+    /// How image positions become rays: `pinhole` (the default), or a
+    /// panorama for headsets: `equirect` (360°, one eye), `ods` (360°
+    /// omni-directional stereo), `vr180` or `vr180-fisheye`.
+    pub projection: ProjectionName,
+    /// `ods`: the latitudes, degrees, where the eyes start to merge toward
+    /// the poles and where they are one (default 60, 75).
+    pub pole_merge: Option<[f64; 2]>,
 }
 
 /// How many views, and how they are spaced and converged.
@@ -139,6 +148,13 @@ pub struct RigSpec {
     pub screen_width: f64,
     /// Black bars where objects in front of the screen touch the frame's edges.
     pub floating_window: bool,
+    /// A panorama's depth budget: the angular disparity allowed for the
+    /// nearest visible point, degrees (default 1).
+    pub angular_budget: Option<f64>,
+    /// The scene's length unit: a panorama's automatic IPD is then at most
+    /// the eyes' 64 mm (default: metres for glTF, whose unit it is;
+    /// unknown for the other formats).
+    pub units: Option<SceneUnits>,
 }
 
 impl Default for RigSpec {
@@ -152,6 +168,8 @@ impl Default for RigSpec {
             view_cone: None,
             screen_width: crate::rig::report::DEFAULT_SCREEN_WIDTH_M,
             floating_window: false,
+            angular_budget: None,
+            units: None,
         }
     }
 }

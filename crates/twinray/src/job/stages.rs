@@ -2,6 +2,8 @@
 //! [`Loaded`] scene, the [`Plan`], the [`Rendered`] views, and the
 //! [`Message`]s each says to the user.
 
+use crate::rig::panorama_rig::PanoramaRig;
+use crate::rig::Projection;
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
@@ -68,6 +70,8 @@ pub struct Job {
     pub(super) options: RenderOptions,
     /// The paper's cut of the object tree, asked for (the twin method).
     pub(super) cut: Option<CutSpec>,
+    /// The camera's projection (`--projection`).
+    pub(super) projection: Projection,
     pub(super) pool: Arc<rayon::ThreadPool>,
     pub(super) messages: Vec<Message>,
     /// `--env` as read, for y up and z up: an animation readies a scene
@@ -122,6 +126,8 @@ pub struct Plan {
     pub convergence: Option<f64>,
     /// The rig fitted to the scene's depths and its disparity report (several views).
     pub settled: Option<Settled>,
+    /// A panorama's pair: its IPD and angular disparities.
+    pub panorama: Option<PanoramaRig>,
     pub cut: Option<Cut>,
     /// The scene with the hierarchy the render traces (cut or whole).
     pub world: Arc<World>,

@@ -36,6 +36,7 @@ pub mod floating_window;
 pub mod layouts;
 pub mod mpo;
 pub mod multiview_exr;
+pub mod panorama_meta;
 pub mod quilt;
 pub mod targets;
 

@@ -29,7 +29,7 @@ pub struct TraceCounts {
     /// Of those, the eye-ray descents.
     pub eye_traversals: u64,
     /// Eye rays traced in packets of neighbouring samples (the mono row's
-    /// packets of eight, `Bvh::closest_eye_packet8`: one descent each,
+    /// packets of eight, `Bvh::closest_packet8`: one descent each,
     /// counted per ray in the traversals above), and those packets.
     pub eye_packet_rays: u64,
     pub eye_packets: u64,

@@ -5,6 +5,7 @@ use super::batch::{RenderInputs, RowWorker, ViewBatch};
 use super::sampler::{RowColors, SampleRow};
 use super::tracer::Tracer;
 use crate::bvh::Packet;
+use crate::math::Color;
 use crate::rig::Camera;
 use crate::rig::View;
 
@@ -42,12 +43,16 @@ impl RowWorker for IndependentWorker<'_, '_> {
     fn trace(&mut self, tracer: &mut Tracer, row: &SampleRow, out: &mut [RowColors]) {
         let camera = self.batch.camera;
         for (v, (view, view_out)) in self.batch.views.iter().zip(out).enumerate() {
-            let origin = camera.eye_at(view.offset);
             for (i, sample_out) in view_out.iter_mut().enumerate() {
                 let (column, y) = row.camera_point(i, view.shift);
+                // No ray (outside a fisheye panorama's circle): black.
+                let Some((origin, dir)) = camera.view_ray(view.offset, column, y) else {
+                    *sample_out = Color::ZERO;
+                    continue;
+                };
                 let packet = Packet {
                     origins: [origin],
-                    dirs: [camera.direction(column, y)],
+                    dirs: [dir],
                     t_min: camera.hither,
                     t_max: [f32::INFINITY],
                     mask: 1,

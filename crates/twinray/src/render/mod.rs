@@ -36,6 +36,7 @@ mod fast;
 mod film;
 mod independent;
 mod options;
+mod panorama;
 pub mod sampler;
 mod tracer;
 mod twin;
@@ -52,6 +53,7 @@ pub use options::{
     PaperTechniques, RenderOptions, ReprojectMode, Reprojection, TraceSettings, ViewMethod,
     DEFAULT_VIEWS_PER_BATCH, MAX_DEPTH, MAX_LANES, MAX_VIEWS,
 };
+pub use panorama::MAX_PANORAMA_VIEWS;
 pub use sampler::{Filter, SampleRow, Sampling};
 pub use tracer::Tracer;
 pub use twin::counts::PaperCounts;

@@ -6,6 +6,7 @@
 //! that two views whose image shifts differ by whole pixels generate bit-equal
 //! directions for the same camera column: the twin method depends on it.
 
+use super::projection::{Frame, Projection};
 use crate::math::{Ray, Vec3};
 use crate::scene::{AngleSpan, Viewpoint};
 
@@ -25,6 +26,9 @@ pub struct Camera {
     pub pixel_size: f32,
     /// Near clipping distance (NFF `hither`), along the ray.
     pub hither: f32,
+    /// How image positions become rays: the plane above, or a panorama
+    /// (`rig::projection`), which leaves `pixel_size` and `direction` unused.
+    pub projection: Projection,
 }
 
 impl Camera {
@@ -52,6 +56,42 @@ impl Camera {
             height,
             pixel_size,
             hither: vp.hither.max(0.0),
+            projection: Projection::Pinhole,
+        }
+    }
+
+    /// This camera with another projection. A panorama's `pixel_size` is
+    /// the angle of a pixel at the image centre, in radians.
+    pub fn with_projection(mut self, projection: Projection) -> Camera {
+        if projection.is_panorama() {
+            let (span, _) = projection.span_deg();
+            self.pixel_size = (span.to_radians() / self.width.max(1) as f64) as f32;
+        }
+        self.projection = projection;
+        self
+    }
+
+    /// The frame a panorama is laid out in.
+    #[inline]
+    pub fn frame(&self) -> Frame {
+        Frame {
+            eye: self.eye,
+            forward: self.forward,
+            right: self.right,
+            up: self.up,
+            width: self.width,
+            height: self.height,
+        }
+    }
+
+    /// The eye ray of the view at `offset` through (`column`, `row`), of any
+    /// projection: its origin and unit direction, or `None` where the image
+    /// has no ray (outside a fisheye's circle: black).
+    #[inline]
+    pub fn view_ray(&self, offset: f32, column: f32, row: f32) -> Option<(Vec3, Vec3)> {
+        match self.projection {
+            Projection::Pinhole => Some((self.eye_at(offset), self.direction(column, row))),
+            p => p.ray(&self.frame(), offset, column, row),
         }
     }
 
@@ -123,6 +163,9 @@ impl Camera {
 
     /// Where a world point projects, in pixel units (column, row), for the view at `offset`.
     pub fn project(&self, p: Vec3, offset: f32) -> Option<(f64, f64)> {
+        if self.projection.is_panorama() {
+            return self.projection.project(&self.frame(), p, offset);
+        }
         let rel = p - self.eye_at(offset);
         let z = rel.dot(self.forward) as f64;
         if z <= 0.0 {

@@ -14,12 +14,15 @@ pub mod choice;
 pub mod depth_pass;
 pub mod framing;
 pub mod histogram;
+pub mod panorama_rig;
+pub mod projection;
 pub mod report;
 pub mod up_axis;
 pub mod window;
 
 pub use camera::Camera;
 pub use camera_overrides::CameraOverrides;
+pub use projection::{PoleMerge, Projection, ProjectionName};
 
 use crate::{Error, Result};
 

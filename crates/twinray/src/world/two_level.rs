@@ -75,7 +75,6 @@ impl World {
                     // Only the joined tree is traversed: its wide form is
                     // made after the splice.
                     tree.wide = Vec::new();
-                    tree.wide8 = Vec::new();
                     tree
                 })
             })

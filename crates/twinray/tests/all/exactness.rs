@@ -213,8 +213,8 @@ fn views_samples_of_one_point_are_shaded_together() {
 /// A thicket of thin branches (cones 0.002–0.004 wide, two from each fork,
 /// like the SPD tree's twigs) seen from about 18 away: a thin cone's hit
 /// computed from so far lost its radius to rounding, landed outside its
-/// box, and a twin packet (binary tree) and a single ray (four-wide tree)
-/// then found different branches in a few pixels.
+/// box, and a twin packet and a single ray, descending the tree in
+/// different orders, then found different branches in a few pixels.
 #[test]
 fn thin_far_branches_twin_equals_independent() {
     use twinray::math::{Color, Vec3};

@@ -1,4 +1,4 @@
-//! The eye ray's descent of the eight-wide tree (issue 17, fifth pass):
+//! The eye ray's descent of the eight-wide tree:
 //! leaves of five to eight triangles tested as two blocks in one eight-wide
 //! register (`Triangle4::intersect_two`, through
 //! `NearestTest::test_two_blocks`), and children of three or more sorted as
@@ -174,7 +174,7 @@ fn trace(shapes: &[Shape], bvh: &Bvh, rays: &[(Vec3, Vec3)], two_off: bool) -> [
             two: &two,
             two_off,
         };
-        let got = bvh.closest_each_wide8(&p, &mut stats, test);
+        let got = bvh.closest(&p, &mut stats, test);
         let expect = brute(shapes, &Ray::new(o, d), p.t_min, p.t_max[0]);
         let bits = |h: Option<(u32, SurfaceHit)>| {
             h.map(|(prim, h)| (prim, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
@@ -268,7 +268,7 @@ fn sorted_children_stop_a_ray_in_the_nearest_cluster() {
         let p = Packet::ray(origin, dir);
         let mut st = TraversalStats::default();
         let test = Counting::new(&shapes, &p, &single, &two);
-        let got = bvh.closest_each_wide8(&p, &mut st, test);
+        let got = bvh.closest(&p, &mut st, test);
         // Eight triangles at one distance: the lowest index wins.
         assert!(
             got.has_hit(0) && got.prim[0] == first,
@@ -365,7 +365,7 @@ fn alone_and_brute(
         two: &two,
         two_off: false,
     };
-    let alone = bvh.closest_each_wide8(&one, stats, test);
+    let alone = bvh.closest(&one, stats, test);
     let bits = |h: SurfaceHit| [h.t, h.u, h.v].map(f32::to_bits);
     let brute = brute(
         shapes,
@@ -410,7 +410,7 @@ fn each_lane_as_alone(
     hits
 }
 
-/// Eight neighbouring eye rays in one descent (`closest_eye_packet8`, the
+/// Eight neighbouring eye rays in one descent (`closest_packet8`, the
 /// mono row's): every active lane's hit is, bit for bit, the one the ray
 /// gets alone and brute force's, on scenes of ties (copies of triangles,
 /// shared edges and vertices, a plane of triangles grazed), with per-lane
@@ -429,7 +429,7 @@ fn an_eye_packet_gives_each_ray_its_single_descents_hit() {
             let signs = |l: usize| p.dirs[l].to_array().map(f32::is_sign_negative);
             let lanes: Vec<usize> = (0..8).filter(|&l| p.mask & (1 << l) != 0).collect();
             let agree = lanes.iter().all(|&l| signs(l) == signs(lanes[0]));
-            let Some(got) = bvh.closest_eye_packet8(p, &mut stats, test) else {
+            let Some(got) = bvh.closest_packet8(p, &mut stats, test) else {
                 assert!(
                     !agree,
                     "{n} triangles, packet {i}: refused, yet its signs agree"
@@ -473,7 +473,7 @@ fn an_eye_packet_stops_in_the_nearest_cluster() {
         let test = Counting::new(&shapes, &p, &single, &two);
         let mut st = TraversalStats::default();
         let got = bvh
-            .closest_eye_packet8(&p, &mut st, test)
+            .closest_packet8(&p, &mut st, test)
             .expect("the rays' signs agree");
         // Eight triangles at one distance: the lowest index wins.
         assert_eq!(got.prim, [first; 8], "towards {towards}");

@@ -93,7 +93,7 @@ fn eye_packets_meet_spheres_and_cones_lanes_at_once_as_brute_force_says() {
             };
             // None: the lanes' direction signs differ (the caller traces
             // them alone).
-            if let Some(got) = world.bvh.closest_eye_packet8(packet, stats, test) {
+            if let Some(got) = world.bvh.closest_packet8(packet, stats, test) {
                 found.push(got);
             }
         }

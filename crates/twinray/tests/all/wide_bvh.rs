@@ -1,20 +1,18 @@
-//! The four-wide hierarchy against brute force: on random scenes of triangles
-//! and spheres and random rays, the nearest hit of every lane of a packet
-//! (K = 1, 2, 3, 4, 8 lanes, each with its own direction and `t_max`) is the
-//! nearest of all primitives — ties to the lower index — bit for bit what the
-//! binary tree returns; any-hit reaches every primitive a segment meets, and
-//! stops as brute force says. Nearest-first order is checked by counting the
-//! primitive tests on a ray down a row of objects.
+//! The eight-wide hierarchy against brute force: on random scenes of
+//! triangles and spheres and random rays, the nearest hit of every lane of a
+//! packet (K = 1, 2, 3, 4, 8 lanes, each with its own direction and `t_max`;
+//! eight lanes go down in one descent where their signs agree) is the nearest
+//! of all primitives — ties to the lower index — bit for bit what the lane
+//! gets alone; any-hit (a segment alone, a pair in one descent, a packet in
+//! one descent) reaches every primitive a segment meets, and stops as brute
+//! force says. Nearest-first order is checked by counting the primitive tests
+//! on a ray down a row of objects, and the collapse by counting the nodes an
+//! eye ray visits.
 //!
 //! Leaves of triangles tested four at a time (`Bvh::blocks`, the renderer's
-//! leaf test) give the same hits, bit for bit, on both trees: on the random
-//! scenes, and on meshes whose rays land exactly on shared edges and
-//! vertices, with degenerate and edge-on triangles among them.
-//!
-//! The eight-wide tree (`Bvh::wide8`, rays traced alone) is held to the same
-//! checks: every lane of every packet traced alone on it gets brute force's
-//! hit, any-hit meets every occluder, nearest first is counted, and it visits
-//! fewer nodes than the four-wide tree for the same hits.
+//! leaf test) give the same hits, bit for bit: on the random scenes, and on
+//! meshes whose rays land exactly on shared edges and vertices, with
+//! degenerate and edge-on triangles among them.
 
 use crate::common;
 
@@ -39,6 +37,7 @@ fn brute_lane<const K: usize>(
 }
 use twinray::bvh::{
     build, AnyHit, BuildOptions, Bvh, NearestTest, Packet, SegmentPacket, TraversalStats, WideNode,
+    WIDTH,
 };
 use twinray::math::{Aabb, Ray, Vec3};
 use twinray::shapes::{BlockHits, Shape, Sphere, SurfaceHit, Triangle, Triangle4, TriangleNormals};
@@ -144,38 +143,24 @@ fn check_closest<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) -> 
         shapes[prim as usize].intersect(&Ray::new(p.origins[l], p.dirs[l]), p.t_min, t_max)
     };
     let mut st = TraversalStats::default();
-    let wide = bvh.closest_wide(p, &mut st, test);
-    let binary = bvh.closest_binary(p, &mut TraversalStats::default(), test);
-    let eight = bvh.closest_each_wide8(p, &mut TraversalStats::default(), test);
-    // A pair (both lanes) also in one descent of the eight-wide tree.
-    let packet8 = if K == 2 && p.mask == 0b11 {
-        bvh.closest_pair_wide8(p, &mut TraversalStats::default(), test)
-    } else {
-        eight
-    };
+    let got = bvh.closest(p, &mut st, test);
     let mut hits = 0;
     for l in 0..K {
-        let got = wide.has_hit(l).then(|| (wide.prim[l], wide.hit[l]));
+        let found = got.has_hit(l).then(|| (got.prim[l], got.hit[l]));
         let expect = brute_lane(shapes, p, l);
-        assert_eq!(got, expect, "lane {l} of {K}, mask {:b}", p.mask);
-        // Bit for bit the binary tree's answer (f32 compared as bits), and
-        // the eight-wide tree's (each lane alone, and a pair in one descent).
-        for other in [&binary, &eight, &packet8] {
-            assert_eq!(wide.prim[l], other.prim[l], "lane {l} of {K}");
-            assert_eq!(wide.hit[l].t.to_bits(), other.hit[l].t.to_bits());
-            assert_eq!(wide.hit[l].u.to_bits(), other.hit[l].u.to_bits());
-            assert_eq!(wide.hit[l].v.to_bits(), other.hit[l].v.to_bits());
-        }
-        // Alone, as a packet of one, the lane gets the same answer.
+        assert_eq!(found, expect, "lane {l} of {K}, mask {:b}", p.mask);
+        // Alone, as a packet of one, the lane gets the same answer, bit for
+        // bit (f32 compared as bits).
         if p.mask & (1 << l) != 0 {
             let one = p.lane(l);
-            let alone = bvh.closest_wide(&one, &mut st, |prim: u32, _: usize, t: f32| {
+            let alone = bvh.closest(&one, &mut st, |prim: u32, _: usize, t: f32| {
                 test(prim, l, t)
             });
-            assert_eq!(alone.prim[0], wide.prim[l]);
-            assert_eq!(alone.hit[0], wide.hit[l]);
+            assert_eq!(alone.prim[0], got.prim[l], "lane {l} of {K}");
+            let bits = |h: &SurfaceHit| [h.t, h.u, h.v].map(f32::to_bits);
+            assert_eq!(bits(&alone.hit[0]), bits(&got.hit[l]), "lane {l} of {K}");
         }
-        hits += got.is_some() as u64;
+        hits += found.is_some() as u64;
     }
     hits
 }
@@ -192,16 +177,24 @@ fn check_occlusion<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) {
             .intersect(&Ray::new(segs.origins[l], segs.dirs[l]), 0.0, segs.t_max[l])
             .is_some()
     };
-    for tree in ["four-wide", "eight-wide", "eight-wide pair"] {
+    for together in [true, false] {
         let any_hit = |test: &mut dyn FnMut(u32, usize) -> AnyHit| {
             let st = &mut TraversalStats::default();
             let mut test = |prim: u32, l: usize| test(prim, l);
-            match tree {
-                "four-wide" => bvh.occlusion_wide(&segs, st, &mut test),
-                "eight-wide" => bvh.occlusion_wide8(&segs, st, &mut test),
-                // A pair (both lanes) in one descent; other packets lane by lane.
-                _ if K == 2 && segs.mask == 0b11 => bvh.occlusion_pair_wide8(&segs, st, &mut test),
-                _ => bvh.occlusion_wide8(&segs, st, &mut test),
+            if together {
+                // A pair (both lanes) or a packet whose signs agree in one
+                // descent, other packets lane by lane.
+                bvh.occlusion(&segs, st, &mut test);
+            } else {
+                for l in (0..K).filter(|&l| segs.mask & (1 << l) != 0) {
+                    let one = SegmentPacket {
+                        origins: [segs.origins[l]],
+                        dirs: [segs.dirs[l]],
+                        t_max: [segs.t_max[l]],
+                        mask: 1,
+                    };
+                    bvh.occlusion(&one, st, &mut |prim: u32, _: usize| test(prim, l));
+                }
             }
         };
         // Without early exit: every primitive the segment meets is tested.
@@ -279,10 +272,10 @@ fn nearest_and_any_hit_match_brute_force_for_packets_of_every_width() {
     }
 }
 
-/// The wide tree `nodes`' shape: every node has 2..=W children, used slots
+/// The wide tree `nodes`' shape: every node has 2..=8 children, used slots
 /// first and the rest empty (a box no ray enters); its leaves hold every
 /// primitive once. Returns the children counted over all nodes.
-fn check_shape<const W: usize>(nodes: &[WideNode<W>], bvh: &Bvh, primitives: usize) -> usize {
+fn check_shape(nodes: &[WideNode], bvh: &Bvh, primitives: usize) -> usize {
     let mut seen = vec![0u32; primitives];
     let mut reached = vec![false; nodes.len()];
     let mut stack = vec![0usize];
@@ -292,12 +285,12 @@ fn check_shape<const W: usize>(nodes: &[WideNode<W>], bvh: &Bvh, primitives: usi
         assert!(!reached[i], "node {i} reached twice");
         reached[i] = true;
         let node = &nodes[i];
-        let used = (0..W)
+        let used = (0..WIDTH)
             .filter(|&c| node.bounds[0][c] <= node.bounds[1][c])
             .count();
         assert!(used >= 2, "node {i}: {used} children");
         // Used slots first; the rest empty on every axis.
-        for c in used..W {
+        for c in used..WIDTH {
             assert_eq!(node.count[c], 0);
             for axis in 0..3 {
                 assert_eq!(node.bounds[2 * axis][c], f32::INFINITY, "slot {c}");
@@ -322,53 +315,34 @@ fn check_shape<const W: usize>(nodes: &[WideNode<W>], bvh: &Bvh, primitives: usi
 }
 
 #[test]
-fn every_node_has_at_most_four_or_eight_children_and_leaves_cover_every_primitive_once() {
+fn every_node_has_up_to_eight_children_and_leaves_cover_every_primitive_once() {
     let shapes = scene(5000, 9);
     let bvh = hierarchy(&shapes);
     let children = check_shape(&bvh.wide, &bvh, shapes.len());
-    let children8 = check_shape(&bvh.wide8, &bvh, shapes.len());
-    // Collapsing removes binary levels: fewer nodes than the binary tree's
-    // inner nodes, with more than two children on average; eight-wide
-    // (`collapse_sah`), under half the four-wide nodes, with more than five
-    // children on average (when this was written: 647 nodes, 5.6 children;
-    // the greedy collapse made 892 nodes of 4.3).
+    // Collapsing by surface area (`collapse`) fills the nodes: under a
+    // fourth of the binary tree's inner nodes, with more than five children
+    // on average (647 nodes over 2973 binary inner nodes, 5.6 children; a
+    // greedy collapse, the largest child opened first, made 892 nodes of 4.3).
     let inner = bvh.nodes.iter().filter(|n| !n.is_leaf()).count();
-    let (wide, wide8) = (bvh.wide.len(), bvh.wide8.len());
+    let wide = bvh.wide.len();
     assert!(
-        wide < inner && children > 2 * wide,
+        4 * wide < inner && children > 5 * wide,
         "{wide} wide nodes, {children} children, {inner} binary inner nodes"
     );
-    assert!(
-        2 * wide8 < wide && children8 > 5 * wide8,
-        "{wide8} eight-wide nodes, {children8} children, {wide} four-wide nodes"
-    );
-    assert_eq!(bvh.wide8, twinray::bvh::collapse8(&bvh.nodes));
-    let greedy = twinray::bvh::collapse_to::<8>(&bvh.nodes);
-    let greedy_children = check_shape(&greedy, &bvh, shapes.len());
-    eprintln!(
-        "nodes: four-wide {wide} ({children} children), eight-wide greedy {} ({greedy_children}), SAH {wide8} ({children8})",
-        greedy.len()
-    );
+    assert_eq!(bvh.wide, twinray::bvh::collapse(&bvh.nodes));
 }
 
-/// Eye rays onto a generated mesh visit fewer nodes on the eight-wide tree
-/// than on the four-wide one, for the same hits: 0.70 of the inner nodes
-/// when this was written (3.95 against 5.63 per ray), and fewer than on the
-/// eight-wide tree collapsed greedily (4.55). Each inner node costs one
+/// Eye rays onto a generated mesh visit few inner nodes of the eight-wide
+/// tree: 3.95 per ray when this was written, where a greedy collapse (the
+/// largest child opened first) made 4.55. Each inner node costs one
 /// eight-wide box test.
 #[test]
-fn eight_wide_nodes_cut_the_inner_nodes_an_eye_ray_visits() {
+fn eye_rays_visit_few_inner_nodes() {
     let (shapes, _) = mesh(60);
     let bvh = blocked(&shapes);
     let mut rng = fastrand::Rng::with_seed(8);
     let eye = Vec3::new(30.0, -20.0, 40.0);
-    let (mut four, mut eight) = (TraversalStats::default(), TraversalStats::default());
-    // The eight-wide tree collapsed greedily (largest child opened first).
-    let greedy = Bvh {
-        wide8: twinray::bvh::collapse_to::<8>(&bvh.nodes),
-        ..bvh.clone()
-    };
-    let mut eight_greedy = TraversalStats::default();
+    let mut st = TraversalStats::default();
     let rays = 2000;
     let mut hits = 0;
     for _ in 0..rays {
@@ -377,44 +351,13 @@ fn eight_wide_nodes_cut_the_inner_nodes_an_eye_ray_visits() {
         let test = |prim: u32, _: usize, t: f32| {
             shapes[prim as usize].intersect(&Ray::new(p.origins[0], p.dirs[0]), 0.0, t)
         };
-        let a = bvh.closest_each_wide(&p, &mut four, test);
-        let b = bvh.closest_each_wide8(&p, &mut eight, test);
-        let c = greedy.closest_each_wide8(&p, &mut eight_greedy, test);
-        assert_eq!((a.prim, a.hit), (b.prim, b.hit));
-        assert_eq!((a.prim, a.hit), (c.prim, c.hit));
-        hits += a.has_hit(0) as u32;
+        hits += bvh.closest(&p, &mut st, test).has_hit(0) as u32;
     }
     assert!(hits > rays / 2, "{hits} hits");
-    // Inner nodes: one box test of the node's width each.
-    let inner4 = four.box_tests / 4;
-    let inner8 = eight.box_tests / 8;
+    let inner = (st.box_tests / WIDTH as u64) as f64 / rays as f64;
     assert!(
-        (inner8 as f64) < 0.75 * inner4 as f64,
-        "inner nodes per ray: {:.2} eight-wide, {:.2} four-wide",
-        inner8 as f64 / rays as f64,
-        inner4 as f64 / rays as f64
-    );
-    eprintln!(
-        "inner nodes per ray: four-wide {:.2}, eight-wide greedy {:.2}, eight-wide SAH {:.2}",
-        inner4 as f64 / rays as f64,
-        (eight_greedy.box_tests / 8) as f64 / rays as f64,
-        inner8 as f64 / rays as f64
-    );
-    assert!(
-        (inner8 as f64) < 0.93 * (eight_greedy.box_tests / 8) as f64,
-        "the SAH collapse visits no fewer inner nodes than the greedy one"
-    );
-    assert!(
-        eight.nodes < four.nodes,
-        "nodes per ray: {} eight-wide, {} four-wide",
-        eight.nodes,
-        four.nodes
-    );
-    // The same leaves: the same primitive tests, give or take the order.
-    let (p4, p8) = (four.prim_tests as f64, eight.prim_tests as f64);
-    assert!(
-        p8 < 1.15 * p4,
-        "primitive tests {p8} eight-wide, {p4} four-wide"
+        inner < 4.3,
+        "{inner:.2} inner nodes per ray (a greedy collapse: 4.55)"
     );
 }
 
@@ -437,38 +380,34 @@ fn nearest_child_first_stops_a_ray_at_the_first_of_a_row() {
         (Vec3::new(0.1, 0.0, -10.0), Vec3::Z, 0u32),
         (Vec3::new(0.0, 0.1, 1000.0), Vec3::NEG_Z, 255),
     ] {
-        // One ray on each wide tree, and a pair on the four-wide tree.
-        for (lanes, eight) in [(1usize, false), (1, true), (2, false)] {
-            let mut st = TraversalStats::default();
-            let test = |prim: u32, _: usize, t: f32| {
-                shapes[prim as usize].intersect(&Ray::new(o, d), 0.0, t)
-            };
-            let hits = if lanes == 1 {
-                let p = Packet::ray(o, d);
-                if eight {
-                    bvh.closest_each_wide8(&p, &mut st, test).prim[0]
-                } else {
-                    bvh.closest_wide(&p, &mut st, test).prim[0]
-                }
-            } else {
-                let p = Packet {
-                    origins: [o; 2],
-                    dirs: [d; 2],
-                    t_min: 0.0,
-                    t_max: [f32::INFINITY; 2],
-                    mask: 3,
-                };
-                let h = bvh.closest_wide(&p, &mut st, test);
-                assert_eq!(h.prim[0], h.prim[1]);
-                h.prim[0]
-            };
-            assert_eq!(hits, first);
-            assert!(
-                st.prim_tests <= 8 * lanes as u64,
-                "{lanes} lanes (eight-wide: {eight}): {} primitive tests",
-                st.prim_tests
-            );
-        }
+        // One ray alone, and eight copies of it in one descent.
+        let test =
+            |prim: u32, _: usize, t: f32| shapes[prim as usize].intersect(&Ray::new(o, d), 0.0, t);
+        let mut st = TraversalStats::default();
+        assert_eq!(
+            bvh.closest(&Packet::ray(o, d), &mut st, test).prim[0],
+            first
+        );
+        assert!(
+            st.prim_tests <= 8,
+            "alone: {} primitive tests",
+            st.prim_tests
+        );
+        let p = Packet {
+            origins: [o; 8],
+            dirs: [d; 8],
+            t_min: 0.0,
+            t_max: [f32::INFINITY; 8],
+            mask: 0xff,
+        };
+        let mut st = TraversalStats::default();
+        let h = bvh.closest_packet8(&p, &mut st, test);
+        assert_eq!(h.map(|h| h.prim), Some([first; 8]));
+        assert!(
+            st.prim_tests <= 64,
+            "eight: {} primitive tests",
+            st.prim_tests
+        );
     }
 }
 
@@ -495,50 +434,33 @@ impl<const K: usize> NearestTest for BlockTest<'_, K> {
         let p = self.packet;
         Some(block.intersect(&Ray::new(p.origins[lane], p.dirs[lane]), p.t_min, t_max))
     }
-
-    fn test_block_pair(&mut self, block: &Triangle4, t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
-        self.blocks_tested.set(self.blocks_tested.get() + 2);
-        let p = self.packet;
-        let rays = [0, 1 % K].map(|l| Ray::new(p.origins[l], p.dirs[l]));
-        Some(block.intersect_pair(&rays, p.t_min, t_max))
-    }
 }
 
-/// Every lane's nearest hit with block leaves, on the four-wide, the binary
-/// and (each lane alone, and a pair in one descent) the eight-wide tree:
-/// brute force's, bit for bit. Returns (lanes hit, summed over the four
-/// descents; blocks tested).
+/// Every lane's nearest hit with block leaves (each lane alone, or eight
+/// lanes in one descent): brute force's, bit for bit. Returns (lanes hit;
+/// blocks tested).
 fn check_blocks<const K: usize>(shapes: &[Shape], bvh: &Bvh, p: &Packet<K>) -> (u64, u64) {
     let tested = std::cell::Cell::new(0);
     let mut hits = 0;
-    for tree in ["wide", "binary", "eight-wide", "eight-wide pair"] {
-        let test = BlockTest {
-            shapes,
-            packet: p,
-            blocks_tested: &tested,
+    let test = BlockTest {
+        shapes,
+        packet: p,
+        blocks_tested: &tested,
+    };
+    let got = bvh.closest(p, &mut TraversalStats::default(), test);
+    for l in 0..K {
+        let expect = brute_lane(shapes, p, l);
+        let bits = |h: Option<(u32, SurfaceHit)>| {
+            h.map(|(prim, h)| (prim, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
         };
-        let mut st = TraversalStats::default();
-        let got = match tree {
-            "wide" => bvh.closest_wide(p, &mut st, test),
-            "binary" => bvh.closest_binary(p, &mut st, test),
-            "eight-wide" => bvh.closest_each_wide8(p, &mut st, test),
-            _ if K == 2 && p.mask == 0b11 => bvh.closest_pair_wide8(p, &mut st, test),
-            _ => bvh.closest_each_wide8(p, &mut st, test),
-        };
-        for l in 0..K {
-            let expect = brute_lane(shapes, p, l);
-            let bits = |h: Option<(u32, SurfaceHit)>| {
-                h.map(|(prim, h)| (prim, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
-            };
-            let found = got.has_hit(l).then(|| (got.prim[l], got.hit[l]));
-            assert_eq!(
-                bits(found),
-                bits(expect),
-                "{tree} tree, lane {l} of {K}, mask {:b}: {p:?}",
-                p.mask
-            );
-            hits += found.is_some() as u64;
-        }
+        let found = got.has_hit(l).then(|| (got.prim[l], got.hit[l]));
+        assert_eq!(
+            bits(found),
+            bits(expect),
+            "lane {l} of {K}, mask {:b}: {p:?}",
+            p.mask
+        );
+        hits += found.is_some() as u64;
     }
     (hits, tested.get())
 }
@@ -646,8 +568,9 @@ fn block_leaves_agree_on_shared_edges_vertices_and_degenerate_triangles() {
         .collect();
     let singles = rays.iter().map(|&(o, d)| Packet::ray(o, d));
     let (hits, tested) = run_blocks(&shapes, &bvh, singles);
+    // Nearly every ray hits the mesh: there is something to compare.
     assert!(
-        hits as usize > rays.len(),
+        hits as usize * 10 > rays.len() * 9,
         "{hits} hits of {} rays",
         rays.len()
     );
@@ -710,8 +633,7 @@ fn every_lane_of_a_full_block_can_give_the_nearest_hit() {
         );
         let p = Packet::ray(at + Vec3::Z * 5.0, Vec3::NEG_Z);
         let (hits, tested) = check_blocks(&shapes, &bvh, &p);
-        // One hit per descent checked (`check_blocks`: four of them).
-        assert_eq!((hits, tested > 0), (4, true), "cluster {c}");
+        assert_eq!((hits, tested > 0), (1, true), "cluster {c}");
         let prim = brute(
             &shapes,
             &Ray::new(p.origins[0], p.dirs[0]),
@@ -731,9 +653,8 @@ fn every_lane_of_a_full_block_can_give_the_nearest_hit() {
     );
 }
 
-/// A stereo pair in one leaf, each ray with its own t_max: the first ray's
-/// ends short of the triangle, the second's does not. The pair's block test
-/// must bound each ray by its own.
+/// Two rays in one leaf, each with its own t_max: the first ray's ends short
+/// of the triangle, the second's does not. Each must be bounded by its own.
 #[test]
 fn a_pair_in_a_block_keeps_each_rays_own_t_max() {
     // Two large slanted triangles (their boxes begin at z = 1, the rays meet
@@ -830,8 +751,8 @@ impl<const K: usize> twinray::bvh::AnyHitTest for Recorder<'_, K> {
 }
 
 /// Any-hit with SIMD block leaves meets the same primitives in the same
-/// order, and stops at the same one, as testing them one by one: on both
-/// trees, for segments alone, in pairs (one block test for both) and in
+/// order, and stops at the same one, as testing them one by one: for
+/// segments alone, in pairs (one block test for both) and in
 /// packets of four, on a mesh and on a mixed scene.
 #[test]
 fn block_any_hit_meets_what_one_by_one_meets_and_stops_there() {
@@ -858,7 +779,7 @@ fn block_any_hit_meets_what_one_by_one_meets_and_stops_there() {
             };
             let from = to + Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32()) * 30.0;
             let s: [(Vec3, Vec3, f32); 4] = std::array::from_fn(|_| seg(&mut rng, to, from));
-            let run = |blocks: bool, wide: bool, width: usize| {
+            let run = |blocks: bool, width: usize| {
                 let mut out: Vec<Vec<u32>> = Vec::new();
                 let mut st = TraversalStats::default();
                 macro_rules! go {
@@ -875,11 +796,7 @@ fn block_any_hit_meets_what_one_by_one_meets_and_stops_there() {
                             blocks,
                             met: std::array::from_fn(|_| Vec::new()),
                         };
-                        if wide {
-                            bvh.occlusion_wide(&p, &mut st, &mut r);
-                        } else {
-                            bvh.occlusion_binary(&p, &mut st, &mut r);
-                        }
+                        bvh.occlusion(&p, &mut st, &mut r);
                         out.extend(r.met);
                     }};
                 }
@@ -891,27 +808,25 @@ fn block_any_hit_meets_what_one_by_one_meets_and_stops_there() {
                 out
             };
             let width = [1, 2, 4][k % 3];
-            for wide in [true, false] {
-                let one_by_one = run(false, wide, width);
-                let in_blocks = run(true, wide, width);
-                assert_eq!(in_blocks, one_by_one, "segment set {k}, wide {wide}");
-                for (l, met) in one_by_one.iter().enumerate() {
-                    met_total += met.len();
-                    // A lane stops at its first opaque primitive; one that
-                    // meets none has met every primitive on its segment.
-                    let opaque = met.iter().filter(|&&p| Recorder::<1>::opaque(p)).count();
-                    let stops = met.last().is_some_and(|&p| Recorder::<1>::opaque(p));
-                    assert_eq!(opaque, stops as usize, "set {k}, lane {l}: {met:?}");
-                    stopped += stops as usize;
-                    if !stops {
-                        let ray = Ray::new(s[l].0, s[l].1);
-                        let all: Vec<u32> = (0..shapes.len() as u32)
-                            .filter(|&p| shapes[p as usize].intersect(&ray, 0.0, s[l].2).is_some())
-                            .collect();
-                        let mut met = met.clone();
-                        met.sort_unstable();
-                        assert_eq!(met, all, "set {k}, lane {l}");
-                    }
+            let one_by_one = run(false, width);
+            let in_blocks = run(true, width);
+            assert_eq!(in_blocks, one_by_one, "segment set {k}");
+            for (l, met) in one_by_one.iter().enumerate() {
+                met_total += met.len();
+                // A lane stops at its first opaque primitive; one that
+                // meets none has met every primitive on its segment.
+                let opaque = met.iter().filter(|&&p| Recorder::<1>::opaque(p)).count();
+                let stops = met.last().is_some_and(|&p| Recorder::<1>::opaque(p));
+                assert_eq!(opaque, stops as usize, "set {k}, lane {l}: {met:?}");
+                stopped += stops as usize;
+                if !stops {
+                    let ray = Ray::new(s[l].0, s[l].1);
+                    let all: Vec<u32> = (0..shapes.len() as u32)
+                        .filter(|&p| shapes[p as usize].intersect(&ray, 0.0, s[l].2).is_some())
+                        .collect();
+                    let mut met = met.clone();
+                    met.sort_unstable();
+                    assert_eq!(met, all, "set {k}, lane {l}");
                 }
             }
         }
@@ -924,7 +839,7 @@ fn block_any_hit_meets_what_one_by_one_meets_and_stops_there() {
 
 /// Leaves costed in blocks make an eye ray's descent shorter: on a mesh
 /// seen from above, fewer box tests per ray than per-primitive leaves, for
-/// the same hits.
+/// the same hits (30.8 against 36.6 eight-wide box tests per ray).
 #[test]
 fn blocks_cut_the_box_tests_of_an_eye_ray() {
     let (shapes, _) = mesh(60);
@@ -949,7 +864,7 @@ fn blocks_cut_the_box_tests_of_an_eye_ray() {
     }
     let per_ray = |s: &TraversalStats| s.box_tests as f64 / rays as f64;
     assert!(
-        per_ray(&b) < 0.8 * per_ray(&a),
+        per_ray(&b) < 0.9 * per_ray(&a),
         "box tests per ray: {:.1} in blocks, {:.1} per primitive",
         per_ray(&b),
         per_ray(&a)
@@ -968,7 +883,7 @@ fn check(
         packet: p,
         blocks_tested: &tested,
     };
-    let got = bvh.closest_wide(p, st, test);
+    let got = bvh.closest(p, st, test);
     got.has_hit(0)
         .then(|| (got.prim[0], got.hit[0].t.to_bits()))
 }

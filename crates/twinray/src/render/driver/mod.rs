@@ -20,7 +20,8 @@ use crate::render::cancel::CancelToken;
 use crate::render::fast::epipolar::EpipolarPass;
 use crate::render::fast::{self, SceneTraits};
 use crate::render::independent::Independent;
-use crate::render::options::{RenderOptions, ViewMethod};
+use crate::render::options::{PaperTechniques, RenderOptions, ViewMethod};
+use crate::render::panorama::{self, PanoramaTwin};
 use crate::render::sampler::Sampling;
 use crate::render::twin::{self, Shading};
 use crate::rig::{Camera, Rig};
@@ -161,8 +162,24 @@ fn check_rows(rows: &std::ops::Range<u32>, height: u32) -> crate::Result<()> {
 fn row_tracers<'a>(job: &RenderInputs<'a>) -> crate::Result<RowTracers<'a>> {
     let views = job.rig.views.len();
     let per_batch = job.opts.views_per_batch(views);
+    if job.camera.projection.is_panorama() {
+        panorama::check(job.camera, job.rig)?;
+    }
     let (batches, epipolar): (Vec<Box<dyn ViewBatch + 'a>>, _) = match job.opts.method {
         ViewMethod::Independent => (vec![Box::new(Independent::new(job))], None),
+        ViewMethod::Twin { paper } if job.camera.projection.is_panorama() => {
+            if paper != PaperTechniques::NONE {
+                return Err(crate::Error::Invalid(
+                    "the paper's techniques are for flat rigs, not panoramas".into(),
+                ));
+            }
+            (vec![Box::new(PanoramaTwin::new(job))], None)
+        }
+        ViewMethod::Fast { .. } if job.camera.projection.is_panorama() => {
+            return Err(crate::Error::Invalid(
+                "--fast is for flat rigs; a panorama's twin method is exact and as fast".into(),
+            ))
+        }
         ViewMethod::Twin { paper } => {
             let shading = Shading::of_paper(paper);
             (twin::batches(job, per_batch, shading)?, None)

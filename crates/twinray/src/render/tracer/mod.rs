@@ -256,13 +256,10 @@ impl<'a> Tracer<'a> {
 
     /// Whether `eye_hit` may trace this world's eye rays: where `closest`
     /// would take the eight-wide descent for a ray alone (no cut-outs, no
-    /// cut, both wide trees built).
+    /// cut, the wide tree built).
     pub fn eye_hit_applies(&self) -> bool {
         let world = self.world;
-        !(world.has_alpha
-            || world.far.is_some()
-            || world.bvh.wide.is_empty()
-            || world.bvh.wide8.is_empty())
+        !(world.has_alpha || world.far.is_some() || world.bvh.wide.is_empty())
     }
 
     /// `eye_hits` for one ray (lane 0 of `packet`, of view `view`) where
@@ -278,10 +275,7 @@ impl<'a> Tracer<'a> {
             packet,
             eight: None,
         };
-        let (prim, hit) = world
-            .bvh
-            .closest_one_wide8(packet, &mut self.traversal, test)
-            .unwrap_or((PacketHits::<1>::NO_HIT, PacketHits::<1>::none().hit[0]));
+        let (prim, hit) = world.bvh.closest_ray(packet, &mut self.traversal, test);
         self.counts.closest_traversals += 1;
         self.counts.eye_traversals += 1;
         if packet.mask & 1 != 0 {
@@ -299,7 +293,7 @@ impl<'a> Tracer<'a> {
     /// `eye_hit` for up to eight neighbouring eye rays (the lanes of
     /// `packet.mask`, lane `l` of view `views[l]`: one view's neighbouring
     /// samples, or a few samples of a batch of views) in one descent
-    /// (`Bvh::closest_eye_packet8`): each lane's hit bit for bit `eye_hit`'s,
+    /// (`Bvh::closest_packet8`): each lane's hit bit for bit `eye_hit`'s,
     /// counted as `eye_hit` counts it, the packet counted, and one
     /// traversal (one descent; a batch's packet of views also counts one). `None`
     /// (nothing traced, nothing counted) where the packet does not apply: the
@@ -318,7 +312,7 @@ impl<'a> Tracer<'a> {
         };
         let hits = world
             .bvh
-            .closest_eye_packet8(packet, &mut self.traversal, test)?;
+            .closest_packet8(packet, &mut self.traversal, test)?;
         let rays = (packet.mask & 0xff).count_ones() as u64;
         self.counts.eye_packets += 1;
         self.counts.eye_packet_rays += rays;
@@ -1064,12 +1058,6 @@ impl<const K: usize> NearestTest for NearestShape<'_, K> {
         self.shapes[prim as usize].intersect(&self.ray(lane), self.packet.t_min, t_max)
     }
 
-    #[inline(always)]
-    fn test_pair(&mut self, prim: u32, t_max: [f32; 2]) -> [Option<SurfaceHit>; 2] {
-        let rays = [self.ray(0), self.ray(1 % K)];
-        self.shapes[prim as usize].intersect_pair(&rays, self.packet.t_min, t_max)
-    }
-
     /// Spheres and cones, for up to eight lanes at once (`Shape::intersect8`,
     /// each lane bit for bit the single test).
     #[inline(always)]
@@ -1109,12 +1097,6 @@ impl<const K: usize> NearestTest for NearestShape<'_, K> {
             self.packet.t_min,
             t_max,
         ))
-    }
-
-    #[inline(always)]
-    fn test_block_pair(&mut self, block: &Triangle4, t_max: [f32; 2]) -> Option<[BlockHits; 2]> {
-        let rays = [self.ray(0), self.ray(1 % K)];
-        Some(block.intersect_pair(&rays, self.packet.t_min, t_max))
     }
 }
 

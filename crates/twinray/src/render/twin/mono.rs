@@ -98,7 +98,7 @@ impl<const K: usize> TwinBatch<'_, K> {
         flat.resize(scene.materials.len(), None);
         // Eight neighbouring samples shaded as one packet: their shadow
         // segments toward each light start a pixel apart and end together,
-        // so they go down in one descent (`Bvh::occlusion_packet8`); each
+        // so they go down in one descent (`Bvh::occlusion`); each
         // lane's colour is what it gets alone.
         // One packet for the row, its lanes written in place (a packet and its
         // hits made whole for each eight cost 3 % of a matte render).

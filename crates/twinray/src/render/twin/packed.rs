@@ -3,8 +3,8 @@
 //! samples that take a donor's light, and the groups they shade exactly
 //! (`share_groups`, `share_shading`). A pair's group has two lanes; eight
 //! lanes of neighbouring samples send their shadow segments and secondary
-//! rays down the eight-lane descents (`Bvh::occlusion_packet8`,
-//! `closest_eye_packet8`) instead of one or two at a time. Each lane's
+//! rays down the eight-lane descents (`Bvh::occlusion`,
+//! `Bvh::closest_packet8`) instead of one or two at a time. Each lane's
 //! colour is what it gets alone, so the packets change the speed, not the
 //! images.
 

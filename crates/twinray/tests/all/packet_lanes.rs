@@ -1,10 +1,10 @@
-//! The stereo pair's one descent of the four-wide tree (`Bvh::closest_wide`
-//! with two active lanes): it shares the nodes both rays enter, so it visits
-//! fewer nodes than the two rays' single descents, with no more box or
-//! primitive tests per lane; and it keeps each lane's own mask and `t_max`:
-//! a lane is carried into a child only by its own box test, and pruned only
-//! by its own nearest hit. Every hit is checked against brute force and
-//! against the lane traced alone.
+//! Rays in one nearest-hit descent (`Bvh::closest_packet8`: up to eight
+//! lanes): the packet shares the nodes its rays enter, so it visits fewer
+//! nodes than its rays' single descents, with no more box or primitive tests
+//! per lane; and it keeps each lane's own mask and `t_max`: a lane is carried
+//! into a child only by its own box test, and pruned only by its own nearest
+//! hit. Every hit is checked against brute force and against the lane traced
+//! alone.
 
 use crate::common;
 
@@ -50,28 +50,54 @@ fn terrain(n: usize) -> Vec<Shape> {
     out
 }
 
-/// The pair's hits, checked lane by lane against brute force and against the
-/// lane traced alone; with the work of the pair descent and of the two single
-/// descents.
-fn pair(shapes: &[Shape], bvh: &Bvh, p: &Packet<2>) -> (PacketHits<2>, [TraversalStats; 2]) {
-    let test = |prim: u32, l: usize, t_max: f32| {
-        shapes[prim as usize].intersect(&Ray::new(p.origins[l], p.dirs[l]), p.t_min, t_max)
+/// The packet's hits in one descent, checked lane by lane against brute
+/// force and against the lane traced alone (lanes off: no hit); with the
+/// work of the one descent and of the lanes' single descents. `None` where
+/// the descent refused the packet (its lanes' direction signs differ).
+fn together<const K: usize>(
+    shapes: &[Shape],
+    bvh: &Bvh,
+    p: &Packet<K>,
+) -> Option<(PacketHits<8>, [TraversalStats; 2])> {
+    let mut eight = Packet {
+        origins: [Vec3::ZERO; 8],
+        dirs: [Vec3::Z; 8],
+        t_min: p.t_min,
+        t_max: [f32::INFINITY; 8],
+        mask: p.mask,
     };
-    let mut together = TraversalStats::default();
-    let hits = bvh.closest_wide(p, &mut together, test);
+    eight.origins[..K].copy_from_slice(&p.origins);
+    eight.dirs[..K].copy_from_slice(&p.dirs);
+    eight.t_max[..K].copy_from_slice(&p.t_max);
+    let test = |prim: u32, l: usize, t_max: f32| {
+        shapes[prim as usize].intersect(
+            &Ray::new(eight.origins[l], eight.dirs[l]),
+            eight.t_min,
+            t_max,
+        )
+    };
+    let mut one = TraversalStats::default();
+    let hits = bvh.closest_packet8(&eight, &mut one, test)?;
     let mut alone = TraversalStats::default();
-    let each = bvh.closest_each_wide(p, &mut alone, test);
-    for l in 0..2 {
-        let ray = Ray::new(p.origins[l], p.dirs[l]);
-        let expect = brute(shapes, &ray, p.t_min, p.t_max[l]);
+    for l in 0..8 {
+        if p.mask & (1 << l) == 0 {
+            assert!(!hits.has_hit(l), "lane {l} is off");
+            continue;
+        }
+        let each = bvh.closest(&eight.lane(l), &mut alone, |prim: u32, _: usize, t: f32| {
+            test(prim, l, t)
+        });
+        let ray = Ray::new(eight.origins[l], eight.dirs[l]);
+        let expect = brute(shapes, &ray, eight.t_min, eight.t_max[l]);
         let got = hits.has_hit(l).then(|| (hits.prim[l], hits.hit[l]));
         assert_eq!(got, expect, "lane {l} of {p:?}");
-        assert_eq!(hits.prim[l], each.prim[l]);
-        assert_eq!(hits.hit[l].t.to_bits(), each.hit[l].t.to_bits());
+        assert_eq!(hits.prim[l], each.prim[0]);
+        assert_eq!(hits.hit[l].t.to_bits(), each.hit[0].t.to_bits());
     }
-    (hits, [together, alone])
+    Some((hits, [one, alone]))
 }
 
+/// Two rays in lanes 0 and 1.
 fn packet(origins: [Vec3; 2], dirs: [Vec3; 2], t_max: [f32; 2]) -> Packet<2> {
     Packet {
         origins,
@@ -82,43 +108,56 @@ fn packet(origins: [Vec3; 2], dirs: [Vec3; 2], t_max: [f32; 2]) -> Packet<2> {
     }
 }
 
+/// `together` for a packet the descent must take.
+fn pair(shapes: &[Shape], bvh: &Bvh, p: &Packet<2>) -> (PacketHits<8>, [TraversalStats; 2]) {
+    together(shapes, bvh, p).expect("the lanes' signs agree")
+}
+
 #[test]
-fn a_pair_shares_its_descent_and_tests_no_more_per_lane_than_alone() {
+fn a_packet_shares_its_descent_and_tests_no_more_per_lane_than_alone() {
     let shapes = terrain(48);
     let bvh = hierarchy(&shapes);
-    // A stereo camera above the terrain: for each of 32 x 32 pixels, the left
-    // and right eyes' rays (0.1 apart) through the same pixel, as the twin
-    // method pairs them.
-    let (left, right) = (Vec3::new(-0.05, 8.0, -14.0), Vec3::new(0.05, 8.0, -14.0));
-    let (mut together, mut alone) = (TraversalStats::default(), TraversalStats::default());
+    // A camera above the terrain: for each of 32 x 4 pixels, the rays of
+    // eight neighbouring pixels of a row, as the eye pass packs them.
+    let eye = Vec3::new(0.0, 8.0, -14.0);
+    let (mut shared, mut alone) = (TraversalStats::default(), TraversalStats::default());
     let mut hit = 0;
     for j in 0..32 {
-        for i in 0..32 {
-            let dir = Vec3::new((i as f32 - 15.5) / 40.0, -0.45 - j as f32 / 80.0, 1.0).normalize();
-            let p = packet([left, right], [dir; 2], [f32::INFINITY; 2]);
-            let (h, [t, a]) = pair(&shapes, &bvh, &p);
-            hit += h.has_hit(0) as u32 + h.has_hit(1) as u32;
-            together += t;
+        for i in 0..4 {
+            let dirs: [Vec3; 8] = std::array::from_fn(|k| {
+                let x = (8 * i + k) as f32 - 15.5;
+                Vec3::new(x / 40.0, -0.45 - j as f32 / 80.0, 1.0).normalize()
+            });
+            let p = Packet {
+                origins: [eye; 8],
+                dirs,
+                t_min: 0.0,
+                t_max: [f32::INFINITY; 8],
+                mask: 0xff,
+            };
+            let (h, [t, a]) = together(&shapes, &bvh, &p).expect("one octant");
+            hit += (0..8).filter(|&l| h.has_hit(l)).count();
+            shared += t;
             alone += a;
         }
     }
-    assert!(hit > 1900, "{hit} of 2048 rays hit the terrain");
-    println!("pair {together:?}, two singles {alone:?}");
-    // One descent for both: a node both rays enter is visited once.
+    assert!(hit > 950, "{hit} of 1024 rays hit the terrain");
+    println!("packet {shared:?}, each alone {alone:?}");
+    // One descent for all: a node several rays enter is visited once.
     assert!(
-        (together.nodes as f64) < 0.6 * alone.nodes as f64,
-        "pair {together:?}, two singles {alone:?}"
+        (shared.nodes as f64) < 0.4 * alone.nodes as f64,
+        "packet {shared:?}, each alone {alone:?}"
     );
     // Each lane is carried only where its own box test takes it: no more
-    // box or primitive tests than alone (a little slack: the pair's order,
-    // nearer of the two entries first, may reach a lane's hit later).
+    // box or primitive tests than alone (a little slack: the packet's order,
+    // by its first lane's entries, may reach another lane's hit later).
     assert!(
-        (together.box_tests as f64) < 1.05 * alone.box_tests as f64,
-        "pair {together:?}, two singles {alone:?}"
+        (shared.box_tests as f64) < 1.05 * alone.box_tests as f64,
+        "packet {shared:?}, each alone {alone:?}"
     );
     assert!(
-        (together.prim_tests as f64) < 1.1 * alone.prim_tests as f64,
-        "pair {together:?}, two singles {alone:?}"
+        (shared.prim_tests as f64) < 1.1 * alone.prim_tests as f64,
+        "packet {shared:?}, each alone {alone:?}"
     );
 }
 
@@ -143,21 +182,24 @@ fn lanes_that_want_different_children_each_find_their_own_hit() {
         [Vec3::Z; 2],
         [f32::INFINITY; 2],
     );
-    let (h, [together, alone]) = pair(&shapes, &bvh, &p);
-    assert_eq!(h.prim, [64, 65]);
+    let (h, [shared, alone]) = pair(&shapes, &bvh, &p);
+    assert_eq!(h.prim[..2], [64, 65]);
     // Lanes apart: no more work than the two descents.
-    assert!(
-        together.box_tests <= alone.box_tests,
-        "{together:?} {alone:?}"
-    );
-    // And with each ray's direction toward the other's target, crossing.
+    assert!(shared.box_tests <= alone.box_tests, "{shared:?} {alone:?}");
+    // And with each ray's direction toward the other's target, crossing:
+    // their x signs differ, so the descent refuses them (the caller traces
+    // them alone), and each alone finds the other's target.
     let (o0, o1) = (Vec3::new(0.0, 0.0, -1.0), Vec3::new(0.5, 0.0, -1.0));
     let to = |o: Vec3, s: u32| match &shapes[s as usize] {
         Shape::Sphere(s) => (s.center - o).normalize(),
         _ => unreachable!(),
     };
     let p = packet([o0, o1], [to(o0, 65), to(o1, 64)], [f32::INFINITY; 2]);
-    let (h, _) = pair(&shapes, &bvh, &p);
+    assert!(together(&shapes, &bvh, &p).is_none());
+    let test = |prim: u32, l: usize, t_max: f32| {
+        shapes[prim as usize].intersect(&Ray::new(p.origins[l], p.dirs[l]), 0.0, t_max)
+    };
+    let h = bvh.closest(&p, &mut TraversalStats::default(), test);
     assert_eq!(h.prim, [65, 64]);
 }
 
@@ -183,7 +225,7 @@ fn one_lanes_near_hit_does_not_prune_the_other_lane() {
         [f32::INFINITY; 2],
     );
     let (h, _) = pair(&shapes, &bvh, &p);
-    assert_eq!(h.prim, [64, 65]);
+    assert_eq!(h.prim[..2], [64, 65]);
     assert!((h.hit[0].t - 1.5).abs() < 1e-4 && (h.hit[1].t - 59.5).abs() < 1e-3);
     // Each lane's own t_max, given: lane 0's bound must not cut lane 1's
     // hit, nor lane 1's bound lane 0's.
@@ -206,7 +248,7 @@ fn one_lanes_near_hit_does_not_prune_the_other_lane() {
 }
 
 #[test]
-fn random_pairs_match_brute_force_and_their_lanes_alone() {
+fn random_packets_match_brute_force_and_their_lanes_alone() {
     let shapes = terrain(24);
     let mut shapes = shapes;
     let mut rng = fastrand::Rng::with_seed(7);
@@ -215,6 +257,7 @@ fn random_pairs_match_brute_force_and_their_lanes_alone() {
         shapes.push(sphere(c + Vec3::Y * 1.5, 0.2 + 0.3 * (i % 3) as f32));
     }
     let bvh = hierarchy(&shapes);
+    let mut refused = 0;
     for _ in 0..2000 {
         let o = Vec3::new(rng.f32() - 0.5, rng.f32(), rng.f32() - 0.5) * 30.0;
         let at = Vec3::new(rng.f32() - 0.5, 0.0, rng.f32() - 0.5) * 20.0;
@@ -239,6 +282,16 @@ fn random_pairs_match_brute_force_and_their_lanes_alone() {
         });
         let mut p = packet([o, o1], [d0, d1], t_max);
         p.t_min = if rng.bool() { 0.0 } else { 1e-3 };
-        pair(&shapes, &bvh, &p);
+        refused += usize::from(together(&shapes, &bvh, &p).is_none());
+        // Eight lanes: the two rays and six between them, some lanes off.
+        let eight = Packet::<8> {
+            origins: std::array::from_fn(|l| o.lerp(o1, l as f32 / 7.0)),
+            dirs: std::array::from_fn(|l| d0.lerp(d1, l as f32 / 7.0).normalize()),
+            t_min: p.t_min,
+            t_max: std::array::from_fn(|l| t_max[l % 2]),
+            mask: rng.u32(1..256),
+        };
+        refused += usize::from(together(&shapes, &bvh, &eight).is_none());
     }
+    assert!(refused < 2000, "{refused} of 4000 packets refused");
 }
