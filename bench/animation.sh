@@ -11,7 +11,7 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 scene=${1:-../shared/scenes/spd/teapot.nff}
 bin=target/release/twinray
-cargo build --release -p twinray-cli >/dev/null 2>&1
+cargo build --release --bin twinray >/dev/null 2>&1
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 

@@ -20,7 +20,7 @@ shift
 [[ $# -ge 1 ]] || { sed -n 2,16p "$0" >&2; exit 2; }
 tr=${TWINRAY:-target/release/twinray}
 size=${SIZE:-4096x2048} b=${B:-0.064}
-[[ -x $tr ]] || { echo "build first: cargo build --release -p twinray-cli" >&2; exit 2; }
+[[ -x $tr ]] || { echo "build first: cargo build --release --bin twinray" >&2; exit 2; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 place=()

@@ -10,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 size=${1:-480x270}
 spd=${SPD:-../shared/scenes/spd}
-cargo build --release -q -p twinray-cli
+cargo build --release -q --bin twinray
 cargo test -q -p twinray-preview --test all --no-run 2>/dev/null
 for scene in "$spd"/*.nff; do
     out=$(mktemp)

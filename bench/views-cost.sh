@@ -5,7 +5,7 @@
 # the exact view. Prints the table, writes CSV and the plot. See
 # bench/views_cost.py for the details and the settings.
 #
-# usage (from the project root, after cargo build --release -p twinray-cli):
+# usage (from the project root, after cargo build --release --bin twinray):
 #   bench/views-cost.sh [SCENE.nff ...]      (default: SPD balls mount tetra tree)
 #   e.g. VIEWS=2 SIZE=1024x1024 INTERAXIAL=0.1 CSV=/tmp/pair.csv PLOT= \
 #          bench/views-cost.sh ../shared/scenes/spd/*.nff

@@ -156,7 +156,7 @@ def main():
         if m not in MODE_FLAGS:
             sys.exit("MODES: %s is not one of %s" % (m, " ".join(MODE_FLAGS)))
     if not os.access(binary, os.X_OK):
-        sys.exit("%s: build first (cargo build --release -p twinray-cli)" % binary)
+        sys.exit("%s: build first (cargo build --release --bin twinray)" % binary)
     tmp = tempfile.mkdtemp()
     common = ["--size", size, "-q"] + flags
     rows = []
