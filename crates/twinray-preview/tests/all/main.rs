@@ -5,4 +5,5 @@
 
 mod api;
 mod common;
+mod panorama;
 mod security;
