@@ -21,6 +21,9 @@
 //! | `GET /api/download/{render}/{file}` | one of them |
 //! | `POST /api/reload` | reads the scene file again |
 //!
+//! A panorama (`--projection`) is shown in the page's look-around viewer,
+//! its rig the IPD and the angular budget (`settings.rs`, `info.rs`).
+//!
 //! Only the server's own page may use it (`guard.rs`: `Host` and `Origin`).
 //! Session and render ids are 128 random bits (`ids.rs`). At most
 //! [`MAX_PAGES`] pages are open at once, each WebSocket takes messages of

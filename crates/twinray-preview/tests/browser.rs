@@ -748,6 +748,9 @@ async fn the_panorama_viewer_in_chromium() {
         correlation(a, 1, &left["rgb"]),
         correlation(a, 1, &right["rgb"]),
     );
+    eprintln!(
+        "anaglyph: red ~ left {red_left:.3}, right {red_right:.3}; green ~ left {green_left:.3}, right {green_right:.3}"
+    );
     assert!(
         red_left > red_right + 0.05 && green_right > green_left + 0.05,
         "red ~ left {red_left:.3}, right {red_right:.3}; green ~ left {green_left:.3}, right {green_right:.3}"

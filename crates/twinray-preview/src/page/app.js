@@ -532,6 +532,8 @@ function showProjection() {
   $("budget-row").hidden = pano;
   $("views-row").hidden = pano;
   $("angular-row").hidden = !pano || settings.views < 2;
+  // One eye of a panorama has no rig at all.
+  $("rig").hidden = pano && settings.views < 2;
   $("fast-label").hidden = pano;
   $("fov-label").hidden = pano;
   $("interaxial-label").textContent = pano ? "IPD" : "interaxial";
@@ -599,6 +601,9 @@ function drawAngularHistogram(g, W, H, p) {
   g.strokeStyle = "#7bd88f"; g.lineWidth = 1.5;
   g.beginPath(); g.moveTo(X(p.budget_deg), pad.t); g.lineTo(X(p.budget_deg), pad.t + plotH); g.stroke();
   g.font = "11px monospace";
+  g.fillStyle = "#7bd88f";
+  g.textAlign = X(p.budget_deg) > W / 2 ? "right" : "left";
+  g.fillText(`budget ${fmt(p.budget_deg, 2)}°`, X(p.budget_deg) + (X(p.budget_deg) > W / 2 ? -4 : 4), pad.t + 38);
   const marks = { budget: p.budget_deg };
   for (const [name, a, colour] of [["nearest", p.near, "#ffcf6b"], ["farthest", p.far, "#d8dadc"]]) {
     if (!a) continue;
@@ -608,16 +613,15 @@ function drawAngularHistogram(g, W, H, p) {
     g.setLineDash([]);
     g.fillStyle = colour;
     g.textAlign = X(a.deg) > W / 2 ? "right" : "left";
-    g.fillText(`${name} ${fmt(a.deg, 2)}°`, X(a.deg) + (X(a.deg) > W / 2 ? -3 : 3), pad.t + (name === "nearest" ? 24 : 38));
+    g.fillText(`${name} ${fmt(a.deg, 2)}°`, X(a.deg) + (X(a.deg) > W / 2 ? -4 : 4), pad.t + (name === "nearest" ? 10 : 24));
   }
   preview.histogramMarks = marks;
   g.fillStyle = "#8c9196"; g.textAlign = "center";
   for (const t of niceTicks(0, span, 6)) g.fillText(`${fmt(t, 2)}°`, X(t), H - 17);
-  g.fillText("angular disparity between the eyes", W / 2, H - 4);
   g.textAlign = "left";
-  g.fillText("far (0° at infinity)", pad.l, pad.t + 10);
+  g.fillText("← far (0°: infinity), angular disparity", pad.l, H - 4);
   g.textAlign = "right";
-  g.fillText("near", W - pad.r, pad.t + 10);
+  g.fillText("near →", W - pad.r, H - 4);
 }
 
 // The look-around viewer: each canvas pixel's ray of a perspective camera
