@@ -27,6 +27,10 @@ use tokio_tungstenite::tungstenite::Message;
 use twinray::job::{CancelToken, JobSpec};
 use twinray_preview::Preview;
 
+#[path = "all/correlation.rs"]
+mod correlation;
+use correlation::correlation;
+
 type Socket =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
 
@@ -158,6 +162,50 @@ impl DevTools {
             )
             .await;
         }
+    }
+
+    /// A drag of the left mouse button from (`x`, `y`) by `dx` across, in
+    /// two moves.
+    async fn drag(&mut self, x: f64, y: f64, dx: f64) {
+        for (kind, by) in [
+            ("mousePressed", 0.0),
+            ("mouseMoved", dx / 2.0),
+            ("mouseMoved", dx),
+            ("mouseReleased", dx),
+        ] {
+            self.call(
+                "Input.dispatchMouseEvent",
+                json!({ "type": kind, "x": x + by, "y": y, "button": "left", "buttons": 1, "clickCount": 1 }),
+            )
+            .await;
+        }
+    }
+
+    /// Sets the control `id` to `value` as the user does, and waits for
+    /// the change the page sends to be accepted.
+    async fn set_control(&mut self, id: &str, value: &str) {
+        let generation = self.eval("window.twinrayPreview.generation").await;
+        self.eval(&format!("(() => {{ const e = document.getElementById('{id}'); e.value = '{value}'; e.dispatchEvent(new Event('change')); return true; }})()"))
+            .await;
+        self.wait_for(
+            &format!("window.twinrayPreview.generation > {generation}"),
+            &format!("the change of {id}"),
+        )
+        .await;
+    }
+
+    /// A screenshot of the page, saved as `name` in the tests' folder.
+    async fn screenshot(&mut self, name: &str) -> Vec<u8> {
+        let shot = self
+            .call("Page.captureScreenshot", json!({ "format": "png" }))
+            .await;
+        let png = base64::engine::general_purpose::STANDARD
+            .decode(shot["data"].as_str().unwrap())
+            .unwrap();
+        let path = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+        std::fs::write(&path, &png).unwrap();
+        eprintln!("screenshot: {}", path.display());
+        png
     }
 
     /// Waits until `expression` is true in the page (an exception, as
@@ -362,18 +410,7 @@ async fn the_page_in_chromium() {
     let (cx, cy) = (stage[0].as_f64().unwrap(), stage[1].as_f64().unwrap());
     let before_orbit = dt.eval("window.twinrayPreview.info.camera").await;
     let generation = dt.eval("window.twinrayPreview.generation").await;
-    for (kind, dx) in [
-        ("mousePressed", 0.0),
-        ("mouseMoved", 40.0),
-        ("mouseMoved", 80.0),
-        ("mouseReleased", 80.0),
-    ] {
-        dt.call(
-            "Input.dispatchMouseEvent",
-            json!({ "type": kind, "x": cx + dx, "y": cy, "button": "left", "buttons": 1, "clickCount": 1 }),
-        )
-        .await;
-    }
+    dt.drag(cx, cy, 80.0).await;
     dt.wait_for(
         &format!("window.twinrayPreview.generation > {generation}"),
         "the orbit to reach the server",
@@ -466,15 +503,7 @@ async fn the_page_in_chromium() {
         .starts_with("twinray render "));
 
     // The screenshot, saved and inspected.
-    let shot = dt
-        .call("Page.captureScreenshot", json!({ "format": "png" }))
-        .await;
-    let png = base64::engine::general_purpose::STANDARD
-        .decode(shot["data"].as_str().unwrap())
-        .unwrap();
-    let path = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("preview-page.png");
-    std::fs::write(&path, &png).unwrap();
-    eprintln!("screenshot: {}", path.display());
+    let png = dt.screenshot("preview-page.png").await;
     if let Ok(copy) = std::env::var("TWINRAY_PREVIEW_SCREENSHOT") {
         std::fs::write(copy, &png).unwrap();
     }
@@ -560,24 +589,13 @@ const LOOK_READY: &str = "(() => { const p = window.twinrayPreview; const h = p 
 const LOOK_TURNED: &str = "(() => { const l = window.twinrayPreview.look; \
      return !!l.shown && l.shown[0] === l.yaw && l.shown[1] === l.pitch && l.shown[2] === l.fov; })()";
 
-/// Pearson's correlation of channel `channel` of `a` with the luma of `b`
-/// (both as LOOK_PIXELS's `rgb`).
-fn correlation(a: &Value, channel: usize, b: &Value) -> f64 {
-    let (a, b) = (a.as_array().unwrap(), b.as_array().unwrap());
-    let v = |x: &Value| x.as_f64().unwrap();
-    let (mut sx, mut sy, mut sxy, mut sxx, mut syy, mut n) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    for (p, q) in a.chunks(3).zip(b.chunks(3)) {
-        let x = v(&p[channel]);
-        let y = 0.3 * v(&q[0]) + 0.6 * v(&q[1]) + 0.1 * v(&q[2]);
-        sx += x;
-        sy += y;
-        sxy += x * y;
-        sxx += x * x;
-        syy += y * y;
-        n += 1.0;
-    }
-    let cov = sxy / n - sx * sy / (n * n);
-    cov / ((sxx / n - (sx / n).powi(2)) * (syy / n - (sy / n).powi(2))).sqrt()
+/// LOOK_PIXELS's `rgb` as numbers.
+fn rgb(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
 }
 
 /// A panorama in the page: the ODS pair shown in the look-around viewer,
@@ -623,18 +641,7 @@ async fn the_panorama_viewer_in_chromium() {
         .eval("(() => { const r = document.getElementById('look').getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; })()")
         .await;
     let (cx, cy) = (centre[0].as_f64().unwrap(), centre[1].as_f64().unwrap());
-    for (kind, dx) in [
-        ("mousePressed", 0.0),
-        ("mouseMoved", 60.0),
-        ("mouseMoved", 120.0),
-        ("mouseReleased", 120.0),
-    ] {
-        dt.call(
-            "Input.dispatchMouseEvent",
-            json!({ "type": kind, "x": cx + dx, "y": cy, "button": "left", "buttons": 1, "clickCount": 1 }),
-        )
-        .await;
-    }
+    dt.drag(cx, cy, 120.0).await;
     dt.wait_for(
         "window.twinrayPreview.look.yaw < -5",
         "the drag to turn the view left",
@@ -712,42 +719,26 @@ async fn the_panorama_viewer_in_chromium() {
 
     // The anaglyph shows both eyes: with a wide IPD, the viewer's red
     // follows the left eye's view, its green the right eye's.
-    let set = |id: &str, value: &str| {
-        format!("(() => {{ const e = document.getElementById('{id}'); e.value = '{value}'; e.dispatchEvent(new Event('change')); return true; }})()")
-    };
-    let generation = dt.eval("window.twinrayPreview.generation").await;
-    dt.eval(&set("interaxial-value", "0.3")).await;
-    dt.wait_for(
-        &format!("window.twinrayPreview.generation > {generation} && window.twinrayPreview.info.panorama.ipd > 0.29"),
-        "the wide IPD",
-    )
-    .await;
+    dt.set_control("interaxial-value", "0.3").await;
+    assert!(
+        dt.eval("window.twinrayPreview.info.panorama.ipd")
+            .await
+            .as_f64()
+            .unwrap()
+            > 0.29
+    );
     dt.wait_for(LOOK_READY, "the wide anaglyph").await;
     let anaglyph = dt.eval(LOOK_PIXELS).await;
-    dt.eval(&set("layout", "single")).await;
-    dt.wait_for("window.twinrayPreview.info.view === 'single'", "one eye")
-        .await;
+    dt.set_control("layout", "single").await;
     dt.wait_for(LOOK_READY, "the left eye").await;
     let left = dt.eval(LOOK_PIXELS).await;
-    let generation = dt.eval("window.twinrayPreview.generation").await;
-    dt.eval(&set("eye", "1")).await;
-    dt.wait_for(
-        &format!("window.twinrayPreview.generation > {generation}"),
-        "the right eye asked for",
-    )
-    .await;
+    dt.set_control("eye", "1").await;
     dt.wait_for(LOOK_READY, "the right eye").await;
     let right = dt.eval(LOOK_PIXELS).await;
     assert_ne!(left["print"], right["print"], "the eyes are alike");
-    let a = &anaglyph["rgb"];
-    let (red_left, red_right) = (
-        correlation(a, 0, &left["rgb"]),
-        correlation(a, 0, &right["rgb"]),
-    );
-    let (green_left, green_right) = (
-        correlation(a, 1, &left["rgb"]),
-        correlation(a, 1, &right["rgb"]),
-    );
+    let (a, left, right) = (rgb(&anaglyph["rgb"]), rgb(&left["rgb"]), rgb(&right["rgb"]));
+    let (red_left, red_right) = (correlation(&a, 0, &left), correlation(&a, 0, &right));
+    let (green_left, green_right) = (correlation(&a, 1, &left), correlation(&a, 1, &right));
     eprintln!(
         "anaglyph: red ~ left {red_left:.3}, right {red_right:.3}; green ~ left {green_left:.3}, right {green_right:.3}"
     );
@@ -761,15 +752,7 @@ async fn the_panorama_viewer_in_chromium() {
     );
 
     // The screenshot, kept for a look.
-    let shot = dt
-        .call("Page.captureScreenshot", json!({ "format": "png" }))
-        .await;
-    let png = base64::engine::general_purpose::STANDARD
-        .decode(shot["data"].as_str().unwrap())
-        .unwrap();
-    let path = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("preview-panorama.png");
-    std::fs::write(&path, &png).unwrap();
-    eprintln!("screenshot: {}", path.display());
+    dt.screenshot("preview-panorama.png").await;
     stop.cancel();
 }
 
