@@ -585,9 +585,11 @@ const LOOK_READY: &str = "(() => { const p = window.twinrayPreview; const h = p 
      return !!h && h.generation === p.generation && h.pass + 1 === h.passes \
        && p.look.drawn === p.frames; })()";
 
-/// The viewer drawn with its newest direction and field of view.
+/// The viewer drawn with its newest direction and field of view, at full
+/// resolution (a drag draws at half).
 const LOOK_TURNED: &str = "(() => { const l = window.twinrayPreview.look; \
-     return !!l.shown && l.shown[0] === l.yaw && l.shown[1] === l.pitch && l.shown[2] === l.fov; })()";
+     return !!l.shown && l.shown[0] === l.yaw && l.shown[1] === l.pitch && l.shown[2] === l.fov \
+       && l.shown[3]; })()";
 
 /// LOOK_PIXELS's `rgb` as numbers.
 fn rgb(v: &Value) -> Vec<f64> {
@@ -649,6 +651,13 @@ async fn the_panorama_viewer_in_chromium() {
     .await;
     dt.wait_for(LOOK_TURNED, "the turned view").await;
     let turned = dt.eval(LOOK_PIXELS).await;
+    eprintln!(
+        "viewer: {}x{} drawn in {} ms, at half resolution while dragged in {} ms",
+        turned["width"],
+        turned["height"],
+        dt.eval("window.twinrayPreview.look.ms").await,
+        dt.eval("window.twinrayPreview.look.dragMs").await
+    );
     assert_ne!(turned["print"], before["print"], "the view did not change");
 
     // A finger's drag: up and down.

@@ -32,8 +32,10 @@ const preview = (window.twinrayPreview = {
   latencies: [], sentAt: 0, measured: 0,
   // The look-around viewer's direction (degrees), field of view and draws.
   // `drawn`: the frame count when the image it shows arrived; `shown`:
-  // the yaw, pitch and field of view it was drawn with.
-  look: { yaw: 0, pitch: 0, fov: 75, draws: 0, loaded: 0, drawn: 0, shown: null },
+  // the yaw, pitch and field of view it was drawn with, and whether at full
+  // resolution; `ms` and `dragMs`: the time of the newest draw at full
+  // and at half resolution.
+  look: { yaw: 0, pitch: 0, fov: 75, draws: 0, loaded: 0, drawn: 0, shown: null, ms: 0, dragMs: 0 },
   // Where the histogram marks the budget and the nearest and farthest
   // points (degrees for a panorama).
   histogramMarks: null,
@@ -629,6 +631,7 @@ function drawAngularHistogram(g, W, H, p) {
 // projection's formula (rig/projection.rs), bilinearly.
 const look = preview.look;
 let lookImage = null;  // { width, height, data } of the frame shown
+const lookScratch = document.createElement("canvas");
 let lookQueued = false;
 
 function lookSource() {
@@ -649,22 +652,8 @@ function requestLook() {
   requestAnimationFrame(() => { lookQueued = false; drawLook(); });
 }
 
-// Where a direction (right x, up y, forward z; unit) lands in the source,
-// in pixels with centres at integers, or null (outside a 180° image).
-function sourcePosition(x, y, z, w, h) {
-  if (projection === "vr180-fisheye") {
-    if (z < 0) return null;
-    const rho = Math.acos(Math.min(1, z)) / (Math.PI / 2);
-    const phi = Math.atan2(y, x);
-    return [((rho * Math.cos(phi) + 1) / 2) * w - 0.5, ((1 - rho * Math.sin(phi)) / 2) * h - 0.5];
-  }
-  const lon = Math.atan2(x, z), lat = Math.asin(Math.max(-1, Math.min(1, y)));
-  const span = projection === "vr180" ? Math.PI : 2 * Math.PI;
-  if (projection === "vr180" && Math.abs(lon) > Math.PI / 2) return null;
-  return [(lon / span + 0.5) * w - 0.5, (0.5 - lat / Math.PI) * h - 0.5];
-}
-
 function drawLook() {
+  const start = performance.now();
   const canvas = el.look;
   const dpr = Math.min(window.devicePixelRatio || 1, 2);
   const W = Math.max(16, Math.min(1280, Math.round(canvas.clientWidth * dpr)));
@@ -672,43 +661,79 @@ function drawLook() {
   if (canvas.width !== W || canvas.height !== H) { canvas.width = W; canvas.height = H; }
   const g = canvas.getContext("2d");
   if (!lookImage) { g.fillStyle = "#000"; g.fillRect(0, 0, W, H); return; }
+  // Half the resolution while a drag turns the view, the whole when it ends.
+  const full = !lookDrag;
+  const Wd = full ? W : Math.ceil(W / 2), Hd = full ? H : Math.ceil(H / 2);
   const { width: w, height: h, data: src } = lookImage;
-  const out = g.createImageData(W, H);
+  const out = g.createImageData(Wd, Hd);
   const d = out.data;
+  lookDraw(d, Wd, Hd, w, h, src);
+  if (full) {
+    g.putImageData(out, 0, 0);
+  } else {
+    lookScratch.width = Wd; lookScratch.height = Hd;
+    lookScratch.getContext("2d").putImageData(out, 0, 0);
+    g.drawImage(lookScratch, 0, 0, W, H);
+  }
+  look.draws += 1;
+  look.drawn = look.loaded;
+  look.shown = [look.yaw, look.pitch, look.fov, full];
+  look[full ? "ms" : "dragMs"] = performance.now() - start;
+}
+
+// The view into `d` (RGBA, W by H) from the source image `src` (w by h).
+function lookDraw(d, W, H, w, h, src) {
   const f = H / 2 / Math.tan(((look.fov * Math.PI) / 180) / 2);
   const yaw = (look.yaw * Math.PI) / 180, pitch = (look.pitch * Math.PI) / 180;
   const cy = Math.cos(yaw), sy = Math.sin(yaw), cp = Math.cos(pitch), sp = Math.sin(pitch);
-  const wrap = projection === "equirect" || projection === "ods";
-  const texel = (i, j, k) => {
-    if (wrap) i = ((i % w) + w) % w; else if (i < 0 || i >= w) return 0;
-    j = Math.max(0, Math.min(h - 1, j));
-    return src[(j * w + i) * 4 + k];
-  };
+  // Where a direction (right x, up y, forward z) lands in the source, in
+  // pixels with centres at integers: the projection's formula.
+  const fisheye = projection === "vr180-fisheye", half = projection === "vr180";
+  const wrap = !fisheye && !half;
+  const perLon = w / (half ? Math.PI : 2 * Math.PI), perLat = h / Math.PI;
   for (let j = 0; j < H; j++) {
     const py = (H / 2 - j - 0.5) / f;
-    for (let i = 0; i < W; i++) {
+    let at = j * W * 4;
+    for (let i = 0; i < W; i++, at += 4) {
+      d[at + 3] = 255;
       const px = (i + 0.5 - W / 2) / f;
       const n = 1 / Math.sqrt(px * px + py * py + 1);
       // Pitch about the right axis, then yaw about the up axis.
-      const y1 = (py * cp + sp) * n, z1 = (-py * sp + cp) * n, x1 = px * n;
+      const y = (py * cp + sp) * n, z1 = (-py * sp + cp) * n, x1 = px * n;
       const x = x1 * cy + z1 * sy, z = -x1 * sy + z1 * cy;
-      const at = (j * W + i) * 4;
-      d[at + 3] = 255;
-      const pos = sourcePosition(x, y1, z, w, h);
-      if (!pos) continue;
-      const i0 = Math.floor(pos[0]), j0 = Math.floor(pos[1]);
-      const fx = pos[0] - i0, fy = pos[1] - j0;
-      for (let k = 0; k < 3; k++) {
-        const top = texel(i0, j0, k) * (1 - fx) + texel(i0 + 1, j0, k) * fx;
-        const bottom = texel(i0, j0 + 1, k) * (1 - fx) + texel(i0 + 1, j0 + 1, k) * fx;
-        d[at + k] = top * (1 - fy) + bottom * fy;
+      let u, v;
+      if (fisheye) {
+        if (z < 0) continue;
+        const rho = Math.acos(z > 1 ? 1 : z) / (Math.PI / 2);
+        const r = Math.hypot(x, y) || 1;
+        u = ((rho * x) / r + 1) * 0.5 * w - 0.5;
+        v = ((1 - (rho * y) / r) * 0.5) * h - 0.5;
+      } else {
+        const lon = Math.atan2(x, z);
+        if (half && Math.abs(lon) > Math.PI / 2) continue;
+        u = lon * perLon + w / 2 - 0.5;
+        v = h / 2 - Math.asin(y > 1 ? 1 : y < -1 ? -1 : y) * perLat - 0.5;
       }
+      // Bilinear, across the 360° seam where there is one.
+      let i0 = Math.floor(u), j0 = Math.floor(v);
+      const fx = u - i0, fy = v - j0;
+      let i1 = i0 + 1, j1 = j0 + 1;
+      if (wrap) {
+        if (i0 < 0) i0 += w; else if (i0 >= w) i0 -= w;
+        if (i1 >= w) i1 -= w; else if (i1 < 0) i1 += w;
+      } else {
+        i0 = i0 < 0 ? 0 : i0 >= w ? w - 1 : i0;
+        i1 = i1 < 0 ? 0 : i1 >= w ? w - 1 : i1;
+      }
+      j0 = j0 < 0 ? 0 : j0 >= h ? h - 1 : j0;
+      j1 = j1 < 0 ? 0 : j1 >= h ? h - 1 : j1;
+      const a = (j0 * w + i0) * 4, b = (j0 * w + i1) * 4, c = (j1 * w + i0) * 4, e = (j1 * w + i1) * 4;
+      const w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy, w11 = fx * fy;
+      d[at] = src[a] * w00 + src[b] * w10 + src[c] * w01 + src[e] * w11;
+      d[at + 1] = src[a + 1] * w00 + src[b + 1] * w10 + src[c + 1] * w01 + src[e + 1] * w11;
+      d[at + 2] = src[a + 2] * w00 + src[b + 2] * w10 + src[c + 2] * w01 + src[e + 2] * w11;
     }
   }
-  g.putImageData(out, 0, 0);
-  look.draws += 1;
-  look.drawn = look.loaded;
-  look.shown = [look.yaw, look.pitch, look.fov];
 }
 
 function setLookFov(fov) {
@@ -736,7 +761,7 @@ el.look.addEventListener("pointermove", (e) => {
   requestLook();
 });
 for (const end of ["pointerup", "pointercancel"]) {
-  el.look.addEventListener(end, () => { lookDrag = null; });
+  el.look.addEventListener(end, () => { lookDrag = null; requestLook(); });
 }
 el.look.addEventListener("wheel", (e) => {
   e.preventDefault();
