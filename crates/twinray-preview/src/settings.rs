@@ -68,7 +68,7 @@ pub struct CameraSettings {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Settings {
-    /// Views rendered (2: a stereo pair).
+    /// Views rendered (2: a stereo pair; 1: a panorama's one eye).
     pub views: usize,
     /// `auto` or a distance between adjacent views (scene units).
     pub interaxial: String,

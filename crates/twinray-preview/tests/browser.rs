@@ -726,6 +726,16 @@ async fn the_panorama_viewer_in_chromium() {
         assert!(colours[what].as_u64().unwrap() > 20, "{what}: {colours}");
     }
 
+    // The whole panorama, as the server sent it, and back.
+    let mode = |m: &str| {
+        format!("(() => {{ const s = document.getElementById('look-mode'); s.value = '{m}'; s.dispatchEvent(new Event('change')); const on = (id) => document.getElementById(id).getBoundingClientRect().width > 0; return [on('frame'), on('look')]; }})()")
+    };
+    assert_eq!(dt.eval(&mode("whole")).await, json!([true, false]));
+    let whole = dt.eval(FRAME_PIXELS).await;
+    assert_eq!(whole["width"], 320, "{whole}");
+    assert_eq!(whole["height"], 160, "{whole}");
+    assert_eq!(dt.eval(&mode("look")).await, json!([false, true]));
+
     // The anaglyph shows both eyes: with a wide IPD, the viewer's red
     // follows the left eye's view, its green the right eye's.
     dt.set_control("interaxial-value", "0.3").await;
