@@ -2,14 +2,17 @@
 //! rig's numbers, the disparity report and histogram, the window
 //! violations, where each view sits in a frame (for the overlays), the
 //! camera as numbers, the messages and the command that reproduces the view.
+//! A panorama's comfort is in degrees: its IPD, its angular budget, the
+//! nearest and farthest points' angular disparities and their histogram.
 
 use serde::Serialize;
 
 use twinray::job::{Job, JobSpec, Level, Loaded, Message, Plan};
 use twinray::output::QuiltSpec;
 use twinray::rig::histogram::DisparityHistogram;
+use twinray::rig::panorama_rig::{IpdChoice, PanoramaRig, UnitsKnown};
 use twinray::rig::report::DisparityReport;
-use twinray::rig::Camera;
+use twinray::rig::{Camera, ProjectionName};
 
 use crate::settings::{CameraSettings, View};
 
@@ -30,6 +33,10 @@ pub struct Info {
     pub rig: RigNumbers,
     pub report: Option<DisparityReport>,
     pub histogram: Option<DisparityHistogram>,
+    /// `pinhole`, or the panorama the page shows in its look-around viewer.
+    pub projection: ProjectionName,
+    /// A panorama pair's comfort in degrees.
+    pub panorama: Option<PanoramaNumbers>,
     pub messages: Vec<Note>,
     /// `twinray render …` for this view at full size, quoted for a POSIX shell.
     pub command: String,
@@ -63,6 +70,87 @@ pub struct RigNumbers {
     pub farthest: Option<f32>,
 }
 
+/// A panorama pair's IPD and angular disparities.
+#[derive(Debug, Serialize)]
+pub struct PanoramaNumbers {
+    /// The IPD, scene units, and in millimetres where the scene's unit is
+    /// known.
+    pub ipd: f64,
+    pub ipd_mm: Option<f64>,
+    /// `budget` (the largest within it), `human` (the eyes' 64 mm),
+    /// `given` or `at-target` (nothing visible).
+    pub chosen_by: &'static str,
+    /// The largest angular disparity allowed, degrees.
+    pub budget_deg: f64,
+    /// The nearest point: the largest angular disparity sampled.
+    pub near: Option<AngleAt>,
+    /// The farthest: the smallest (0 where a ray sees the background).
+    pub far: Option<AngleAt>,
+    pub within_budget: bool,
+    /// The scene's unit (`--units`, or glTF's metres), if known.
+    pub units: Option<String>,
+    pub histogram: AngularHistogram,
+}
+
+/// An angular disparity, degrees, and the distance of its point from the
+/// panorama's centre (`None`: the background, at infinity).
+#[derive(Debug, Serialize)]
+pub struct AngleAt {
+    pub deg: f64,
+    pub distance: Option<f64>,
+}
+
+/// The depth pass's samples by angular disparity: `counts[i]` between
+/// `i * bin_deg` and `(i + 1) * bin_deg` degrees.
+#[derive(Debug, Serialize)]
+pub struct AngularHistogram {
+    pub bin_deg: f64,
+    pub counts: Vec<u32>,
+}
+
+/// Bins of the angular histogram.
+const ANGULAR_BINS: usize = 48;
+
+/// A panorama's numbers, its histogram spanning the budget and the
+/// nearest point with a margin.
+pub fn panorama_numbers(p: &PanoramaRig) -> PanoramaNumbers {
+    let units = match p.units {
+        UnitsKnown::Given(u) | UnitsKnown::Guessed(u) => Some(u),
+        UnitsKnown::Unknown => None,
+    };
+    let metres = units.map(|u| u.metres());
+    let near_deg = p.near.map_or(0.0, |n| n.0);
+    let span = (p.budget_deg * 1.25).max(near_deg * 1.05);
+    let bin_deg = span / ANGULAR_BINS as f64;
+    let mut counts = vec![0u32; ANGULAR_BINS];
+    for &d in &p.disparities_deg {
+        let i = (f64::from(d) / bin_deg).floor();
+        if i.is_finite() && i >= 0.0 {
+            counts[(i as usize).min(ANGULAR_BINS - 1)] += 1;
+        }
+    }
+    let at = |(deg, distance): (f64, f64)| AngleAt {
+        deg,
+        distance: distance.is_finite().then_some(distance),
+    };
+    PanoramaNumbers {
+        ipd: p.ipd,
+        ipd_mm: metres.map(|m| p.ipd * m * 1000.0),
+        chosen_by: match p.chosen_by {
+            IpdChoice::Budget => "budget",
+            IpdChoice::Human => "human",
+            IpdChoice::Given => "given",
+            IpdChoice::AtTarget => "at-target",
+        },
+        budget_deg: p.budget_deg,
+        near: p.near.map(at),
+        far: p.far.map(at),
+        within_budget: p.budget_warning().is_none(),
+        units: units.map(|u| u.to_string()),
+        histogram: AngularHistogram { bin_deg, counts },
+    }
+}
+
 #[derive(Serialize)]
 pub struct Note {
     pub level: &'static str,
@@ -93,7 +181,8 @@ pub fn notes<'a>(messages: impl IntoIterator<Item = &'a Message>) -> Vec<Note> {
 
 /// The camera as `--from/--at/--up/--fov` numbers: the viewpoint the job
 /// looks from, with its field of view as the vertical angle of an image of
-/// `size` (an NFF's angle spans the edge pixels' centres of the shorter side).
+/// `size` (an NFF's angle spans the edge pixels' centres of the shorter side),
+/// or a panorama's vertical span.
 pub fn camera_numbers(
     job: &Job,
     loaded: &Loaded,
@@ -101,12 +190,18 @@ pub fn camera_numbers(
 ) -> twinray::Result<CameraSettings> {
     let vp = job.viewpoint(loaded)?;
     let camera = Camera::new(&vp, size.0, size.1);
-    let fov = 2.0 * (f64::from(camera.pixel_size) * f64::from(size.1) * 0.5).atan();
+    let projection = job.spec().camera.projection.projection(Default::default());
+    let fov = match projection.is_panorama() {
+        true => projection.span_deg().1,
+        false => {
+            (2.0 * (f64::from(camera.pixel_size) * f64::from(size.1) * 0.5).atan()).to_degrees()
+        }
+    };
     Ok(CameraSettings {
         from: vp.from.to_array(),
         at: vp.at.to_array(),
         up: vp.up.to_array(),
-        fov: fov.to_degrees() as f32,
+        fov: fov as f32,
     })
 }
 

@@ -14,12 +14,15 @@
 //! | request | does |
 //! |---|---|
 //! | `GET /`, `/app.js`, `/app.css` | the page (in the binary) |
-//! | `GET /api/state` | the scene, its load error, the first settings, the sizes |
+//! | `GET /api/state` | the scene, its load error, the first settings, the projection, the sizes |
 //! | `GET /api/session` | WebSocket: `hello` with the session's id, then frames |
 //! | `POST /api/session/{id}/view` | new settings: 200 with the rig, report and command; 4xx with the message |
 //! | `POST /api/session/{id}/render` | the view at full size: the files to download |
 //! | `GET /api/download/{render}/{file}` | one of them |
 //! | `POST /api/reload` | reads the scene file again |
+//!
+//! A panorama (`--projection`) is shown in the page's look-around viewer,
+//! its rig the IPD and the angular budget (`settings.rs`, `info.rs`).
 //!
 //! Only the server's own page may use it (`guard.rs`: `Host` and `Origin`).
 //! Session and render ids are 128 random bits (`ids.rs`). At most
@@ -57,6 +60,7 @@ use tokio::sync::{mpsc, OwnedSemaphorePermit, Semaphore};
 use tower_http::validate_request::ValidateRequestHeaderLayer;
 
 use twinray::job::{CancelToken, Job, JobSpec, Loaded, Message};
+use twinray::rig::ProjectionName;
 use twinray_args::ToArgs;
 
 use guard::Guard;
@@ -387,6 +391,8 @@ struct StateAnswer {
     scene: String,
     error: Option<String>,
     settings: Settings,
+    /// `pinhole`, or the panorama the page shows in its look-around viewer.
+    projection: ProjectionName,
     messages: Vec<Note>,
     /// Size of a full render and of the preview, `[width, height]`.
     full_size: Option<[u32; 2]>,
@@ -412,6 +418,7 @@ fn state_answer(app: &App) -> StateAnswer {
         scene: app.base.scene.display().to_string(),
         error,
         settings: app.initial.clone(),
+        projection: app.base.camera.projection,
         messages,
         full_size: sizes.map(|s| s.0),
         preview_size: sizes.map(|s| s.1),
@@ -500,7 +507,10 @@ async fn run_session(app: Arc<App>, socket: WebSocket, id: String, _page: OwnedS
 }
 
 /// The settings of a request, or the answer refusing them.
-fn settings_of(body: Result<Json<Settings>, JsonRejection>) -> Result<Settings, Box<Response>> {
+fn settings_of(
+    base: &JobSpec,
+    body: Result<Json<Settings>, JsonRejection>,
+) -> Result<Settings, Box<Response>> {
     let settings = match body {
         Ok(Json(s)) => s,
         Err(rejection) => {
@@ -511,7 +521,7 @@ fn settings_of(body: Result<Json<Settings>, JsonRejection>) -> Result<Settings, 
         }
     };
     settings
-        .check()
+        .check(base)
         .map_err(|Refused(m)| Box::new(refuse(StatusCode::BAD_REQUEST, m)))?;
     Ok(settings)
 }
@@ -524,7 +534,7 @@ fn change_request(
     id: &str,
     body: Result<Json<Settings>, JsonRejection>,
 ) -> Result<(Settings, Arc<Session>, Arc<Loaded>), Box<Response>> {
-    let settings = settings_of(body)?;
+    let settings = settings_of(&app.base, body)?;
     let Some(session) = app.session(id) else {
         return Err(Box::new(refuse(
             StatusCode::NOT_FOUND,
@@ -581,6 +591,8 @@ async fn change(
             rig: info::rig_numbers(&plan),
             report: plan.settled.as_ref().map(|s| s.report.clone()),
             histogram: plan.settled.as_ref().map(|s| s.histogram.clone()),
+            projection: job.spec().camera.projection,
+            panorama: plan.panorama.as_ref().map(info::panorama_numbers),
             messages: info::notes(job.messages().iter().chain(&plan.messages)),
             command: info::command_line(&full.spec().to_args()),
             plan_ms: received.elapsed().as_secs_f64() * 1e3,

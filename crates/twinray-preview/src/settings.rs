@@ -7,12 +7,19 @@
 //! ([`twinray::Job::check`]) then refuse bad values with the command line's
 //! messages. Only what the page adds (a layout the command line has not,
 //! the eye of a single-eye view) is checked here.
+//!
+//! A panorama (`--projection`) has no convergence and no flat depth
+//! budget: its eyes are parallel, its comfort an angular disparity. The
+//! page sends its IPD as the interaxial and its budget as
+//! `angular_budget`; the convergence `auto` it sends for every rig means
+//! the projection's own there.
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
 use twinray::job::{JobSpec, LayoutSpec, MethodName, SamplingSpec};
+use twinray::rig::ProjectionName;
 
 /// How the page shows the views.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -61,7 +68,7 @@ pub struct CameraSettings {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Settings {
-    /// Views rendered (2: a stereo pair).
+    /// Views rendered (2: a stereo pair; 1: a panorama's one eye).
     pub views: usize,
     /// `auto` or a distance between adjacent views (scene units).
     pub interaxial: String,
@@ -69,6 +76,9 @@ pub struct Settings {
     pub convergence: String,
     /// `NEAR,FAR` in per cent or pixels (empty: the default, -1%,+2%).
     pub depth_budget: String,
+    /// A panorama's budget: the nearest point's angular disparity, degrees
+    /// (`None`: the command line's, 1° by default).
+    pub angular_budget: Option<f64>,
     pub view: View,
     /// The view a single-eye display shows (0: the leftmost).
     pub eye: usize,
@@ -90,6 +100,7 @@ impl Default for Settings {
             interaxial: "auto".into(),
             convergence: "auto".into(),
             depth_budget: String::new(),
+            angular_budget: None,
             view: View::Anaglyph,
             eye: 0,
             quilt: "4x2".into(),
@@ -106,10 +117,20 @@ pub struct Refused(pub String);
 
 impl Settings {
     /// The page's first settings: the command line's rig and layout where
-    /// it gave them, a stereo pair in anaglyph otherwise.
+    /// it gave them, a stereo pair in anaglyph otherwise (one eye for a
+    /// panorama of one view).
     pub fn from_spec(spec: &JobSpec) -> Settings {
         let d = Settings::default();
         let r = &spec.rig;
+        let mono_panorama = is_panorama(spec) && !r.stereo && r.views.is_none_or(|n| n < 2);
+        if mono_panorama {
+            return Settings {
+                views: 1,
+                view: View::Single,
+                fast: false,
+                ..d
+            };
+        }
         let view = match spec.output.layout {
             LayoutSpec::Sbs => View::Sbs,
             LayoutSpec::Cross => View::Cross,
@@ -127,6 +148,7 @@ impl Settings {
             interaxial: r.interaxial.clone().unwrap_or(d.interaxial),
             convergence: r.convergence.clone().unwrap_or(d.convergence),
             depth_budget: r.depth_budget.clone().unwrap_or_default(),
+            angular_budget: r.angular_budget,
             view,
             quilt: spec.output.quilt.clone().unwrap_or(d.quilt),
             samples: None,
@@ -138,6 +160,7 @@ impl Settings {
     /// The spec these settings describe over `base` (the command line's),
     /// rendering `size` to `output`.
     pub fn spec(&self, base: &JobSpec, size: Option<[u32; 2]>, output: &Path) -> JobSpec {
+        let panorama = is_panorama(base);
         let mut spec = base.clone();
         spec.camera.size = size;
         if let Some(c) = self.camera {
@@ -145,7 +168,7 @@ impl Settings {
             spec.camera.at = Some(c.at);
             spec.camera.up = Some(c.up);
             // A panorama's field of view is its projection's.
-            if spec.camera.projection == twinray::rig::ProjectionName::Pinhole {
+            if !panorama {
                 spec.camera.fov = Some(c.fov);
             }
         }
@@ -158,7 +181,7 @@ impl Settings {
             .map(|q| q.layout.tiles());
         r.stereo = self.views == 2 && self.view != View::Quilt;
         let whole_quilt = self.view == View::Quilt && quilt_tiles == Some(self.views);
-        r.views = (!r.stereo && !whole_quilt).then_some(self.views);
+        r.views = (!r.stereo && !whole_quilt && self.views != 1).then_some(self.views);
         let text = |s: &str| (!s.trim().is_empty()).then(|| s.trim().to_string());
         // `auto` is the default interaxial, and then the default convergence
         // (with a given interaxial the default is the scene's `at` point).
@@ -169,6 +192,12 @@ impl Settings {
             r.convergence = None;
         }
         r.depth_budget = text(&self.depth_budget);
+        if self.angular_budget.is_some() {
+            r.angular_budget = self.angular_budget;
+        }
+        if panorama && auto(&r.convergence) {
+            r.convergence = None;
+        }
         // The command line's --view-cone spaces the views until the page
         // asks for an interaxial of its own.
         if r.interaxial.is_some() {
@@ -204,8 +233,10 @@ impl Settings {
         spec
     }
 
-    /// What only the page can get wrong (the job checks the rest).
-    pub fn check(&self) -> Result<(), Refused> {
+    /// What only the page can get wrong (the job checks the rest): for the
+    /// command line's `base`, whose projection decides whether one view is
+    /// a preview (a panorama's one eye) or not.
+    pub fn check(&self, base: &JobSpec) -> Result<(), Refused> {
         if self.view == View::Single && self.eye >= self.views {
             return Err(Refused(format!(
                 "eye {}: the views are numbered 0 to {}",
@@ -213,9 +244,9 @@ impl Settings {
                 self.views.saturating_sub(1)
             )));
         }
-        if self.views < 2 {
+        if self.views < 2 && !(self.views == 1 && is_panorama(base)) {
             return Err(Refused(format!(
-                "views {}: a stereo preview needs at least 2 views",
+                "views {}: a stereo preview needs at least 2 views (one eye: a panorama's only)",
                 self.views
             )));
         }
@@ -232,6 +263,11 @@ impl Settings {
         }
         Ok(())
     }
+}
+
+/// Whether the command line asks for a panorama (`--projection`).
+pub fn is_panorama(spec: &JobSpec) -> bool {
+    spec.camera.projection != ProjectionName::Pinhole
 }
 
 /// The file name a full-size render of `scene` writes: `-o`'s if given,
@@ -274,6 +310,39 @@ mod tests {
     }
 
     #[test]
+    fn a_panoramas_rig_is_its_ipd_and_angular_budget() {
+        let mut base = JobSpec::new("s.nff", "");
+        base.camera.projection = ProjectionName::Ods;
+        base.rig.stereo = true;
+        base.rig.angular_budget = Some(1.5);
+        let mut s = Settings::from_spec(&base);
+        assert_eq!((s.views, s.angular_budget), (2, Some(1.5)));
+        // The page's `auto` convergence is the projection's own.
+        s.interaxial = "0.2".into();
+        let spec = s.spec(&base, None, Path::new("x.png"));
+        assert_eq!(spec.rig.convergence, None);
+        assert_eq!(spec.rig.interaxial.as_deref(), Some("0.2"));
+        assert_eq!(spec.rig.angular_budget, Some(1.5));
+        s.angular_budget = Some(3.0);
+        s.convergence = "2".into();
+        let spec = s.spec(&base, None, Path::new("x.png"));
+        assert_eq!(spec.rig.angular_budget, Some(3.0));
+        // A distance is passed on, for the job to refuse with its message.
+        assert_eq!(spec.rig.convergence.as_deref(), Some("2"));
+
+        // One eye: a panorama's preview, not a flat rig's.
+        base.rig.stereo = false;
+        base.camera.projection = ProjectionName::Equirect;
+        let s = Settings::from_spec(&base);
+        assert_eq!((s.views, s.view), (1, View::Single));
+        assert_eq!(s.check(&base), Ok(()));
+        let spec = s.spec(&base, None, Path::new("x.png"));
+        assert!(!spec.rig.stereo);
+        assert_eq!(spec.rig.views, None);
+        assert!(s.check(&JobSpec::new("s.nff", "")).is_err());
+    }
+
+    #[test]
     fn the_command_lines_rig_becomes_the_first_settings() {
         let mut base = JobSpec::new("s.nff", "");
         base.rig.views = Some(8);
@@ -293,16 +362,18 @@ mod tests {
             ..Settings::default()
         };
         assert_eq!(
-            s.check(),
+            s.check(&JobSpec::new("s.nff", "")),
             Err(Refused("eye 2: the views are numbered 0 to 1".into()))
         );
         assert!(Settings {
             views: 1,
             ..Settings::default()
         }
-        .check()
+        .check(&JobSpec::new("s.nff", ""))
         .is_err());
-        assert!(Settings::default().check().is_ok());
+        assert!(Settings::default()
+            .check(&JobSpec::new("s.nff", ""))
+            .is_ok());
     }
 
     #[test]

@@ -2,8 +2,10 @@
 //! the DevTools protocol (a few commands over its WebSocket). It waits for
 //! the first frames, moves the interaxial slider with the mouse, checks that
 //! the image changed, and saves a screenshot that it inspects (not blank,
-//! the frame and the controls drawn). Pages of other sites, and a page
-//! served under a rebound name, are refused.
+//! the frame and the controls drawn). A panorama's look-around viewer turns
+//! with a drag of the mouse or a finger, and its anaglyph shows both eyes.
+//! Pages of other sites, and a page served under a rebound name, are
+//! refused.
 //!
 //! A harness of its own (libtest-mimic), so that where Chromium is missing
 //! the tests show as ignored, with the reason, instead of passing. Under CI
@@ -24,6 +26,10 @@ use tokio_tungstenite::tungstenite::Message;
 
 use twinray::job::{CancelToken, JobSpec};
 use twinray_preview::Preview;
+
+#[path = "all/correlation.rs"]
+mod correlation;
+use correlation::correlation;
 
 type Socket =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
@@ -156,6 +162,50 @@ impl DevTools {
             )
             .await;
         }
+    }
+
+    /// A drag of the left mouse button from (`x`, `y`) by `dx` across, in
+    /// two moves.
+    async fn drag(&mut self, x: f64, y: f64, dx: f64) {
+        for (kind, by) in [
+            ("mousePressed", 0.0),
+            ("mouseMoved", dx / 2.0),
+            ("mouseMoved", dx),
+            ("mouseReleased", dx),
+        ] {
+            self.call(
+                "Input.dispatchMouseEvent",
+                json!({ "type": kind, "x": x + by, "y": y, "button": "left", "buttons": 1, "clickCount": 1 }),
+            )
+            .await;
+        }
+    }
+
+    /// Sets the control `id` to `value` as the user does, and waits for
+    /// the change the page sends to be accepted.
+    async fn set_control(&mut self, id: &str, value: &str) {
+        let generation = self.eval("window.twinrayPreview.generation").await;
+        self.eval(&format!("(() => {{ const e = document.getElementById('{id}'); e.value = '{value}'; e.dispatchEvent(new Event('change')); return true; }})()"))
+            .await;
+        self.wait_for(
+            &format!("window.twinrayPreview.generation > {generation}"),
+            &format!("the change of {id}"),
+        )
+        .await;
+    }
+
+    /// A screenshot of the page, saved as `name` in the tests' folder.
+    async fn screenshot(&mut self, name: &str) -> Vec<u8> {
+        let shot = self
+            .call("Page.captureScreenshot", json!({ "format": "png" }))
+            .await;
+        let png = base64::engine::general_purpose::STANDARD
+            .decode(shot["data"].as_str().unwrap())
+            .unwrap();
+        let path = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+        std::fs::write(&path, &png).unwrap();
+        eprintln!("screenshot: {}", path.display());
+        png
     }
 
     /// Waits until `expression` is true in the page (an exception, as
@@ -360,18 +410,7 @@ async fn the_page_in_chromium() {
     let (cx, cy) = (stage[0].as_f64().unwrap(), stage[1].as_f64().unwrap());
     let before_orbit = dt.eval("window.twinrayPreview.info.camera").await;
     let generation = dt.eval("window.twinrayPreview.generation").await;
-    for (kind, dx) in [
-        ("mousePressed", 0.0),
-        ("mouseMoved", 40.0),
-        ("mouseMoved", 80.0),
-        ("mouseReleased", 80.0),
-    ] {
-        dt.call(
-            "Input.dispatchMouseEvent",
-            json!({ "type": kind, "x": cx + dx, "y": cy, "button": "left", "buttons": 1, "clickCount": 1 }),
-        )
-        .await;
-    }
+    dt.drag(cx, cy, 80.0).await;
     dt.wait_for(
         &format!("window.twinrayPreview.generation > {generation}"),
         "the orbit to reach the server",
@@ -464,15 +503,7 @@ async fn the_page_in_chromium() {
         .starts_with("twinray render "));
 
     // The screenshot, saved and inspected.
-    let shot = dt
-        .call("Page.captureScreenshot", json!({ "format": "png" }))
-        .await;
-    let png = base64::engine::general_purpose::STANDARD
-        .decode(shot["data"].as_str().unwrap())
-        .unwrap();
-    let path = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("preview-page.png");
-    std::fs::write(&path, &png).unwrap();
-    eprintln!("screenshot: {}", path.display());
+    let png = dt.screenshot("preview-page.png").await;
     if let Ok(copy) = std::env::var("TWINRAY_PREVIEW_SCREENSHOT") {
         std::fs::write(copy, &png).unwrap();
     }
@@ -532,6 +563,215 @@ async fn the_page_in_chromium() {
         }
         assert_eq!(shown.len(), 2, "wiggle showed {shown:?}");
     }
+    stop.cancel();
+}
+
+/// The look-around viewer's canvas as drawn: a fingerprint of its pixels,
+/// and the red, green and blue of every fourth pixel of every fourth row.
+const LOOK_PIXELS: &str = r#"(() => {
+  const c = document.getElementById("look");
+  const d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
+  let sum = 0, weighted = 0;
+  const rgb = [];
+  for (let i = 0; i < d.length; i++) { sum += d[i]; weighted = (weighted + d[i] * (i % 9973)) % 1000000007; }
+  for (let y = 0; y < c.height; y += 4) for (let x = 0; x < c.width; x += 4) {
+    const k = (y * c.width + x) * 4; rgb.push(d[k], d[k + 1], d[k + 2]);
+  }
+  return { width: c.width, height: c.height, print: [sum, weighted], rgb };
+})()"#;
+
+/// The last pass of the newest change drawn in the viewer.
+const LOOK_READY: &str = "(() => { const p = window.twinrayPreview; const h = p && p.lastHeader; \
+     return !!h && h.generation === p.generation && h.pass + 1 === h.passes \
+       && p.look.drawn === p.frames; })()";
+
+/// The viewer drawn with its newest direction and field of view, at full
+/// resolution (a drag draws at half).
+const LOOK_TURNED: &str = "(() => { const l = window.twinrayPreview.look; \
+     return !!l.shown && l.shown[0] === l.yaw && l.shown[1] === l.pitch && l.shown[2] === l.fov \
+       && l.shown[3]; })()";
+
+/// LOOK_PIXELS's `rgb` as numbers.
+fn rgb(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+/// A panorama in the page: the ODS pair shown in the look-around viewer,
+/// turned by a mouse drag and by a finger's, zoomed by the wheel, all in
+/// the page (no change reaches the server); the anaglyph shows both eyes
+/// (its red follows the left eye, its green the right); the histogram
+/// marks the angular budget and the nearest and farthest points.
+async fn the_panorama_viewer_in_chromium() {
+    let binary = chromium_or_fail();
+    let stop = CancelToken::new();
+    let mut spec = JobSpec::new(example(), "");
+    spec.camera.projection = twinray::rig::ProjectionName::Ods;
+    spec.camera.size = Some([640, 320]);
+    spec.camera.from = Some([0.0, -2.2, 1.0]);
+    spec.camera.at = Some([0.0, 0.0, 0.8]);
+    spec.rig.stereo = true;
+    spec.sampling.samples = Some(1);
+    let (_preview, url) = serve(spec, 320, &stop).await;
+    let (_browser, mut dt) = open_page(&binary, &url).await;
+    dt.wait_for(LOOK_READY, "the viewer's first full-size frame")
+        .await;
+
+    // The panorama's controls: the IPD and the angular budget, no
+    // convergence or flat budget; the viewer instead of the flat image.
+    let shown = dt
+        .eval(r#"(() => { const on = (id) => { const e = document.getElementById(id); return !!e && e.offsetParent !== null && e.getBoundingClientRect().width > 0; }; return { look: on("look"), frame: on("frame"), fov: on("look-fov"), angular: on("angular-budget"), convergence: on("convergence"), budget: on("budget-near"), views: on("views"), label: document.getElementById("interaxial-label").textContent }; })()"#)
+        .await;
+    assert_eq!(
+        shown,
+        json!({ "look": true, "frame": false, "fov": true, "angular": true, "convergence": false, "budget": false, "views": false, "label": "IPD" })
+    );
+    let before = dt.eval(LOOK_PIXELS).await;
+    assert!(
+        before["width"].as_u64().unwrap() >= 320,
+        "{}",
+        before["width"]
+    );
+    let generation = dt.eval("window.twinrayPreview.generation").await;
+    let changes = dt.eval("window.twinrayPreview.changes").await;
+
+    // A mouse drag turns the view.
+    let centre = dt
+        .eval("(() => { const r = document.getElementById('look').getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; })()")
+        .await;
+    let (cx, cy) = (centre[0].as_f64().unwrap(), centre[1].as_f64().unwrap());
+    dt.drag(cx, cy, 120.0).await;
+    dt.wait_for(
+        "window.twinrayPreview.look.yaw < -5",
+        "the drag to turn the view left",
+    )
+    .await;
+    dt.wait_for(LOOK_TURNED, "the turned view").await;
+    let turned = dt.eval(LOOK_PIXELS).await;
+    eprintln!(
+        "viewer: {}x{} drawn in {} ms, at half resolution while dragged in {} ms",
+        turned["width"],
+        turned["height"],
+        dt.eval("window.twinrayPreview.look.ms").await,
+        dt.eval("window.twinrayPreview.look.dragMs").await
+    );
+    assert_ne!(turned["print"], before["print"], "the view did not change");
+
+    // A finger's drag: up and down.
+    dt.call(
+        "Emulation.setTouchEmulationEnabled",
+        json!({ "enabled": true, "maxTouchPoints": 1 }),
+    )
+    .await;
+    for (kind, dy) in [
+        ("touchStart", 0.0),
+        ("touchMove", 30.0),
+        ("touchMove", 60.0),
+    ] {
+        dt.call(
+            "Input.dispatchTouchEvent",
+            json!({ "type": kind, "touchPoints": [{ "x": cx, "y": cy + dy }] }),
+        )
+        .await;
+    }
+    dt.call(
+        "Input.dispatchTouchEvent",
+        json!({ "type": "touchEnd", "touchPoints": [] }),
+    )
+    .await;
+    dt.wait_for(
+        "window.twinrayPreview.look.pitch > 5",
+        "the swipe to tilt the view up",
+    )
+    .await;
+    dt.wait_for(LOOK_TURNED, "the tilted view").await;
+    let tilted = dt.eval(LOOK_PIXELS).await;
+    assert_ne!(
+        tilted["print"], turned["print"],
+        "the swipe changed nothing"
+    );
+
+    // The wheel widens the field of view.
+    dt.call(
+        "Input.dispatchMouseEvent",
+        json!({ "type": "mouseWheel", "x": cx, "y": cy, "deltaX": 0, "deltaY": 120 }),
+    )
+    .await;
+    dt.wait_for("window.twinrayPreview.look.fov > 80", "the wider view")
+        .await;
+    assert_eq!(
+        dt.eval("document.getElementById('look-fov').value").await,
+        json!("83")
+    );
+    // All of it in the page.
+    assert_eq!(
+        dt.eval("window.twinrayPreview.generation").await,
+        generation
+    );
+    assert_eq!(dt.eval("window.twinrayPreview.changes").await, changes);
+
+    // The histogram marks the angular budget, the nearest and the farthest.
+    let marks = dt.eval("window.twinrayPreview.histogramMarks").await;
+    let p = dt.eval("window.twinrayPreview.info.panorama").await;
+    assert_eq!(marks["budget"], p["budget_deg"], "{marks} {p}");
+    assert_eq!(marks["nearest"], p["near"]["deg"], "{marks} {p}");
+    assert_eq!(marks["farthest"], p["far"]["deg"], "{marks} {p}");
+    let colours = dt
+        .eval(r#"(() => { const c = document.getElementById("histogram"); const d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data; const near = (k, r, g, b) => Math.abs(d[k] - r) < 24 && Math.abs(d[k + 1] - g) < 24 && Math.abs(d[k + 2] - b) < 24; let budget = 0, nearest = 0, bars = 0; for (let k = 0; k < d.length; k += 4) { if (near(k, 123, 216, 143)) budget++; if (near(k, 255, 207, 107)) nearest++; if (near(k, 108, 182, 255)) bars++; } return { budget, nearest, bars }; })()"#)
+        .await;
+    for what in ["budget", "nearest", "bars"] {
+        assert!(colours[what].as_u64().unwrap() > 20, "{what}: {colours}");
+    }
+
+    // The whole panorama, as the server sent it, and back.
+    let mode = |m: &str| {
+        format!("(() => {{ const s = document.getElementById('look-mode'); s.value = '{m}'; s.dispatchEvent(new Event('change')); const on = (id) => document.getElementById(id).getBoundingClientRect().width > 0; return [on('frame'), on('look')]; }})()")
+    };
+    assert_eq!(dt.eval(&mode("whole")).await, json!([true, false]));
+    let whole = dt.eval(FRAME_PIXELS).await;
+    assert_eq!(whole["width"], 320, "{whole}");
+    assert_eq!(whole["height"], 160, "{whole}");
+    assert_eq!(dt.eval(&mode("look")).await, json!([false, true]));
+
+    // The anaglyph shows both eyes: with a wide IPD, the viewer's red
+    // follows the left eye's view, its green the right eye's.
+    dt.set_control("interaxial-value", "0.3").await;
+    assert!(
+        dt.eval("window.twinrayPreview.info.panorama.ipd")
+            .await
+            .as_f64()
+            .unwrap()
+            > 0.29
+    );
+    dt.wait_for(LOOK_READY, "the wide anaglyph").await;
+    let anaglyph = dt.eval(LOOK_PIXELS).await;
+    dt.set_control("layout", "single").await;
+    dt.wait_for(LOOK_READY, "the left eye").await;
+    let left = dt.eval(LOOK_PIXELS).await;
+    dt.set_control("eye", "1").await;
+    dt.wait_for(LOOK_READY, "the right eye").await;
+    let right = dt.eval(LOOK_PIXELS).await;
+    assert_ne!(left["print"], right["print"], "the eyes are alike");
+    let (a, left, right) = (rgb(&anaglyph["rgb"]), rgb(&left["rgb"]), rgb(&right["rgb"]));
+    let (red_left, red_right) = (correlation(&a, 0, &left), correlation(&a, 0, &right));
+    let (green_left, green_right) = (correlation(&a, 1, &left), correlation(&a, 1, &right));
+    eprintln!(
+        "anaglyph: red ~ left {red_left:.3}, right {red_right:.3}; green ~ left {green_left:.3}, right {green_right:.3}"
+    );
+    assert!(
+        red_left > red_right + 0.05 && green_right > green_left + 0.05,
+        "red ~ left {red_left:.3}, right {red_right:.3}; green ~ left {green_left:.3}, right {green_right:.3}"
+    );
+    assert_eq!(
+        dt.eval("window.twinrayPreview.errors.length").await,
+        json!(0)
+    );
+
+    // The screenshot, kept for a look.
+    dt.screenshot("preview-panorama.png").await;
     stop.cancel();
 }
 
@@ -703,6 +943,9 @@ fn main() -> ExitCode {
     let tests = vec![
         needs_chromium(Trial::test("the_page_in_chromium", || {
             run(the_page_in_chromium())
+        })),
+        needs_chromium(Trial::test("the_panorama_viewer_in_chromium", || {
+            run(the_panorama_viewer_in_chromium())
         })),
         needs_chromium(Trial::test(
             "a_scene_that_fails_to_load_shows_its_error_on_the_page",

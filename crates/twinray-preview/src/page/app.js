@@ -2,6 +2,8 @@
 // (one request at a time, the newest wins), shows the frames its WebSocket
 // sends (coarse to fine; frames of an older change are dropped), and the
 // comfort display of each change: histogram, rig, violations, command.
+// A panorama is shown in a look-around viewer: the frame's equirectangular
+// (or fisheye) image reprojected to a perspective view turned by dragging.
 "use strict";
 
 const $ = (id) => document.getElementById(id);
@@ -16,6 +18,9 @@ const el = {
   histogram: $("histogram"), numbers: $("numbers"), messages: $("messages"),
   command: $("command"), copy: $("copy"), renderFull: $("render-full"),
   fullStatus: $("full-status"), downloads: $("downloads"),
+  look: $("look"), lookControls: $("look-controls"), lookMode: $("look-mode"),
+  lookFov: $("look-fov"), lookFovValue: $("look-fov-value"), flatHint: $("flat-hint"),
+  angularBudget: $("angular-budget"),
 };
 
 // What the tests and the benchmark read.
@@ -25,6 +30,15 @@ const preview = (window.twinrayPreview = {
   // Milliseconds from sending a change to its first frame painted (the
   // benchmark reads them).
   latencies: [], sentAt: 0, measured: 0,
+  // The look-around viewer's direction (degrees), field of view and draws.
+  // `drawn`: the frame count when the image it shows arrived; `shown`:
+  // the yaw, pitch and field of view it was drawn with, and whether at full
+  // resolution; `ms` and `dragMs`: the time of the newest draw at full
+  // and at half resolution.
+  look: { yaw: 0, pitch: 0, fov: 75, draws: 0, loaded: 0, drawn: 0, shown: null, ms: 0, dragMs: 0 },
+  // Where the histogram marks the budget and the nearest and farthest
+  // points (degrees for a panorama).
+  histogramMarks: null,
 });
 
 let settings = null;       // what the server gets
@@ -36,6 +50,8 @@ let viewImages = [];       // the newest frame's images (wiggle, single eye)
 let wiggleTimer = null;
 let urls = [];
 let maxPages = 0;         // pages the server takes at once
+let projection = "pinhole"; // or the panorama the viewer shows
+const isPanorama = () => projection !== "pinhole";
 
 function showError(text) {
   el.error.hidden = !text;
@@ -93,6 +109,13 @@ function readControls() {
   const mode = el.convergenceMode.value;
   settings.convergence = mode === "value" ? String(Number(el.convergenceValue.value)) : mode;
   settings.depth_budget = budgetText();
+  if (isPanorama()) {
+    // Parallel eyes: the convergence is the projection's, the budget angular.
+    settings.convergence = "auto";
+    settings.depth_budget = "";
+    const b = el.angularBudget.value.trim();
+    settings.angular_budget = b === "" ? null : Number(b);
+  }
   settings.views = Number(el.views.value);
   settings.view = el.layout.value;
   settings.eye = Number(el.eye.value || 0);
@@ -112,6 +135,7 @@ function writeControls() {
   el.quilt.value = settings.quilt;
   el.samples.value = settings.samples === null ? "" : String(settings.samples);
   el.fast.checked = settings.fast;
+  el.angularBudget.value = settings.angular_budget == null ? "" : settings.angular_budget;
   const m = /^([-+]?[\d.]+)%,([-+]?[\d.]+)%$/.exec(settings.depth_budget || "");
   if (m) { el.budgetNear.value = Number(m[1]); el.budgetFar.value = Number(m[2]); }
   updateEyes();
@@ -125,7 +149,7 @@ function updateEyes() {
   for (let i = 0; i < n; i++) {
     const o = document.createElement("option");
     o.value = i;
-    o.textContent = n === 2 ? (i === 0 ? "left" : "right") : `view ${i}`;
+    o.textContent = n === 1 ? "the one eye" : n === 2 ? (i === 0 ? "left" : "right") : `view ${i}`;
     el.eye.appendChild(o);
   }
   el.eye.value = keep;
@@ -155,7 +179,7 @@ el.convergence.addEventListener("input", () => {
 });
 el.convergenceValue.addEventListener("change", () => { el.convergenceMode.value = "value"; changed(); });
 el.convergenceMode.addEventListener("change", changed);
-for (const e of [el.budgetNear, el.budgetFar, el.quilt, el.samples, el.fast, el.eye]) {
+for (const e of [el.budgetNear, el.budgetFar, el.angularBudget, el.quilt, el.samples, el.fast, el.eye]) {
   e.addEventListener("change", changed);
 }
 el.views.addEventListener("change", () => { updateEyes(); changed(); });
@@ -204,6 +228,7 @@ function currentCamera() {
 
 let drag = null;
 el.stage.addEventListener("pointerdown", (e) => {
+  if (isPanorama()) return; // the viewer turns the view; the panorama stays
   const cam = currentCamera();
   if (!cam) return;
   drag = { x: e.clientX, y: e.clientY, cam };
@@ -227,6 +252,7 @@ const endDrag = () => { drag = null; };
 el.stage.addEventListener("pointerup", endDrag);
 el.stage.addEventListener("pointercancel", endDrag);
 el.stage.addEventListener("wheel", (e) => {
+  if (isPanorama()) return;
   e.preventDefault();
   const cam = currentCamera();
   if (!cam) return;
@@ -343,7 +369,7 @@ function showFrame() {
   }
 }
 
-el.frame.addEventListener("load", drawOverlay);
+el.frame.addEventListener("load", () => { drawOverlay(); if (isPanorama()) lookSource(); });
 window.addEventListener("resize", drawOverlay);
 
 // ---------------------------------------------------------------- comfort
@@ -380,6 +406,7 @@ function drawHistogram() {
   const g = c.getContext("2d");
   g.scale(dpr, dpr);
   g.clearRect(0, 0, W, H);
+  if (info && info.panorama) { drawAngularHistogram(g, W, H, info.panorama); return; }
   const h = info && info.histogram, r = info && info.report;
   if (!h || !r) { g.fillStyle = "#8c9196"; g.fillText("no depth pass (one view)", 10, 20); return; }
   const pad = { l: 8, r: 8, t: 8, b: 30 };
@@ -398,6 +425,7 @@ function drawHistogram() {
     const bh = Math.max(1, (Math.sqrt(n) / Math.sqrt(peak)) * plotH);
     g.fillRect(X(a), pad.t + plotH - bh, Math.max(1, X(b) - X(a) - 1), bh);
   });
+  preview.histogramMarks = { near: r.budget_px.near, far: r.budget_px.far };
   g.strokeStyle = "#7bd88f"; g.lineWidth = 1.5;
   for (const px of [r.budget_px.near, r.budget_px.far]) {
     g.beginPath(); g.moveTo(X(px), pad.t); g.lineTo(X(px), pad.t + plotH); g.stroke();
@@ -458,6 +486,7 @@ function showInfo() {
   el.command.value = info.command;
 
   el.numbers.innerHTML = "";
+  if (info.projection !== "pinhole") { showPanoramaNumbers(); return; }
   row("preview", `${info.width}×${info.height} per view, ${info.views} views`);
   row("interaxial", `${fmt(rig.interaxial, 6)} scene units`);
   row("convergence", `asked ${fmt(rig.convergence)}, effective ${rig.effective_convergence ? fmt(rig.effective_convergence) : "∞ (parallel)"}`);
@@ -480,15 +509,265 @@ function showInfo() {
     row("disparity", "nothing visible");
   }
   if (rig.reason) row("rig chosen", rig.reason);
+  showMessages();
+  drawHistogram();
+  drawOverlay();
+}
+
+function showMessages() {
   el.messages.innerHTML = "";
   for (const m of info.messages) {
     const li = document.createElement("li");
     li.className = m.level; li.textContent = m.text;
     el.messages.appendChild(li);
   }
+}
+
+// ---------------------------------------------------------------- panoramas
+
+// The controls a panorama takes: the IPD (the interaxial slider) and the
+// angular budget; no convergence, flat depth budget, view count, --fast or
+// field of view; anaglyph or one eye, shown in the look-around viewer.
+function showProjection() {
+  const pano = isPanorama();
+  $("convergence-row").hidden = pano;
+  $("budget-row").hidden = pano;
+  $("views-row").hidden = pano;
+  $("angular-row").hidden = !pano || settings.views < 2;
+  // One eye of a panorama has no rig at all.
+  $("rig").hidden = pano && settings.views < 2;
+  $("fast-label").hidden = pano;
+  $("fov-label").hidden = pano;
+  $("interaxial-label").textContent = pano ? "IPD" : "interaxial";
+  for (const o of el.layout.options) {
+    o.hidden = pano && !(o.value === "single" || (o.value === "anaglyph" && settings.views === 2));
+  }
+  el.lookControls.hidden = !pano;
+  el.flatHint.hidden = pano;
+  showLookMode();
+}
+
+function showLookMode() {
+  const looking = isPanorama() && el.lookMode.value === "look";
+  el.look.hidden = !looking;
+  el.frame.hidden = looking;
+  el.overlay.hidden = looking;
+  if (looking) requestLook();
+}
+
+el.lookMode.addEventListener("change", showLookMode);
+
+function angle(a) {
+  if (!a) return "–";
+  return `${fmt(a.deg, 3)}° ${a.distance === null ? "(the background)" : `at distance ${fmt(a.distance)}`}`;
+}
+
+function showPanoramaNumbers() {
+  const p = info.panorama;
+  row("preview", `${info.width}×${info.height} ${info.projection}, ${info.views === 1 ? "one eye" : "2 eyes"}`);
+  if (p) {
+    row("IPD", `${fmt(p.ipd, 6)} scene units${p.ipd_mm === null ? "" : ` = ${fmt(p.ipd_mm, 1)} mm`} (${{
+      budget: "the largest within the budget", human: "the eyes' 64 mm", given: "given",
+      "at-target": "nothing visible: the budget at the target's distance" }[p.chosen_by]})`);
+    row("nearest", angle(p.near), p.within_budget ? "within" : "exceeded");
+    row("farthest", angle(p.far));
+    row("budget", `${fmt(p.budget_deg, 3)}° at the nearest point: ${p.within_budget ? "within" : "EXCEEDED"}`,
+        p.within_budget ? "within" : "exceeded");
+    row("scene unit", p.units === null ? "unknown: --units m (cm, mm, in, ft) keeps the IPD to the eyes' 64 mm" : p.units);
+  }
+  showMessages();
   drawHistogram();
   drawOverlay();
 }
+
+// The depth pass's samples by angular disparity: 0° (infinity) on the
+// left, the nearest points on the right; the budget as a band and a line,
+// the nearest and farthest points marked.
+function drawAngularHistogram(g, W, H, p) {
+  const h = p.histogram;
+  const pad = { l: 8, r: 8, t: 8, b: 30 };
+  const span = h.bin_deg * h.counts.length;
+  const X = (deg) => pad.l + (deg / span) * (W - pad.l - pad.r);
+  const plotH = H - pad.t - pad.b;
+  const peak = Math.max(1, ...h.counts);
+  g.fillStyle = "rgba(123, 216, 143, 0.12)";
+  g.fillRect(X(0), pad.t, X(Math.min(p.budget_deg, span)) - X(0), plotH);
+  h.counts.forEach((n, i) => {
+    if (!n) return;
+    const a = i * h.bin_deg, b = a + h.bin_deg;
+    // Bars past the budget's line in red.
+    g.fillStyle = a >= p.budget_deg ? "#ff6b6b" : "#6cb6ff";
+    const bh = Math.max(1, (Math.sqrt(n) / Math.sqrt(peak)) * plotH);
+    g.fillRect(X(a), pad.t + plotH - bh, Math.max(1, X(b) - X(a) - 1), bh);
+  });
+  g.strokeStyle = "#7bd88f"; g.lineWidth = 1.5;
+  g.beginPath(); g.moveTo(X(p.budget_deg), pad.t); g.lineTo(X(p.budget_deg), pad.t + plotH); g.stroke();
+  g.font = "11px monospace";
+  g.fillStyle = "#7bd88f";
+  g.textAlign = X(p.budget_deg) > W / 2 ? "right" : "left";
+  g.fillText(`budget ${fmt(p.budget_deg, 2)}°`, X(p.budget_deg) + (X(p.budget_deg) > W / 2 ? -4 : 4), pad.t + 38);
+  const marks = { budget: p.budget_deg };
+  for (const [name, a, colour] of [["nearest", p.near, "#ffcf6b"], ["farthest", p.far, "#d8dadc"]]) {
+    if (!a) continue;
+    marks[name] = a.deg;
+    g.strokeStyle = colour; g.setLineDash([3, 3]);
+    g.beginPath(); g.moveTo(X(a.deg), pad.t); g.lineTo(X(a.deg), pad.t + plotH); g.stroke();
+    g.setLineDash([]);
+    g.fillStyle = colour;
+    g.textAlign = X(a.deg) > W / 2 ? "right" : "left";
+    g.fillText(`${name} ${fmt(a.deg, 2)}°`, X(a.deg) + (X(a.deg) > W / 2 ? -4 : 4), pad.t + (name === "nearest" ? 10 : 24));
+  }
+  preview.histogramMarks = marks;
+  g.fillStyle = "#8c9196"; g.textAlign = "center";
+  for (const t of niceTicks(0, span, 6)) g.fillText(`${fmt(t, 2)}°`, X(t), H - 17);
+  g.textAlign = "left";
+  g.fillText("← far (0°: infinity), angular disparity", pad.l, H - 4);
+  g.textAlign = "right";
+  g.fillText("near →", W - pad.r, H - 4);
+}
+
+// The look-around viewer: each canvas pixel's ray of a perspective camera
+// turned by yaw and pitch, looked up in the frame's image by the
+// projection's formula (rig/projection.rs), bilinearly.
+const look = preview.look;
+let lookImage = null;  // { width, height, data } of the frame shown
+const lookScratch = document.createElement("canvas");
+let lookQueued = false;
+
+function lookSource() {
+  const img = el.frame;
+  if (!img.naturalWidth) return;
+  const c = document.createElement("canvas");
+  c.width = img.naturalWidth; c.height = img.naturalHeight;
+  const g = c.getContext("2d", { willReadFrequently: true });
+  g.drawImage(img, 0, 0);
+  lookImage = { width: c.width, height: c.height, data: g.getImageData(0, 0, c.width, c.height).data };
+  look.loaded = preview.frames;
+  requestLook();
+}
+
+function requestLook() {
+  if (lookQueued || el.look.hidden) return;
+  lookQueued = true;
+  requestAnimationFrame(() => { lookQueued = false; drawLook(); });
+}
+
+function drawLook() {
+  const start = performance.now();
+  const canvas = el.look;
+  const dpr = Math.min(window.devicePixelRatio || 1, 2);
+  const W = Math.max(16, Math.min(1280, Math.round(canvas.clientWidth * dpr)));
+  const H = Math.max(9, Math.round((W * 9) / 16));
+  if (canvas.width !== W || canvas.height !== H) { canvas.width = W; canvas.height = H; }
+  const g = canvas.getContext("2d");
+  if (!lookImage) { g.fillStyle = "#000"; g.fillRect(0, 0, W, H); return; }
+  // Half the resolution while a drag turns the view, the whole when it ends.
+  const full = !lookDrag;
+  const Wd = full ? W : Math.ceil(W / 2), Hd = full ? H : Math.ceil(H / 2);
+  const { width: w, height: h, data: src } = lookImage;
+  const out = g.createImageData(Wd, Hd);
+  const d = out.data;
+  lookDraw(d, Wd, Hd, w, h, src);
+  if (full) {
+    g.putImageData(out, 0, 0);
+  } else {
+    lookScratch.width = Wd; lookScratch.height = Hd;
+    lookScratch.getContext("2d").putImageData(out, 0, 0);
+    g.drawImage(lookScratch, 0, 0, W, H);
+  }
+  look.draws += 1;
+  look.drawn = look.loaded;
+  look.shown = [look.yaw, look.pitch, look.fov, full];
+  look[full ? "ms" : "dragMs"] = performance.now() - start;
+}
+
+// The view into `d` (RGBA, W by H) from the source image `src` (w by h).
+function lookDraw(d, W, H, w, h, src) {
+  const f = H / 2 / Math.tan(((look.fov * Math.PI) / 180) / 2);
+  const yaw = (look.yaw * Math.PI) / 180, pitch = (look.pitch * Math.PI) / 180;
+  const cy = Math.cos(yaw), sy = Math.sin(yaw), cp = Math.cos(pitch), sp = Math.sin(pitch);
+  // Where a direction (right x, up y, forward z) lands in the source, in
+  // pixels with centres at integers: the projection's formula.
+  const fisheye = projection === "vr180-fisheye", half = projection === "vr180";
+  const wrap = !fisheye && !half;
+  const perLon = w / (half ? Math.PI : 2 * Math.PI), perLat = h / Math.PI;
+  for (let j = 0; j < H; j++) {
+    const py = (H / 2 - j - 0.5) / f;
+    let at = j * W * 4;
+    for (let i = 0; i < W; i++, at += 4) {
+      d[at + 3] = 255;
+      const px = (i + 0.5 - W / 2) / f;
+      const n = 1 / Math.sqrt(px * px + py * py + 1);
+      // Pitch about the right axis, then yaw about the up axis.
+      const y = (py * cp + sp) * n, z1 = (-py * sp + cp) * n, x1 = px * n;
+      const x = x1 * cy + z1 * sy, z = -x1 * sy + z1 * cy;
+      let u, v;
+      if (fisheye) {
+        if (z < 0) continue;
+        const rho = Math.acos(z > 1 ? 1 : z) / (Math.PI / 2);
+        const r = Math.hypot(x, y) || 1;
+        u = ((rho * x) / r + 1) * 0.5 * w - 0.5;
+        v = ((1 - (rho * y) / r) * 0.5) * h - 0.5;
+      } else {
+        const lon = Math.atan2(x, z);
+        if (half && Math.abs(lon) > Math.PI / 2) continue;
+        u = lon * perLon + w / 2 - 0.5;
+        v = h / 2 - Math.asin(y > 1 ? 1 : y < -1 ? -1 : y) * perLat - 0.5;
+      }
+      // Bilinear, across the 360° seam where there is one.
+      let i0 = Math.floor(u), j0 = Math.floor(v);
+      const fx = u - i0, fy = v - j0;
+      let i1 = i0 + 1, j1 = j0 + 1;
+      if (wrap) {
+        if (i0 < 0) i0 += w; else if (i0 >= w) i0 -= w;
+        if (i1 >= w) i1 -= w; else if (i1 < 0) i1 += w;
+      } else {
+        i0 = i0 < 0 ? 0 : i0 >= w ? w - 1 : i0;
+        i1 = i1 < 0 ? 0 : i1 >= w ? w - 1 : i1;
+      }
+      j0 = j0 < 0 ? 0 : j0 >= h ? h - 1 : j0;
+      j1 = j1 < 0 ? 0 : j1 >= h ? h - 1 : j1;
+      const a = (j0 * w + i0) * 4, b = (j0 * w + i1) * 4, c = (j1 * w + i0) * 4, e = (j1 * w + i1) * 4;
+      const w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy, w11 = fx * fy;
+      d[at] = src[a] * w00 + src[b] * w10 + src[c] * w01 + src[e] * w11;
+      d[at + 1] = src[a + 1] * w00 + src[b + 1] * w10 + src[c + 1] * w01 + src[e + 1] * w11;
+      d[at + 2] = src[a + 2] * w00 + src[b + 2] * w10 + src[c + 2] * w01 + src[e + 2] * w11;
+    }
+  }
+}
+
+function setLookFov(fov) {
+  look.fov = Math.max(20, Math.min(120, fov));
+  el.lookFov.value = Math.round(look.fov);
+  el.lookFovValue.textContent = `${Math.round(look.fov)}°`;
+  requestLook();
+}
+
+el.lookFov.addEventListener("input", () => setLookFov(Number(el.lookFov.value)));
+
+// Dragging carries the scene with the pointer (mouse, pen or a finger).
+let lookDrag = null;
+el.look.addEventListener("pointerdown", (e) => {
+  lookDrag = { x: e.clientX, y: e.clientY, yaw: look.yaw, pitch: look.pitch, id: e.pointerId };
+  el.look.setPointerCapture(e.pointerId);
+  e.preventDefault();
+});
+el.look.addEventListener("pointermove", (e) => {
+  if (!lookDrag || e.pointerId !== lookDrag.id) return;
+  const perPixel = look.fov / Math.max(1, el.look.clientHeight);
+  look.yaw = lookDrag.yaw - (e.clientX - lookDrag.x) * perPixel;
+  look.yaw = ((look.yaw + 540) % 360) - 180;
+  look.pitch = Math.max(-89, Math.min(89, lookDrag.pitch + (e.clientY - lookDrag.y) * perPixel));
+  requestLook();
+});
+for (const end of ["pointerup", "pointercancel"]) {
+  el.look.addEventListener(end, () => { lookDrag = null; requestLook(); });
+}
+el.look.addEventListener("wheel", (e) => {
+  e.preventDefault();
+  setLookFov(look.fov * Math.exp(Math.sign(e.deltaY) * 0.1));
+}, { passive: false });
+window.addEventListener("resize", requestLook);
 
 // ---------------------------------------------------------------- command, full render
 
@@ -543,6 +822,8 @@ async function start() {
   el.scene.textContent = state.scene;
   maxPages = state.max_pages;
   settings = state.settings;
+  projection = state.projection || "pinhole";
+  showProjection();
   writeControls();
   if (state.error) {
     showError(state.error);

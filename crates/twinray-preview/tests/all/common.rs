@@ -213,12 +213,18 @@ impl Frame {
     }
 }
 
+/// The next frame; a render that fails instead (the session's `error`
+/// message) fails the test.
 pub async fn next_frame(socket: &mut Socket) -> Frame {
     loop {
         match tokio::time::timeout(Duration::from_secs(120), socket.next()).await {
             Ok(Some(Ok(Message::Binary(bytes)))) => {
                 let (header, images) = parse_frame(&bytes).expect("a well-formed frame");
                 return Frame { header, images };
+            }
+            Ok(Some(Ok(Message::Text(text)))) => {
+                let m: Value = serde_json::from_str(text.as_str()).unwrap();
+                assert_ne!(m["type"], "error", "the render failed: {m}");
             }
             Ok(Some(Ok(_))) => continue,
             other => panic!("no frame: {other:?}"),

@@ -5,4 +5,6 @@
 
 mod api;
 mod common;
+mod correlation;
+mod panorama;
 mod security;
