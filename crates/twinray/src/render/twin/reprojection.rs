@@ -133,13 +133,13 @@ impl<const K: usize> TwinBatch<'_, K> {
         let Some(point) = scratch.points[0][i] else {
             return group;
         };
-        for v in 1..self.views {
+        for (v, slot) in group.iter_mut().enumerate().take(self.views).skip(1) {
             let Some(k) = nearest_sample(self.camera, row, &self.rig.views[v], point, i) else {
                 continue;
             };
             if !scratch.claimed[v][k] && scratch.points[v][k].is_some() {
                 scratch.claimed[v][k] = true;
-                group[v] = Some(k);
+                *slot = Some(k);
             }
         }
         group
