@@ -30,6 +30,7 @@ mod packet_lanes;
 mod panorama;
 mod real_models;
 mod render;
+mod reprojection_cost;
 mod rgb8_views;
 mod sampling;
 mod shared_shading;

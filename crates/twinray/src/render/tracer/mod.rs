@@ -707,15 +707,10 @@ impl<'a> Tracer<'a> {
             let hit = &hits.hit[l];
             let d = packet.dirs[l];
             let shape = &scene.shapes[prim];
-            let point = packet.origins[l] + d * hit.t;
-            let surface = match self.lean_surfaces
-                && !lean_surfaces::needs_normal(scene, world.material_of(prim as u32), spawn_more)
-            {
-                true => scene.surface_colour_at(prim, hit),
-                false => scene.surface_at(prim, hit, point),
-            };
-            let (material, normal) = (surface.material, surface.normal);
-            let coverage = surface.coverage;
+            let (sp, ambient, coverage) =
+                self.surface_point(packet.origins[l], d, prim, hit, spawn_more);
+            let (material, point) = (sp.material, sp.point);
+            let (facing, off) = (sp.normal, sp.offset_normal);
             tree.note::<K>(
                 l,
                 material
@@ -724,27 +719,7 @@ impl<'a> Tracer<'a> {
                     .max(material.t)
                     .max(1.0 - coverage),
             );
-            let facing = if normal.dot(d) < 0.0 { normal } else { -normal };
-            // Rays leave along the normal before a normal map bent it.
-            let unbent = surface.offset_normal;
-            let off = if unbent.dot(d) < 0.0 { unbent } else { -unbent };
-            let sp = SurfacePoint {
-                point,
-                normal: facing,
-                t: hit.t,
-                material,
-                color: surface.color,
-                offset_normal: off,
-            };
-            let ambient = match &scene.environment {
-                None => surface.ambient(),
-                Some(env) => surface.ambient_under(env, facing),
-            };
-            s.ambient[l] = if coverage < 1.0 {
-                ambient * coverage
-            } else {
-                ambient
-            };
+            s.ambient[l] = ambient;
             s.coverage[l] = coverage;
             s.prims[l] = prim as u32;
             s.points[l] = Some(sp);
@@ -798,6 +773,81 @@ impl<'a> Tracer<'a> {
             }
         }
         s
+    }
+
+    /// The surface point a ray from `origin` along `d` hits (`prim`, `hit`),
+    /// its normal turned to face the ray, its ambient term (times its
+    /// coverage) and its coverage. `spawn`: whether the hit may still spawn
+    /// rays (else a hit that takes no light skips its normal).
+    #[inline(always)]
+    fn surface_point(
+        &self,
+        origin: Vec3,
+        d: Vec3,
+        prim: usize,
+        hit: &SurfaceHit,
+        spawn: bool,
+    ) -> (SurfacePoint<'a>, Color, f32) {
+        let world = self.world;
+        let scene = &world.scene;
+        let point = origin + d * hit.t;
+        let surface = match self.lean_surfaces
+            && !lean_surfaces::needs_normal(scene, world.material_of(prim as u32), spawn)
+        {
+            true => scene.surface_colour_at(prim, hit),
+            false => scene.surface_at(prim, hit, point),
+        };
+        let (material, normal) = (surface.material, surface.normal);
+        let coverage = surface.coverage;
+        let facing = if normal.dot(d) < 0.0 { normal } else { -normal };
+        // Rays leave along the normal before a normal map bent it.
+        let unbent = surface.offset_normal;
+        let off = if unbent.dot(d) < 0.0 { unbent } else { -unbent };
+        let sp = SurfacePoint {
+            point,
+            normal: facing,
+            t: hit.t,
+            material,
+            color: surface.color,
+            offset_normal: off,
+        };
+        let ambient = match &scene.environment {
+            None => surface.ambient(),
+            Some(env) => surface.ambient_under(env, facing),
+        };
+        let ambient = if coverage < 1.0 {
+            ambient * coverage
+        } else {
+            ambient
+        };
+        (sp, ambient, coverage)
+    }
+
+    /// `shade_from_donors` for one eye ray (from `origin` along `dir`, its
+    /// hit `hit`) that takes every light's transmittance (`through`, none
+    /// `TRACE_LIGHT`) and its secondary colour: its own ambient, diffuse and
+    /// highlight terms, with no ray traced and no packet to fill, the same
+    /// colour bit for bit.
+    pub fn shade_taking(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        (prim, hit): (u32, SurfaceHit),
+        through: &[f32],
+        secondary: Color,
+    ) -> Color {
+        // At the deepest level: no secondary ray is spawned (the donor's are taken).
+        let (sp, mut out, coverage) = self.surface_point(origin, dir, prim as usize, &hit, false);
+        if sp.material.kd > 0.0 || sp.material.ks > 0.0 {
+            for (light, &t) in self.world.scene.lights.iter().zip(through) {
+                if t > 0.0 {
+                    if let Some((l, _, color)) = toward_light(&sp, light) {
+                        out += light_contribution(&sp, dir, l, color, t * coverage);
+                    }
+                }
+            }
+        }
+        out + secondary
     }
 
     /// Stage 2: diffuse and highlight from every light not in shadow. The lanes'

@@ -113,8 +113,7 @@ impl<const K: usize> TwinBatch<'_, K> {
                 self.shade_groups(tracer, scratch, out);
             }
             Sharing::Reproject { threshold } => {
-                self.group(row, scratch);
-                self.share_groups(tracer, scratch, threshold, out);
+                self.share_row(tracer, row, scratch, threshold, out)
             }
             Sharing::ReprojectForward { threshold } => {
                 self.reproject_forward(tracer, row, scratch, threshold, out)

@@ -1,7 +1,7 @@
 //! Samples of several groups shaded as one packet of eight lanes: the exact
 //! groups (`shade_groups_packed`), and the approximate paths' donors, the
 //! samples that take a donor's light, and the groups they shade exactly
-//! (`share_groups`, `share_shading`). A pair's group has two lanes; eight
+//! (`share_row`, `share_shading`). A pair's group has two lanes; eight
 //! lanes of neighbouring samples send their shadow segments and secondary
 //! rays down the eight-lane descents (`Bvh::occlusion`,
 //! `Bvh::closest_packet8`) instead of one or two at a time. Each lane's

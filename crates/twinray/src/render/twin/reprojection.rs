@@ -1,5 +1,5 @@
 //! The paper's reprojection of a surface point's shading to the other
-//! views: safe (`share_groups`: a group's other samples take view 0's
+//! views: safe (`share_row`: the other views' samples take view 0's
 //! light visibility and secondary colour when they see the same surface
 //! point and its shading tree is diffuse) or as the paper published it
 //! (`reproject_forward`, its eq. 2.1).
@@ -27,31 +27,36 @@ impl<const K: usize> TwinBatch<'_, K> {
     }
 
     /// Stage 4, safe reprojection (section 2.5 with the eye pass's own hits as
-    /// the visibility test), in two steps over the row:
+    /// the visibility test), in two steps over the row, with no grouping of
+    /// the views' samples:
     ///
-    /// 1. View 0's sample of each group whose hit is diffuse (`threshold`) and
-    ///    seen by another sample of the group is shaded as a donor, and its
-    ///    light visibility and secondary colour kept; the other groups are
-    ///    shaded exactly.
-    /// 2. Each other sample of such a group takes them — and computes its own
-    ///    ambient, diffuse and highlight terms — if it sees the same surface
-    ///    point, every surface of the donor's shading tree is diffuse, and the
-    ///    donor's neighbours in the row saw the lights as it did (no shadow
-    ///    edge within a pixel). The samples refused are shaded exactly.
+    /// 1. Every hit of view 0 is shaded as a donor, eight neighbouring
+    ///    samples to a packet as in a mono row, and its light visibility and
+    ///    secondary colour kept. A hit whose material is not diffuse
+    ///    (`threshold`) gives nothing: it takes the sample of each other view
+    ///    it projects to, as `group_row` does, into an exact group, so that
+    ///    their secondary rays go together (and merge, if asked).
+    /// 2. Each other view's sample projects its own hit into view 0 and takes
+    ///    what the nearest donor kept — computing its own ambient, diffuse
+    ///    and highlight terms, no shadow ray — if it sees the same surface
+    ///    point, the donor's whole shading tree is diffuse, and the donor's
+    ///    neighbours in the row saw the lights as it did (no shadow edge
+    ///    within a pixel): one sample at a time, as it traces no ray
+    ///    (`Tracer::shade_taking`). The samples refused are shaded exactly,
+    ///    eight to a packet.
     ///
-    /// Donors, takers and exact groups each go eight lanes to a packet
-    /// (`packed`): each lane's colour is what it gets alone.
-    pub(in crate::render) fn share_groups(
+    /// Each lane's colour is what it gets alone, whatever packet it is in.
+    pub(in crate::render) fn share_row(
         &self,
         tracer: &mut Tracer,
+        row: &SampleRow,
         scratch: &mut RowScratch<K>,
         threshold: f32,
         out: &mut [RowColors],
     ) {
         let lights = self.world.scene.lights.len();
-        let width = scratch.hits[0].len();
+        let width = row.len();
         let mut donors = std::mem::take(&mut scratch.donors);
-        let mut takers = std::mem::take(&mut scratch.takers);
         let mut kept = std::mem::take(&mut scratch.kept);
         kept.reset(width, lights);
         let mut exact = self.lanes();
@@ -63,56 +68,98 @@ impl<const K: usize> TwinBatch<'_, K> {
                 lanes.clear();
             }
         };
-        for group in &scratch.groups {
-            // A group none of whose other samples sees view 0's point keeps its
-            // shared descents: it is shaded as one packet.
-            let takers = |i: usize| {
-                group
-                    .iter()
-                    .enumerate()
-                    .skip(1)
-                    .any(|(v, k)| k.is_some_and(|k| self.same_point(scratch, i, v, k)))
-            };
-            match group[0] {
-                Some(i) if self.diffuse_hit(scratch, 0, i, threshold) && takers(i) => {
-                    self.push_donor(scratch, &mut donors, i);
-                    if donors.lanes.as_ref().is_some_and(Lanes::is_full) {
-                        self.shade_donor_packet(tracer, &mut donors, out);
-                        keep(&mut donors, &mut kept);
-                    }
-                }
-                _ => self.push_group(tracer, scratch, group, &mut exact, out),
+        let cut = self.world.far.is_some();
+        let background = |scratch: &RowScratch<K>, v: usize, i: usize| {
+            self.world.scene.background_toward(scratch.dirs[v][i])
+        };
+        for i in 0..width {
+            if cut && scratch.far[0][i] {
+                continue; // shaded by `shade_cut`
+            }
+            if !Self::has_hit(scratch, 0, i) {
+                out[0][i] = background(scratch, 0, i);
+                continue;
+            }
+            if !self.diffuse_hit(scratch, 0, i, threshold) {
+                let group = self.claim_group(row, scratch, i);
+                self.push_group(tracer, scratch, &group, &mut exact, out);
+                continue;
+            }
+            self.push_donor(scratch, &mut donors, i);
+            if donors.lanes.as_ref().is_some_and(Lanes::is_full) {
+                self.shade_donor_packet(tracer, &mut donors, out);
+                keep(&mut donors, &mut kept);
             }
         }
         self.shade_donor_packet(tracer, &mut donors, out);
         keep(&mut donors, &mut kept);
-        for group in &scratch.groups {
-            let Some(i) = group[0] else { continue };
-            if !kept.donor[i] {
-                continue; // shaded as a whole group in step 1
-            }
-            let coherent = kept.diffuse[i] && kept.coherent(i);
-            let mut rest: Group<K> = [None; K];
-            for (v, sample) in group.iter().enumerate().skip(1) {
-                let Some(k) = *sample else { continue };
-                if coherent && self.same_point(scratch, i, v, k) {
-                    let light = (kept.through(i), kept.secondary[i]);
-                    self.push_taker(tracer, scratch, &mut takers, (v, k), light, out);
-                    tracer.counts.paper.reprojected += 1;
-                } else {
-                    rest[v] = Some(k);
-                    tracer.counts.paper.reproject_rejected += 1;
+        for v in 1..self.views {
+            for k in 0..width {
+                if (cut && scratch.far[v][k]) || scratch.claimed[v][k] {
+                    continue; // shaded by `shade_cut`, or with view 0's sample
+                }
+                if !Self::has_hit(scratch, v, k) {
+                    out[v][k] = background(scratch, v, k);
+                    continue;
+                }
+                match self.donor_of(row, scratch, &kept, v, k) {
+                    Some(i) => {
+                        let (dir, hit) = (scratch.dirs[v][k], scratch.hits[v][k]);
+                        let (through, secondary) = (kept.through(i), kept.secondary[i]);
+                        out[v][k] =
+                            tracer.shade_taking(self.origins[v], dir, hit, through, secondary);
+                        tracer.counts.paper.reprojected += 1;
+                    }
+                    None => {
+                        let mut alone: Group<K> = [None; K];
+                        alone[v] = Some(k);
+                        self.push_group(tracer, scratch, &alone, &mut exact, out);
+                        tracer.counts.paper.reproject_rejected += 1;
+                    }
                 }
             }
-            if rest.iter().any(Option::is_some) {
-                self.push_group(tracer, scratch, &rest, &mut exact, out);
-            }
         }
-        self.shade_takers(tracer, &mut takers, out);
         self.shade_lanes(tracer, &mut exact, out);
         scratch.donors = donors;
-        scratch.takers = takers;
         scratch.kept = kept;
+    }
+
+    /// View 0's sample `i` and the sample of each other view its hit
+    /// projects to, where that sample hit something and is not claimed yet
+    /// (`group_row`'s group), those claimed.
+    fn claim_group(&self, row: &SampleRow, scratch: &mut RowScratch<K>, i: usize) -> Group<K> {
+        let mut group: Group<K> = [None; K];
+        group[0] = Some(i);
+        let Some(point) = scratch.points[0][i] else {
+            return group;
+        };
+        for (v, slot) in group.iter_mut().enumerate().take(self.views).skip(1) {
+            let Some(k) = nearest_sample(self.camera, row, &self.rig.views[v], point, i) else {
+                continue;
+            };
+            if !scratch.claimed[v][k] && scratch.points[v][k].is_some() {
+                scratch.claimed[v][k] = true;
+                *slot = Some(k);
+            }
+        }
+        group
+    }
+
+    /// The donor whose light view `v`'s sample `k` takes: the sample of
+    /// view 0 nearest to where its hit projects, if that donor's tree is
+    /// diffuse, no shadow edge passes by it, and it sees the same point.
+    fn donor_of(
+        &self,
+        row: &SampleRow,
+        scratch: &RowScratch<K>,
+        kept: &KeptShading,
+        v: usize,
+        k: usize,
+    ) -> Option<usize> {
+        let point = scratch.points[v][k]?;
+        let i = nearest_sample(self.camera, row, &self.rig.views[0], point, k)?;
+        (kept.donor[i] && kept.diffuse[i] && kept.coherent(i) && self.same_point(scratch, i, v, k))
+            .then_some(i)
     }
 
     /// Stage 4, the paper's reprojection as published (eq. 2.1), without the
