@@ -5,6 +5,7 @@ The binary: $TWINRAY_BIN, else target/release/twinray of this repository.
 """
 
 import os
+import signal
 import subprocess
 from pathlib import Path
 
@@ -13,6 +14,10 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 SCENE = str(REPO / "scenes" / "example.nff")
 BIN = os.environ.get("TWINRAY_BIN", str(REPO / "target" / "release" / "twinray"))
+
+# The Ctrl-C tests need SIGINT to arrive: a shell that starts pytest in the
+# background leaves it ignored, and every child would inherit that.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # 8 frames of a stereo orbit, side by side: one file a frame.
 FRAMES = ["--frames", "0..7", "--orbit", "360", "--stereo", "--layout", "sbs", "--size", "48x36"]

@@ -5,7 +5,7 @@ for bit; a worker killed mid-run still leaves every frame written and
 nothing partial; a re-run renders nothing; a frame or tile is reused only if
 the same job made it; an error twinray reports is not retried, a twinray
 killed by a signal is; progress advances frame by frame while a task is
-still rendering.
+still rendering; panoramas (ODS, VR180) as flat views.
 """
 
 import json
@@ -61,6 +61,23 @@ def test_tiles_merge_into_the_binarys_whole_image(tmp_path):
     twinray("render", SCENE, "-o", str(tmp_path / "whole.png"), "-q", *flags)
     assert (tmp_path / "big.png").read_bytes() == (tmp_path / "whole.png").read_bytes()
     assert len([n for n in images(tmp_path) if "_tile" in n]) == 4
+
+
+@pytest.mark.parametrize("projection", [
+    # tiles are bands of rows, which a top-bottom layout is not
+    ["--projection", "ods", "--layout", "sbs", "--size", "64x32"],
+    ["--projection", "vr180-fisheye", "--layout", "sbs", "--size", "48x48"],
+])
+def test_panorama_frames_and_tiles_equal_the_binarys_own_renders(tmp_path, projection):
+    flags = [*projection, "--stereo", "--samples", "4", "--from", "0,-2.2,1", "--at", "0,0,0.8"]
+    assert ray_render("-o", str(tmp_path / "big.png"), "--tiles", "4", *flags) == 0
+    twinray("render", SCENE, "-o", str(tmp_path / "whole.png"), "-q", *flags)
+    assert (tmp_path / "big.png").read_bytes() == (tmp_path / "whole.png").read_bytes()
+    out = tmp_path / "frames"
+    out.mkdir()
+    turn = ["--frames", "0..3", "--orbit", "90", *flags]
+    assert ray_render("-o", str(out / "f_####.png"), "--chunk", "2", *turn) == 0
+    same_images(out, direct_frames(tmp_path / "direct", *turn))
 
 
 def test_the_output_folder_is_created(tmp_path):
