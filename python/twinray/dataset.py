@@ -34,10 +34,12 @@ written last; a run that is stopped resumes where it stopped. With
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -450,7 +452,20 @@ def generate(out, pairs: int, seed: int, opts: Optional[Options] = None, progres
 
     out, opts = Path(out), opts or Options()
     remove_temporaries(out)
-    entries = [make_sample(out, seed, i, opts) for i in tqdm(range(pairs), unit="pair", disable=not progress)]
+    # A render keeps the cores busy only part of the time (the scene, the
+    # depth pass and the files are one thread's work), so without --threads
+    # each core makes its own samples, one render thread each (the render
+    # releases the GIL; a sample's bytes do not depend on its threads).
+    workers = 1 if opts.threads else max(1, min(os.cpu_count() or 1, pairs))
+    each = opts if workers == 1 else dataclasses.replace(opts, threads=1)
+    pool = ThreadPoolExecutor(workers)
+    try:
+        futures = [pool.submit(make_sample, out, seed, i, each) for i in range(pairs)]
+        entries = [f.result() for f in tqdm(as_completed(futures), total=pairs, unit="pair", disable=not progress)]
+    finally:
+        # Ctrl-C or an error: the samples not started are dropped, the ones
+        # under way finish (a rerun resumes after them).
+        pool.shutdown(cancel_futures=True)
     return write_manifest(out, seed, entries, opts)
 
 
@@ -467,8 +482,6 @@ def generate_on_ray(out, pairs: int, seed: int, opts: Optional[Options] = None, 
 
     @ray.remote
     def share(first: int, last: int) -> List[Dict]:
-        import dataclasses
-
         o = dataclasses.replace(opts, threads=opts.threads or max(1, int(cpus_per_task)))
         return [make_sample(out, seed, i, o) for i in range(first, last)]
 
