@@ -527,7 +527,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--assets", help="a folder of glTF, OBJ, STL or PLY models placed among the shapes")
     p.add_argument("--asset-rate", type=float, default=0.3,
                    help="share of objects drawn from --assets (default 0.3)")
-    p.add_argument("--threads", type=int, help="worker threads per sample (default: all cores)")
+    p.add_argument("--threads", type=int, help="render threads per sample, one sample at a time (default: one sample per core, one thread each)")
     p.add_argument("--address", help="Ray cluster ('auto': the one this machine joined)")
     p.add_argument("--cpus-per-task", type=float, default=1, help="CPUs a Ray task reserves")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
