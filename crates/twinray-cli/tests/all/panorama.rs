@@ -10,6 +10,8 @@ use std::process::{Command, Output};
 use serde_json::Value;
 use tempfile::TempDir;
 
+use crate::video::probe;
+
 fn example() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.nff")
 }
@@ -45,26 +47,6 @@ fn size_of(path: &Path) -> (u32, u32) {
     let img = twinray::output::encode::read_image(path)
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     (img.width, img.height)
-}
-
-/// Whether `tool` runs; under CI its absence fails.
-fn present(tool: &str) -> bool {
-    let runs = Command::new(tool)
-        .arg(if tool == "exiftool" {
-            "-ver"
-        } else {
-            "-version"
-        })
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !runs {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "{tool} missing under CI: .ci/run installs it"
-        );
-        eprintln!("notice: {tool} not found: its check skipped");
-    }
-    runs
 }
 
 const INSIDE: [&str; 4] = ["--from", "0,-2.2,1.0", "--at", "0,0,0.8"];
@@ -235,10 +217,11 @@ fn the_job_spec_carries_the_projection_and_the_report_gives_the_angles() {
 }
 
 #[test]
+#[cfg_attr(
+    missing_exiftool,
+    ignore = "needs exiftool on PATH (apt-get install libimage-exiftool-perl)"
+)]
 fn jpeg_panoramas_carry_gpano_and_the_vr180_right_eye() {
-    if !present("exiftool") {
-        return;
-    }
     let dir = TempDir::new().unwrap();
     let scene = example();
     let out = dir.path().join("vr.jpg");
@@ -310,26 +293,12 @@ fn jpeg_panoramas_carry_gpano_and_the_vr180_right_eye() {
     assert_eq!(v[0]["CroppedAreaImageHeightPixels"], 32);
 }
 
-/// What ffprobe says of the video stream, side data included.
-fn probe(path: &Path) -> String {
-    let out = Command::new("ffprobe")
-        .args(["-v", "error", "-select_streams", "v:0", "-show_streams"])
-        .arg(path)
-        .output()
-        .expect("ffprobe runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
 #[test]
+#[cfg_attr(
+    missing_ffmpeg,
+    ignore = "needs ffmpeg and ffprobe on PATH (apt-get install ffmpeg)"
+)]
 fn panorama_videos_carry_spherical_and_stereo_side_data() {
-    if !present("ffmpeg") || !present("ffprobe") {
-        return;
-    }
     let dir = TempDir::new().unwrap();
     let scene = example();
     // ffprobe names a cropped equirectangular panorama "tiled", and gives

@@ -39,8 +39,9 @@ fn render_video(out: &Path, flags: &[&str]) {
     );
 }
 
-/// What ffprobe says of the video stream: `key=value` lines.
-fn probe(path: &Path) -> String {
+/// What ffprobe says of the video stream, side data included: `key=value`
+/// lines.
+pub(crate) fn probe(path: &Path) -> String {
     let out = Command::new("ffprobe")
         .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
         .args(["-show_streams", "-show_format"])
