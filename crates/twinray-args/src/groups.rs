@@ -295,10 +295,10 @@ pub struct SpeedArgs {
     /// The one approximate method. Where every row of samples lies in one
     /// plane (--samples 1, --spd) the views' hits of a row are found from
     /// the primitives that cross its plane, and a diffuse surface's colour
-    /// is shaded once for the views that see it; elsewhere the views share
-    /// a shading cache, with merged secondary rays and a cut of the object
-    /// tree at half a pixel of disparity. Mirrors, glass, highlights and
-    /// shadow edges are traced exactly. See docs/stereo.md for the bound.
+    /// is shaded once for the views that see it; elsewhere more than two
+    /// views share a shading cache of surface points' light (a pair is the
+    /// exact pair). Mirrors, glass, highlights and shadow edges are traced
+    /// by every view. See docs/stereo.md for the bound.
     #[arg(long)]
     pub fast: bool,
     /// Error --fast may add per colour channel, in image values (default 0.01).

@@ -17,7 +17,7 @@ use super::spec::CutSpec;
 use super::stages::Message;
 use super::stages::{Job, Loaded, Plan};
 use super::tiles;
-use crate::render::{fast_stages, SceneTraits, ViewMethod, ViewStorage};
+use crate::render::{ViewMethod, ViewStorage};
 use crate::rig::camera_overrides as view;
 use crate::rig::choice::{self as rig_choice, RigFlags, RigRequest};
 use crate::rig::framing;
@@ -90,7 +90,7 @@ impl Job {
         let files = self
             .targets(&rig.rig, rig.interaxial)
             .plan(written, &inputs)?;
-        let cut = self.cut(&camera, &rig.rig, &whole)?;
+        let cut = self.cut(&camera, &rig.rig)?;
         let world = match cut {
             None => whole,
             Some(_) => self.world_for(loaded, cut, &mut build_seconds),
@@ -293,21 +293,11 @@ impl Job {
     }
 
     /// Where to cut the object tree: where the twin method's spec asks (the
-    /// parallax bound depends on the rig), or where the fast method's
-    /// stages cut it (`render::fast_stages`, on the whole hierarchy's
-    /// facts); none otherwise.
-    fn cut(&self, camera: &Camera, rig: &Rig, whole: &World) -> Result<Option<Cut>> {
+    /// parallax bound depends on the rig); none otherwise.
+    fn cut(&self, camera: &Camera, rig: &Rig) -> Result<Option<Cut>> {
         let asked = match self.options.method {
-            ViewMethod::Fast { tolerance } => {
-                let traits = SceneTraits {
-                    alpha: whole.has_alpha,
-                    instances: whole.instances.is_some(),
-                };
-                let stages = fast_stages(tolerance, self.options.sampling, self.views, traits);
-                stages.cut_parallax.map(CutSpec::Parallax)
-            }
             ViewMethod::Twin { .. } => self.cut,
-            ViewMethod::Independent => None,
+            ViewMethod::Fast { .. } | ViewMethod::Independent => None,
         };
         let depth = match asked {
             Some(CutSpec::Distance(d)) => f64::from(d),

@@ -48,7 +48,7 @@ pub use driver::{
     TILE_ROW_ALIGNMENT,
 };
 pub use fast::counts::{CacheCounts, EpipolarCounts, FastCounts};
-pub use fast::{stages as fast_stages, FastStages, SceneTraits, CUT_PARALLAX as FAST_CUT_PARALLAX};
+pub use fast::{stages as fast_stages, FastStages, SceneTraits};
 pub use options::{
     PaperTechniques, RenderOptions, ReprojectMode, Reprojection, TraceSettings, ViewMethod,
     DEFAULT_VIEWS_PER_BATCH, MAX_DEPTH, MAX_LANES, MAX_VIEWS,

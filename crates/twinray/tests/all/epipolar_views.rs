@@ -27,9 +27,7 @@ fn epipolar(tolerance: f32, sampling: Sampling) -> RenderOptions {
     RenderOptions {
         fast_stages: Some(FastStages {
             epipolar_rows: true,
-            cut_parallax: None,
             shared_cache: false,
-            merge_secondary: false,
             tolerance,
         }),
         ..options(ViewMethod::Fast { tolerance }, sampling)

@@ -7,7 +7,7 @@ use crate::common;
 use std::sync::Arc;
 
 use twinray::job::{CancelToken, CutSpec, Job, JobSpec, Level, MethodName};
-use twinray::render::{ReprojectMode, Sampling, ViewMethod};
+use twinray::render::{ReprojectMode, ViewMethod};
 
 fn pair(interaxial: &str) -> JobSpec {
     let mut spec = JobSpec::new(common::scene_path("example.nff"), "unused.png");
@@ -216,12 +216,11 @@ fn the_fast_method_is_one_choice_and_options_of_others_are_refused() {
     }
 }
 
-/// The fast method cuts the object tree only where its epipolar rows cannot
-/// take the views (they need the whole tree): not with one sample a pixel,
-/// at its half pixel of disparity with the adaptive sampling; the twin
-/// method cuts it where asked.
+/// The twin method cuts the object tree where asked; the fast method never
+/// does (its images are checked against the whole tree's), under any
+/// sampling.
 #[test]
-fn fast_does_not_cut_the_tree_the_epipolar_rows_need() {
+fn only_the_twin_method_cuts_the_tree() {
     let cut = |edit: &dyn Fn(&mut JobSpec)| {
         let mut spec = pair("0.1");
         edit(&mut spec);
@@ -232,48 +231,9 @@ fn fast_does_not_cut_the_tree_the_epipolar_rows_need() {
     assert!(cut(&|s| s.method.cut = Some(CutSpec::Parallax(0.5))).is_some());
     assert!(cut(&|_| {}).is_none());
     assert!(cut(&|s| s.method.name = MethodName::Fast).is_none());
-    let adaptive = cut(&|s| {
+    assert!(cut(&|s| {
         s.method.name = MethodName::Fast;
         s.sampling.samples = None;
-    });
-    assert!(adaptive.is_some());
-    assert!(twinray::render::fast_stages(
-        0.01,
-        Sampling::Adaptive {
-            threshold: Sampling::DEFAULT_THRESHOLD,
-            max_samples: 16
-        },
-        2,
-        Default::default()
-    )
-    .cut_parallax
-    .is_some());
-}
-
-/// Where the epipolar rows cannot take the views (a material whose alpha
-/// matters), `--fast` cuts the object tree as it always did; the same quad
-/// opaque is not cut.
-#[test]
-fn fast_cuts_the_tree_where_the_epipolar_rows_do_not_apply() {
-    let dir = tempfile::tempdir().unwrap();
-    let cut = |alpha: &str| {
-        let material = serde_json::json!({
-            "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 0.5]},
-            "alphaMode": alpha
-        });
-        let sub = dir.path().join(alpha);
-        std::fs::create_dir_all(&sub).unwrap();
-        let mut spec = JobSpec::new(common::gltf_quad(&sub, material, &[]), "unused.png");
-        spec.camera.size = Some([40, 30]);
-        spec.rig.stereo = true;
-        spec.rig.interaxial = Some("0.1".into());
-        spec.sampling.samples = Some(1);
-        spec.method.name = MethodName::Fast;
-        let job = Job::check(spec).unwrap();
-        let loaded = job.load().unwrap();
-        assert_eq!(loaded.scene.has_alpha(), alpha != "OPAQUE", "{alpha}");
-        job.plan(&loaded).unwrap().cut
-    };
-    assert!(cut("BLEND").is_some());
-    assert!(cut("OPAQUE").is_none());
+    })
+    .is_none());
 }

@@ -13,6 +13,7 @@ mod environment;
 mod epipolar_views;
 mod exactness;
 mod eye_traversal;
+mod fast_budget;
 mod formats;
 mod framing;
 mod fuzz;

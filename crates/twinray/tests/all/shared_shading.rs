@@ -83,9 +83,7 @@ fn shared(tolerance: f32) -> RenderOptions {
     RenderOptions {
         fast_stages: Some(FastStages {
             epipolar_rows: false,
-            cut_parallax: None,
             shared_cache: true,
-            merge_secondary: false,
             tolerance,
         }),
         ..options(ViewMethod::Fast { tolerance }, Sampling::Centers)

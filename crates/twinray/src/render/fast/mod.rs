@@ -12,8 +12,9 @@
 //! 2. **Batches of views sharing a shading cache** (`shared_shading`,
 //!    `shading_cache`) elsewhere: the twin method's batches, whose samples
 //!    take a surface point's light (or its whole colour) from the views
-//!    that shaded it first, with the paper's merged secondary rays and its
-//!    cut of the object tree at half a pixel of disparity ([`CUT_PARALLAX`]).
+//!    that shaded it first. (The paper's merged secondary rays took mirror
+//!    pixels off by up to 0.6 under adaptive sampling, and its cut of the
+//!    object tree did not pay: neither is a stage.)
 //!
 //! In both, mirrors, glass and highlights above the tolerance, and samples
 //! next to a shadow edge, are shaded exactly. What the tolerance bounds is
@@ -27,23 +28,14 @@ pub(super) mod shared_shading;
 
 use super::sampler::Sampling;
 
-/// The cut of the object tree the batches take: objects whose disparity
-/// is off by at most half a pixel are seen as from the rig's centre.
-pub const CUT_PARALLAX: f64 = 0.5;
-
 /// What the fast method does for one render.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FastStages {
     /// The rows of samples found from their planes (stage 1).
     pub epipolar_rows: bool,
-    /// The cut of the object tree, in pixels of disparity, for the batches
-    /// (stage 2; the epipolar rows need the whole tree).
-    pub cut_parallax: Option<f64>,
     /// The batches share the shading cache (stage 2, and the rows the
     /// epipolar pass does not take).
     pub shared_cache: bool,
-    /// The batches merge secondary rays.
-    pub merge_secondary: bool,
     /// The error each stage may add per channel, in image values.
     pub tolerance: f32,
 }
@@ -59,17 +51,17 @@ pub struct SceneTraits {
 
 /// The stages of the fast method within `tolerance` for `views` views
 /// sampled as `sampling`, of a scene with `traits`: the epipolar rows where
-/// the rows lie in planes and the scene allows them, the batches with a cut
-/// elsewhere. The plan (for the cut) and the render (for the rows) ask the
-/// same question and get the same answer.
+/// the rows lie in planes and the scene allows them, elsewhere the batches,
+/// sharing the cache where there are more than two views.
 pub fn stages(tolerance: f32, sampling: Sampling, views: usize, traits: SceneTraits) -> FastStages {
     let planar_rows = matches!(sampling, Sampling::Centers | Sampling::Corners);
     let epipolar_rows = planar_rows && views >= 2 && !traits.alpha && !traits.instances;
     FastStages {
         epipolar_rows,
-        cut_parallax: (!epipolar_rows).then_some(CUT_PARALLAX),
-        shared_cache: true,
-        merge_secondary: true,
+        // A pair's batches gain nothing from the cache: they group the two
+        // views' samples of a point into one packet, whose shadow rays go
+        // down together (docs/benchmarks.md).
+        shared_cache: epipolar_rows || views > 2,
         tolerance,
     }
 }
@@ -80,8 +72,8 @@ mod tests {
     use crate::render::Filter;
 
     /// The epipolar rows where the rows are planar and the scene allows
-    /// them, with no cut; the cut batches for every other sampling, for
-    /// cut-outs and for instances.
+    /// them; the batches for every other sampling, for cut-outs and for
+    /// instances, sharing the cache for more than two views.
     #[test]
     fn the_stages_follow_the_sampling_and_the_scene() {
         let plain = SceneTraits::default();
@@ -96,7 +88,7 @@ mod tests {
         };
         for sampling in [Sampling::Centers, Sampling::Corners] {
             let s = stages(0.01, sampling, 2, plain);
-            assert!(s.epipolar_rows && s.cut_parallax.is_none(), "{sampling:?}");
+            assert!(s.epipolar_rows && s.shared_cache, "{sampling:?}");
             for traits in [
                 SceneTraits {
                     alpha: true,
@@ -108,14 +100,19 @@ mod tests {
                 },
             ] {
                 let s = stages(0.01, sampling, 2, traits);
-                assert!(!s.epipolar_rows, "{sampling:?} {traits:?}");
-                assert_eq!(s.cut_parallax, Some(CUT_PARALLAX));
+                assert!(
+                    !s.epipolar_rows && !s.shared_cache,
+                    "{sampling:?} {traits:?}"
+                );
+                assert!(stages(0.01, sampling, 3, traits).shared_cache);
             }
         }
         for sampling in [adaptive, stratified] {
             let s = stages(0.02, sampling, 8, plain);
             assert!(!s.epipolar_rows, "{sampling:?}");
-            assert_eq!((s.cut_parallax, s.tolerance), (Some(CUT_PARALLAX), 0.02));
+            assert_eq!((s.shared_cache, s.tolerance), (true, 0.02));
+            let pair = stages(0.02, sampling, 2, plain);
+            assert!(!pair.shared_cache, "a pair: the exact batches");
         }
     }
 }

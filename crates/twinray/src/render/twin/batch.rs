@@ -73,7 +73,7 @@ impl Shading {
     }
 
     /// The fast method's batches: the shading cache within the tolerance,
-    /// and merged secondary rays, as its stages say.
+    /// as its stages say; every view traces its own secondary rays.
     pub(in crate::render) fn of_fast(stages: &FastStages) -> Shading {
         Shading {
             sharing: match stages.shared_cache {
@@ -82,10 +82,7 @@ impl Shading {
                 },
                 false => Sharing::Exact,
             },
-            secondary: match stages.merge_secondary {
-                true => SecondaryRays::MergedOnPlanes,
-                false => SecondaryRays::Own,
-            },
+            secondary: SecondaryRays::Own,
         }
     }
 }
