@@ -7,7 +7,7 @@ time beside the wall time.
     pip install ./python && python3 bench/dataset.py [--pairs 10] [--runs 3] [--samples N]
 
 On a 2-core AMD EPYC VM shared with other work, `--pairs 8 --runs 2`:
-0.65 pairs/s, 1.49 s of CPU a pair (`--samples 4`: 0.32 pairs/s, 3.12 s).
+0.88 pairs/s, 1.46 s of CPU a pair (`--samples 4`: 0.30 pairs/s, 3.22 s).
 """
 
 import argparse

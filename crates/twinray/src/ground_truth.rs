@@ -35,7 +35,7 @@
 use rayon::prelude::*;
 
 use crate::bvh::{
-    AnyHit, AnyHitTest, NearestTest, Packet, SegmentPacket, TraversalStats, EYE_PACKET,
+    AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats, EYE_PACKET,
 };
 use crate::math::{reflect, refract, Ray};
 use crate::rig::depth_pass::{nearest_hit, nearest_surface};
@@ -205,7 +205,7 @@ impl Run {
         max_depth: u32,
         stats: &mut TraversalStats,
     ) -> Vec<Pixel> {
-        let (here, world) = (self.here, probe.world);
+        let here = self.here;
         let origin = camera.eye_at(here.offset);
         let rays: [Ray; RUN] = std::array::from_fn(|l| {
             let x = self.x + l.min(self.count - 1) as u32;
@@ -222,7 +222,7 @@ impl Run {
             let cosine = ray.dir.dot(camera.forward);
             let depth = first.map_or(f32::INFINITY, |(_, hit)| hit.t * cosine);
             let layer2_depth = match first {
-                Some((prim, hit)) => second_layer(world, ray, prim, hit, max_depth, stats)
+                Some((prim, hit)) => second_layer(probe, ray, prim, hit, max_depth, stats)
                     .map_or(f32::NAN, |length| length * cosine),
                 None => f32::NAN,
             };
@@ -340,9 +340,36 @@ impl<'a> Probe<'a> {
         }
         std::array::from_fn(|l| {
             (l < count)
-                .then(|| nearest_surface(self.world, &rays[l], self.hither, stats))
+                .then(|| self.nearest_one(&rays[l], self.hither, stats))
                 .flatten()
         })
+    }
+
+    /// The primitive and hit `ray` shows beyond `t_min` (the depth pass's
+    /// `nearest_surface`).
+    fn nearest_one(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        stats: &mut TraversalStats,
+    ) -> Option<(u32, SurfaceHit)> {
+        if !self.together {
+            return nearest_surface(self.world, ray, t_min, stats);
+        }
+        let packet = Packet::<1> {
+            origins: [ray.origin],
+            dirs: [ray.dir],
+            t_min,
+            t_max: [f32::INFINITY],
+            mask: 1,
+        };
+        let test = EyeTest {
+            shapes: &self.world.scene.shapes,
+            packet: &packet,
+            eight: None,
+        };
+        let (prim, hit) = self.world.bvh.closest_ray(&packet, stats, test);
+        (prim != PacketHits::<1>::NO_HIT).then_some((prim, hit))
     }
 
     /// The lanes of `tests` whose segment, from beyond the hither distance
@@ -372,23 +399,23 @@ impl<'a> Probe<'a> {
     }
 }
 
-/// The eye rays' primitive tests (the renderer's: triangles as blocks,
-/// spheres and cones eight rays at once).
-struct EyeTest<'a> {
+/// The nearest-hit searches' primitive tests (the renderer's: triangles as
+/// blocks, spheres and cones up to eight rays at once).
+struct EyeTest<'a, const K: usize> {
     shapes: &'a [Shape],
-    packet: &'a Packet<RUN>,
+    packet: &'a Packet<K>,
     /// The packet as eight rays, made at the first `test_lanes`.
     eight: Option<EightRays>,
 }
 
-impl EyeTest<'_> {
+impl<const K: usize> EyeTest<'_, K> {
     #[inline(always)]
     fn ray(&self, lane: usize) -> Ray {
         Ray::new(self.packet.origins[lane], self.packet.dirs[lane])
     }
 }
 
-impl NearestTest for EyeTest<'_> {
+impl<const K: usize> NearestTest for EyeTest<'_, K> {
     #[inline(always)]
     fn test(&mut self, prim: u32, lane: usize, t_max: f32) -> Option<SurfaceHit> {
         self.shapes[prim as usize].intersect(&self.ray(lane), self.packet.t_min, t_max)
@@ -397,12 +424,12 @@ impl NearestTest for EyeTest<'_> {
     #[inline(always)]
     fn test_lanes(&mut self, prim: u32, _lanes: u32, t_max: f32x8) -> Option<EightHits> {
         let shape = &self.shapes[prim as usize];
-        if matches!(shape, Shape::Triangle(_)) {
+        if K > 8 || matches!(shape, Shape::Triangle(_)) {
             return None;
         }
         let packet = self.packet;
         let rays = *self.eight.get_or_insert_with(|| {
-            EightRays::of_packet(RUN, |l| Ray::new(packet.origins[l], packet.dirs[l]))
+            EightRays::of_packet(K, |l| Ray::new(packet.origins[l], packet.dirs[l]))
         });
         shape.intersect8(&rays, self.packet.t_min, t_max)
     }
@@ -480,13 +507,14 @@ impl AnyHitTest for SegmentTest<'_> {
 /// surface that is neither (or into the background: infinity); `None` where
 /// the first surface is not a mirror or glass.
 fn second_layer(
-    world: &World,
+    probe: &Probe,
     eye_ray: &Ray,
     prim: u32,
     hit: SurfaceHit,
     max_depth: u32,
     stats: &mut TraversalStats,
 ) -> Option<f32> {
+    let world = probe.world;
     let specular = |prim: u32| {
         let m = world.material_of(prim);
         m.mirror >= SPECULAR || m.t >= SPECULAR
@@ -502,7 +530,7 @@ fn second_layer(
             break;
         }
         ray = next_ray(world, prim, &ray, &hit);
-        match nearest_surface(world, &ray, 0.0, stats) {
+        match probe.nearest_one(&ray, 0.0, stats) {
             None => return Some(f32::INFINITY),
             Some((p, h)) => {
                 length += h.t;
