@@ -20,6 +20,8 @@ from twinray import dataset
 from twinray.dataset import Options, generate, read_pfm, write_pfm
 
 SMALL = Options(size=(64, 40), samples=1, objects=(3, 6), mirror_rate=0.2, glass_rate=0.2)
+# The generator's own anti-aliasing: adaptive sampling.
+ADAPTIVE = dataclasses.replace(SMALL, samples=None)
 
 
 def tree(root: Path) -> dict:
@@ -62,14 +64,32 @@ def test_twenty_samples_read_back_with_their_labels(tmp_path):
 
 
 def test_the_same_seed_gives_the_same_bytes(tmp_path):
-    generate(tmp_path / "a", 3, seed=11, opts=SMALL)
+    generate(tmp_path / "a", 3, seed=11, opts=ADAPTIVE)
     # one sample at a time on two render threads, as --threads 2 makes them
-    generate(tmp_path / "b", 3, seed=11, opts=dataclasses.replace(SMALL, threads=2))
-    generate(tmp_path / "c", 3, seed=12, opts=SMALL)
+    generate(tmp_path / "b", 3, seed=11, opts=dataclasses.replace(ADAPTIVE, threads=2))
+    generate(tmp_path / "c", 3, seed=12, opts=ADAPTIVE)
     a, b, c = (tree(tmp_path / x) for x in "abc")
     assert a == b
     frames = [k for k in a if k.startswith("frames_cleanpass/")]
     assert len(frames) == 6 and all(a[k] != c[k] for k in frames)
+
+
+def test_without_samples_the_views_are_sampled_adaptively(tmp_path):
+    assert Options().samples is None
+    out = tmp_path / "default"
+    assert dataset.main(["--out", str(out), "--pairs", "1", "--size", "48x32", "-q"]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    options = manifest["options"]
+    assert (options["samples"], options["adaptive"], options["max_samples"]) == (None, 0.125, 4)
+    sampling = manifest["samples"][0]["spec"]["sampling"]
+    assert (sampling["samples"], sampling["adaptive"], sampling["max_samples"]) == (None, 0.125, 4)
+    # --samples N is the user's: flat sampling, in the spec too.
+    flat = tmp_path / "flat"
+    assert dataset.main(["--out", str(flat), "--pairs", "1", "--size", "48x32", "--samples", "2", "-q"]) == 0
+    sampling = json.loads((flat / "manifest.json").read_text())["samples"][0]["spec"]["sampling"]
+    assert sampling["samples"] == 2 and sampling["max_samples"] is None
+    a = (out / "frames_cleanpass" / "left" / "0000000.png").read_bytes()
+    assert a != (flat / "frames_cleanpass" / "left" / "0000000.png").read_bytes()
 
 
 def test_a_killed_run_resumes_to_the_same_bytes(tmp_path):
