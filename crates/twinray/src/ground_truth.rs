@@ -35,15 +35,15 @@
 use rayon::prelude::*;
 
 use crate::bvh::{
-    AnyHit, AnyHitTest, NearestTest, Packet, PacketHits, SegmentPacket, TraversalStats, EYE_PACKET,
+    AnyHit, AnyHitTest, Packet, PacketHits, SegmentPacket, TraversalStats, EYE_PACKET,
 };
 use crate::math::{reflect, refract, Ray};
+use crate::render::NearestShape;
 use crate::rig::depth_pass::{nearest_hit, nearest_surface};
 use crate::rig::{pair_disparity, Camera, Rig, View};
 use crate::shading::offset_point;
-use crate::shapes::{BlockHits, EightHits, EightRays, Shape, SurfaceHit, Triangle4};
+use crate::shapes::{Shape, SurfaceHit, Triangle4};
 use crate::world::World;
-use wide::f32x8;
 
 /// Relative distance short of the point by which the neighbour's ray must
 /// meet another surface for the point to count as hidden: the rounding of a
@@ -326,11 +326,7 @@ impl<'a> Probe<'a> {
                 t_max: [f32::INFINITY; RUN],
                 mask: (1u32 << count) - 1,
             };
-            let test = EyeTest {
-                shapes: &self.world.scene.shapes,
-                packet: &packet,
-                eight: None,
-            };
+            let test = NearestShape::new(&self.world.scene.shapes, &packet);
             // `None`: the rays' direction signs differ; each goes alone.
             if let Some(hits) = self.world.bvh.closest_packet8(&packet, stats, test) {
                 return std::array::from_fn(|l| {
@@ -363,11 +359,7 @@ impl<'a> Probe<'a> {
             t_max: [f32::INFINITY],
             mask: 1,
         };
-        let test = EyeTest {
-            shapes: &self.world.scene.shapes,
-            packet: &packet,
-            eight: None,
-        };
+        let test = NearestShape::new(&self.world.scene.shapes, &packet);
         let (prim, hit) = self.world.bvh.closest_ray(&packet, stats, test);
         (prim != PacketHits::<1>::NO_HIT).then_some((prim, hit))
     }
@@ -396,63 +388,6 @@ impl<'a> Probe<'a> {
         };
         self.world.bvh.occlusion(&entered, stats, &mut test);
         test.met
-    }
-}
-
-/// The nearest-hit searches' primitive tests (the renderer's: triangles as
-/// blocks, spheres and cones up to eight rays at once).
-struct EyeTest<'a, const K: usize> {
-    shapes: &'a [Shape],
-    packet: &'a Packet<K>,
-    /// The packet as eight rays, made at the first `test_lanes`.
-    eight: Option<EightRays>,
-}
-
-impl<const K: usize> EyeTest<'_, K> {
-    #[inline(always)]
-    fn ray(&self, lane: usize) -> Ray {
-        Ray::new(self.packet.origins[lane], self.packet.dirs[lane])
-    }
-}
-
-impl<const K: usize> NearestTest for EyeTest<'_, K> {
-    #[inline(always)]
-    fn test(&mut self, prim: u32, lane: usize, t_max: f32) -> Option<SurfaceHit> {
-        self.shapes[prim as usize].intersect(&self.ray(lane), self.packet.t_min, t_max)
-    }
-
-    #[inline(always)]
-    fn test_lanes(&mut self, prim: u32, _lanes: u32, t_max: f32x8) -> Option<EightHits> {
-        let shape = &self.shapes[prim as usize];
-        if K > 8 || matches!(shape, Shape::Triangle(_)) {
-            return None;
-        }
-        let packet = self.packet;
-        let rays = *self.eight.get_or_insert_with(|| {
-            EightRays::of_packet(K, |l| Ray::new(packet.origins[l], packet.dirs[l]))
-        });
-        shape.intersect8(&rays, self.packet.t_min, t_max)
-    }
-
-    #[inline(always)]
-    fn test_block(&mut self, block: &Triangle4, lane: usize, t_max: f32) -> Option<BlockHits> {
-        Some(block.intersect(&self.ray(lane), self.packet.t_min, t_max))
-    }
-
-    #[inline(always)]
-    fn test_two_blocks(
-        &mut self,
-        blocks: &[Triangle4; 2],
-        lane: usize,
-        t_max: f32,
-    ) -> Option<[BlockHits; 2]> {
-        let ray = self.ray(lane);
-        Some(Triangle4::intersect_two(
-            blocks,
-            &ray,
-            self.packet.t_min,
-            t_max,
-        ))
     }
 }
 

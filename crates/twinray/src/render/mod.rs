@@ -55,6 +55,7 @@ pub use options::{
 };
 pub use panorama::MAX_PANORAMA_VIEWS;
 pub use sampler::{Filter, SampleRow, Sampling};
+pub(crate) use tracer::NearestShape;
 pub use tracer::Tracer;
 pub use twin::counts::PaperCounts;
 

@@ -1087,15 +1087,24 @@ impl<'a> Tracer<'a> {
     }
 }
 
-/// A packet's rays against the scene's shapes.
-struct NearestShape<'a, const K: usize> {
+/// A packet's rays against the scene's shapes (also the ground truth's
+/// nearest-hit searches).
+pub(crate) struct NearestShape<'a, const K: usize> {
     shapes: &'a [Shape],
     packet: &'a Packet<K>,
     /// The packet as eight rays, made at the first `test_lanes`.
     eight: Option<EightRays>,
 }
 
-impl<const K: usize> NearestShape<'_, K> {
+impl<'a, const K: usize> NearestShape<'a, K> {
+    pub(crate) fn new(shapes: &'a [Shape], packet: &'a Packet<K>) -> NearestShape<'a, K> {
+        NearestShape {
+            shapes,
+            packet,
+            eight: None,
+        }
+    }
+
     #[inline(always)]
     fn ray(&self, lane: usize) -> Ray {
         Ray::new(self.packet.origins[lane], self.packet.dirs[lane])
