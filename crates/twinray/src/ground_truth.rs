@@ -495,13 +495,7 @@ fn next_ray(world: &World, prim: u32, ray: &Ray, hit: &SurfaceHit) -> Ray {
     let off = if unbent.dot(d) < 0.0 { unbent } else { -unbent };
     if material.t > 0.0 {
         let entering = scene.shapes[prim as usize].geometric_normal(point).dot(d) < 0.0;
-        let ior = if material.ior > 0.0 {
-            material.ior
-        } else {
-            1.0
-        };
-        let eta = if entering { 1.0 / ior } else { ior };
-        if let Some(dir) = refract(d, facing, eta) {
+        if let Some(dir) = refract(d, facing, material.eta(entering)) {
             return Ray::new(offset_point(point, -off, hit.t), dir);
         }
     }
@@ -511,14 +505,6 @@ fn next_ray(world: &World, prim: u32, ray: &Ray, hit: &SurfaceHit) -> Ray {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::loaders::nff::parse_nff;
-    use crate::loaders::LoadOptions;
-
-    fn world(text: &str) -> World {
-        let scene = parse_nff(text, std::path::Path::new("t.nff"), &LoadOptions::default())
-            .expect("test scene");
-        World::new(scene)
-    }
 
     /// Triangles, spheres and cones strewn between the camera and a wall
     /// (mirrors and glass among them), and a sphere just past the hither
@@ -624,7 +610,7 @@ mod tests {
 
     #[test]
     fn runs_of_pixels_give_the_truth_of_one_ray_at_a_time() {
-        let world = world(&clutter());
+        let world = World::from_nff_text(&clutter());
         let camera = Camera::new(&world.scene.viewpoint, 64, 40);
         for (views, interaxial, convergence) in
             [(2, 0.7, None), (2, 0.4, Some(6.0)), (3, 0.5, Some(9.0))]
@@ -632,7 +618,7 @@ mod tests {
             let rig = Rig::multi_view(&camera, views, interaxial, convergence).expect("rig");
             same_as_one_ray_at_a_time(&world, &camera, &rig);
         }
-        let example = self::world(include_str!("../../../scenes/example.nff"));
+        let example = World::from_nff_text(include_str!("../../../scenes/example.nff"));
         let camera = Camera::new(&example.scene.viewpoint, 80, 60);
         let rig = Rig::stereo(&camera, 0.3, Some(7.0)).expect("rig");
         same_as_one_ray_at_a_time(&example, &camera, &rig);

@@ -57,6 +57,17 @@ pub struct Material {
 }
 
 impl Material {
+    /// The ratio of refractive indices a ray crosses the surface with: into
+    /// the material when `entering`, out of it otherwise (an `ior` of 0 is 1).
+    pub fn eta(&self, entering: bool) -> f32 {
+        let ior = if self.ior > 0.0 { self.ior } else { 1.0 };
+        if entering {
+            1.0 / ior
+        } else {
+            ior
+        }
+    }
+
     /// The material with every value in the range the shading model is defined
     /// for, and what was changed (for a warning): `kd`, `ks`, `t`, `mirror`,
     /// `alpha` and the colour and highlight colour components in 0..=1,

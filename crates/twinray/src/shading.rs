@@ -328,12 +328,6 @@ mod tests {
     use crate::loaders::nff::parse_nff;
     use crate::loaders::LoadOptions;
 
-    fn world(text: &str) -> World {
-        let scene = parse_nff(text, std::path::Path::new("t.nff"), &LoadOptions::default())
-            .expect("test scene");
-        World::new(scene)
-    }
-
     fn point<'a>(material: &'a Material, normal: Vec3) -> SurfacePoint<'a> {
         SurfacePoint {
             point: Vec3::new(1.0, 2.0, 0.0),
@@ -443,7 +437,7 @@ mod tests {
 
     #[test]
     fn shadow_packets_multiply_the_glass_and_name_the_opaque_blocker() {
-        let w = world(ROW);
+        let w = World::from_nff_text(ROW);
         let opaque = (0..w.scene.shapes.len() as u32)
             .find(|&p| w.transmission_of(p) == 0.0)
             .expect("the opaque sphere");
@@ -483,7 +477,7 @@ mod tests {
         // A cut at depth 5 in front of the camera (at y = -10) puts every
         // sphere (depth 10) beyond it, in the far hierarchy: the shadows are
         // the same as without the cut (section 2.3 cuts eye rays only).
-        let whole = world(ROW);
+        let whole = World::from_nff_text(ROW);
         let scene =
             parse_nff(ROW, std::path::Path::new("t.nff"), &LoadOptions::default()).expect("scene");
         let cut = crate::world::Cut {

@@ -742,13 +742,7 @@ impl<'a> Tracer<'a> {
             let transmission = material.t * coverage;
             if material.t > 0.0 {
                 let entering = shape.geometric_normal(point).dot(d) < 0.0;
-                let ior = if material.ior > 0.0 {
-                    material.ior
-                } else {
-                    1.0
-                };
-                let eta = if entering { 1.0 / ior } else { ior };
-                match refract(d, facing, eta) {
+                match refract(d, facing, material.eta(entering)) {
                     Some(dir) => {
                         if self.wanted(weights[l] * transmission) {
                             s.refracted[l] = Some(Spawn {
@@ -1162,8 +1156,6 @@ impl<const K: usize> NearestTest for NearestShape<'_, K> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::loaders::nff::parse_nff;
-    use crate::loaders::LoadOptions;
     use crate::rig::Camera;
 
     /// Mirrors (a floor and a wall parallel to the eyes, spheres), glass,
@@ -1180,12 +1172,6 @@ mod tests {
         f 0.9 0.95 1 0.05 0.1 200 0.8 1.5\ns 0 -2 0.8 0.7\n\
         f 0.2 0.8 0.3 0.8 0 10 0 1\ns -0.3 -4 1.6 0.3\ns 0.6 -3.5 0.5 0.25\n\
         f 0.3 0.4 0.9 0.7 0.2 30 0 1\nc\n2.5 -1.5 0 0.6\n2.5 -1.5 2 0.1\n";
-
-    fn world(text: &str) -> World {
-        let scene = parse_nff(text, std::path::Path::new("t.nff"), &LoadOptions::default())
-            .expect("test scene");
-        World::new(scene)
-    }
 
     /// The camera's eye ray through the centre of pixel (`x`, `y`).
     pub(super) fn pixel_ray(camera: &Camera, x: u32, y: u32) -> Packet<1> {
@@ -1243,7 +1229,7 @@ mod tests {
     /// on rays through and around the scene of spheres, polygons and a cone.
     #[test]
     fn one_eye_ray_alone_is_what_a_packet_of_one_gives() {
-        let world = world(SCENE);
+        let world = World::from_nff_text(SCENE);
         let camera = Camera::new(&world.scene.viewpoint, 64, 48);
         let mut rng = fastrand::Rng::with_seed(17);
         let mut alone = Tracer::new(&world, TraceSettings::default());
@@ -1271,7 +1257,7 @@ mod tests {
     /// (its lanes' signs differ) counts nothing.
     #[test]
     fn eight_eye_rays_in_one_descent_are_eight_alone() {
-        let world = world(SCENE);
+        let world = World::from_nff_text(SCENE);
         let camera = Camera::new(&world.scene.viewpoint, 64, 48);
         let mut rng = fastrand::Rng::with_seed(23);
         let mut alone = Tracer::new(&world, TraceSettings::default());
@@ -1355,7 +1341,7 @@ mod tests {
 
     #[test]
     fn a_packet_of_k_lanes_gives_what_k_single_lane_calls_give() {
-        let w = world(SCENE);
+        let w = World::from_nff_text(SCENE);
         packets_equal_single_lanes::<2>(&w, 1, 600);
         packets_equal_single_lanes::<4>(&w, 2, 300);
         packets_equal_single_lanes::<8>(&w, 3, 150);
@@ -1368,7 +1354,7 @@ mod tests {
     /// tested in vain), and a segment from another level leaves it alone.
     #[test]
     fn the_shadow_cache_keeps_the_last_blocker_of_each_ray_level() {
-        let w = world(
+        let w = World::from_nff_text(
             "v\nfrom 0 0 10\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0.01\nresolution 8 8\n\
              l 0 0 8\nf 1 1 1 1 0 1 0 1\np 4\n-5 -5 0\n5 -5 0\n5 5 0\n-5 5 0\n\
              s 0 0 2 0.5\n",
@@ -1421,7 +1407,7 @@ mod tests {
     fn with_the_shadow_cache_inside_a_huge_sphere_lanes_still_equal_single_calls() {
         // The fuzzer's mutant: a glass sphere 2e8 wide around everything,
         // whose wall's shadow rays pass cones that their test says they hit.
-        let w = world(include_str!(
+        let w = World::from_nff_text(include_str!(
             "../../../tests/data/fuzz/twin-differs-huge-sphere.nff"
         ));
         packets_equal_single_lanes::<2>(&w, 5, 800);
@@ -1430,7 +1416,7 @@ mod tests {
 
     #[test]
     fn a_donor_keeps_its_colour_and_its_trees_largest_coefficient() {
-        let w = world(SCENE);
+        let w = World::from_nff_text(SCENE);
         let camera = Camera::new(&w.scene.viewpoint, 64, 48);
         let mut tracer = Tracer::new(&w, TraceSettings::default());
         let mut donor = Donor::default();
@@ -1473,7 +1459,7 @@ mod tests {
     /// what `shade_from_donor` gives it alone.
     #[test]
     fn a_packet_of_donors_keeps_what_each_donor_keeps_alone() {
-        let w = world(SCENE);
+        let w = World::from_nff_text(SCENE);
         let camera = Camera::new(&w.scene.viewpoint, 64, 48);
         let lights = w.scene.lights.len();
         let mut rng = fastrand::Rng::with_seed(11);
@@ -1580,7 +1566,7 @@ mod tests {
     fn merged_secondary_rays_are_taken_only_when_asked() {
         // Two views' rays onto the mirror floor: merged on request (approximate,
         // counted), their own rays otherwise (what each lane alone gives).
-        let w = world(SCENE);
+        let w = World::from_nff_text(SCENE);
         let camera = Camera::new(&w.scene.viewpoint, 64, 48);
         let mut tracer = Tracer::new(&w, TraceSettings::default());
         let (mut merged_differs, mut pairs) = (0, 0);
