@@ -264,8 +264,8 @@ pub struct SamplingArgs {
     /// Adaptive refinement (the default) with this threshold (default 1/32).
     ///
     /// The pixel corners are traced, then a cell is split in four where its
-    /// corners differ by more than THRESHOLD (linear colour, any channel,
-    /// any view), down to --max-samples cells per pixel.
+    /// corners differ by more than THRESHOLD (linear colour, any channel),
+    /// down to --max-samples cells per pixel; each view refines its own.
     #[arg(long, value_name = "THRESHOLD", num_args = 0..=1, default_missing_value = "0.03125",
           allow_negative_numbers = true, hide_short_help = true)]
     pub adaptive: Option<f32>,

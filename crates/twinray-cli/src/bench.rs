@@ -193,11 +193,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         }
         twinray::output::write_text(path, &csv)?;
     }
-    // Under adaptive sampling a pixel is refined where any view asks, so a
-    // view alone may be refined less: there the views are not their mono
-    // renders (docs/stereo.md).
-    let adaptive = !args.sampling.spd && args.sampling.given() && args.sampling.samples.is_none();
-    if !adaptive && rows.iter().any(|r| r.approx == Approx::None && !r.exact()) {
+    if rows.iter().any(|r| r.approx == Approx::None && !r.exact()) {
         bail!("the exact method's views differ from the views rendered alone");
     }
     Ok(())

@@ -9,17 +9,29 @@ use crate::math::Color;
 use crate::rig::Camera;
 use crate::rig::View;
 
-/// Every view of the rig, each traced on its own.
+/// Views of the rig from `first_view` on, each traced on its own.
 pub(in crate::render) struct Independent<'a> {
     camera: &'a Camera,
     views: Vec<View>,
+    first_view: usize,
 }
 
 impl<'a> Independent<'a> {
+    /// Every view of the rig.
     pub(in crate::render) fn new(job: &RenderInputs<'a>) -> Independent<'a> {
         Independent {
             camera: job.camera,
             views: job.rig.views.clone(),
+            first_view: 0,
+        }
+    }
+
+    /// View `view` of the rig alone.
+    pub(in crate::render) fn solo(job: &RenderInputs<'a>, view: usize) -> Independent<'a> {
+        Independent {
+            camera: job.camera,
+            views: vec![job.rig.views[view]],
+            first_view: view,
         }
     }
 }
@@ -57,7 +69,7 @@ impl RowWorker for IndependentWorker<'_, '_> {
                     t_max: [f32::INFINITY],
                     mask: 1,
                 };
-                *sample_out = tracer.trace_eye(&packet, &[v])[0];
+                *sample_out = tracer.trace_eye(&packet, &[self.batch.first_view + v])[0];
             }
         }
     }

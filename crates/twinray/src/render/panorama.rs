@@ -41,19 +41,31 @@ pub(in crate::render) fn check(camera: &Camera, rig: &Rig) -> crate::Result<()> 
     Ok(())
 }
 
-/// Every view of a panorama, traced together.
+/// Views of a panorama from `first_view` on, traced together.
 pub(in crate::render) struct PanoramaTwin<'a> {
     camera: &'a Camera,
     scene: &'a Scene,
     views: Vec<View>,
+    first_view: usize,
 }
 
 impl<'a> PanoramaTwin<'a> {
+    /// Every view of the panorama.
     pub(in crate::render) fn new(job: &RenderInputs<'a>) -> PanoramaTwin<'a> {
         PanoramaTwin {
             camera: job.camera,
             scene: &job.world.scene,
             views: job.rig.views.clone(),
+            first_view: 0,
+        }
+    }
+
+    /// View `view` of the panorama alone.
+    pub(in crate::render) fn solo(job: &RenderInputs<'a>, view: usize) -> PanoramaTwin<'a> {
+        PanoramaTwin {
+            views: vec![job.rig.views[view]],
+            first_view: view,
+            ..PanoramaTwin::new(job)
         }
     }
 }
@@ -149,7 +161,7 @@ impl PanoramaWorker<'_, '_> {
             for (l, lane) in chunk.iter().enumerate() {
                 packet.origins[l] = lane.origin;
                 packet.dirs[l] = lane.dir;
-                views[l] = lane.view as usize;
+                views[l] = self.batch.first_view + lane.view as usize;
             }
             packet.mask = (1u32 << chunk.len()) - 1;
             let hits = match eight && chunk.len() > 1 {

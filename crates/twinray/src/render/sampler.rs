@@ -34,8 +34,9 @@ pub enum Sampling {
     },
     /// The paper's image coherence (section 2.6): the pixel corners first; a
     /// cell whose four corners differ by more than `threshold` (in any colour
-    /// channel, in any view) is split in four, down to `max_samples` cells per
-    /// pixel. Each pixel is the area-weighted mean of its cells' corners.
+    /// channel) is split in four, down to `max_samples` cells per pixel; each
+    /// view refines its own cells. Each pixel is the area-weighted mean of its
+    /// cells' corners.
     Adaptive { threshold: f32, max_samples: u32 },
 }
 

@@ -22,14 +22,10 @@
 //! one tracer for the whole image.
 //!
 //! What is exact under each sampling (README, docs/stereo.md):
-//! * pixel centres, the SPD corners and `--samples N` (stratified, any
-//!   filter): every view equals its own mono render (tests named
-//!   `..._equals_its_mono_render`);
-//! * adaptive sampling (the default) decides the refinement of a pixel for all
-//!   views at once: a cell is split where its corners differ in any view. The
-//!   twin method equals the independent renders *with that joint refinement*
-//!   (`adaptive_twin_equals_independent_with_joint_refinement`); a view
-//!   rendered alone may be refined less, so it is not its mono render.
+//! every sampling: pixel centres, the SPD corners, `--samples N` (stratified,
+//! any filter) and the adaptive refinement (the default), where each view
+//! refines its own pixels. Every view equals its own mono render (tests
+//! named `..._equals_its_mono_render`).
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -393,52 +389,24 @@ fn every_view_with_spd_corners_equals_its_mono_render() {
 }
 
 #[test]
-fn adaptive_twin_equals_independent_with_joint_refinement() {
-    // Adaptive sampling refines a pixel where its corners differ in any view,
-    // so a view's pixels depend on the other views' corners: the reference is
-    // the independent renders of the same rig, refined jointly.
+fn every_view_under_adaptive_sampling_equals_its_mono_render() {
+    // Each view refines its cells from its own corners: its pixels, and the
+    // points traced for it, are those of the view rendered alone, whether a
+    // point goes as the batch (every view of it refines there) or alone.
     let sampling = Sampling::Adaptive {
         threshold: Sampling::DEFAULT_THRESHOLD,
         max_samples: 16,
     };
-    for (seed, case, (width, height)) in
-        [(40, &STEREO[1], (96, 64)), (41, &MULTI_VIEW[1], (48, 32))]
-    {
-        let world = world(seed, width, height, seed == 40);
-        let camera = Camera::new(&world.scene.viewpoint, width, height);
-        let at = (world.scene.viewpoint.at - world.scene.viewpoint.from).length() as f64;
-        let rig = Rig::multi_view(
-            &camera,
-            case.views,
-            case.interaxial,
-            case.convergence.map(|c| c * at),
-        )
-        .expect("rig");
-        let twin = run(
-            &world,
-            &camera,
-            &rig,
-            &options(ViewMethod::twin(), sampling, 0),
-        );
-        let independent = run(
-            &world,
-            &camera,
-            &rig,
-            &options(ViewMethod::Independent, sampling, 0),
-        );
-        assert!(
-            twin.refined_pixels > 0,
-            "seed {seed}: something was refined"
-        );
-        assert_eq!(twin.refined_pixels, independent.refined_pixels);
-        for v in 0..case.views {
-            assert_eq!(
-                differences(&twin.images[v], &independent.images[v]),
-                None,
-                "seed {seed}, view {v}: (x, y, differing pixels)"
-            );
-        }
-    }
+    let mut checked = check_views_against_mono(40, (96, 64), true, &STEREO, sampling, 0);
+    checked += check_views_against_mono(41, (48, 32), false, &MULTI_VIEW, sampling, 0);
+    // Batches of two: six views are three pairs.
+    checked += check_views_against_mono(42, (48, 32), false, &MULTI_VIEW[1..], sampling, 2);
+    let deeper = Sampling::Adaptive {
+        threshold: 0.01,
+        max_samples: 64,
+    };
+    checked += check_views_against_mono(43, (64, 48), false, &STEREO[1..2], deeper, 0);
+    assert_eq!(checked, 6 + 11 + 6 + 2);
 }
 
 /// View `view` at pixel centres without the renderer's driver, sampler or

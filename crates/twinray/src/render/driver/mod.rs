@@ -158,22 +158,39 @@ fn check_rows(rows: &std::ops::Range<u32>, height: u32) -> crate::Result<()> {
 /// batch of every view; the twin method's batches of neighbouring views;
 /// the fast method's stages (`fast::stages`): its epipolar rows, whose
 /// views each trace alone the rows they cannot take, or batches sharing
-/// the shading cache.
+/// the shading cache. Under adaptive sampling, also each view as a batch
+/// of its own, exact, for the points only some views refine.
 fn row_tracers<'a>(job: &RenderInputs<'a>) -> crate::Result<RowTracers<'a>> {
     let views = job.rig.views.len();
     let per_batch = job.opts.views_per_batch(views);
     if job.camera.projection.is_panorama() {
         panorama::check(job.camera, job.rig)?;
     }
-    let (batches, epipolar): (Vec<Box<dyn ViewBatch + 'a>>, _) = match job.opts.method {
-        ViewMethod::Independent => (vec![Box::new(Independent::new(job))], None),
+    let adaptive = matches!(job.opts.sampling, Sampling::Adaptive { .. }) && views > 1;
+    let exact = Shading::of_paper(PaperTechniques::NONE);
+    let (batches, epipolar, solo): (Vec<Box<dyn ViewBatch + 'a>>, _, _) = match job.opts.method {
+        ViewMethod::Independent => {
+            let solo = match adaptive {
+                true => (0..views)
+                    .map(|v| Box::new(Independent::solo(job, v)) as Box<dyn ViewBatch + 'a>)
+                    .collect(),
+                false => Vec::new(),
+            };
+            (vec![Box::new(Independent::new(job))], None, solo)
+        }
         ViewMethod::Twin { paper } if job.camera.projection.is_panorama() => {
             if paper != PaperTechniques::NONE {
                 return Err(crate::Error::Invalid(
                     "the paper's techniques are for flat rigs, not panoramas".into(),
                 ));
             }
-            (vec![Box::new(PanoramaTwin::new(job))], None)
+            let solo = match adaptive {
+                true => (0..views)
+                    .map(|v| Box::new(PanoramaTwin::solo(job, v)) as Box<dyn ViewBatch + 'a>)
+                    .collect(),
+                false => Vec::new(),
+            };
+            (vec![Box::new(PanoramaTwin::new(job))], None, solo)
         }
         ViewMethod::Fast { .. } if job.camera.projection.is_panorama() => {
             return Err(crate::Error::Invalid(
@@ -182,7 +199,11 @@ fn row_tracers<'a>(job: &RenderInputs<'a>) -> crate::Result<RowTracers<'a>> {
         }
         ViewMethod::Twin { paper } => {
             let shading = Shading::of_paper(paper);
-            (twin::batches(job, per_batch, shading)?, None)
+            let solo = match adaptive && per_batch > 1 {
+                true => twin::batches(job, 1, exact)?,
+                false => Vec::new(),
+            };
+            (twin::batches(job, per_batch, shading)?, None, solo)
         }
         ViewMethod::Fast { tolerance } => {
             let world = job.world;
@@ -200,8 +221,16 @@ fn row_tracers<'a>(job: &RenderInputs<'a>) -> crate::Result<RowTracers<'a>> {
                 .flatten();
             let size = if epipolar.is_some() { 1 } else { per_batch };
             let shading = Shading::of_fast(&stages);
-            (twin::batches(job, size, shading)?, epipolar)
+            let solo = match adaptive && (size > 1 || epipolar.is_some()) {
+                true => twin::batches(job, 1, exact)?,
+                false => Vec::new(),
+            };
+            (twin::batches(job, size, shading)?, epipolar, solo)
         }
     };
-    Ok(RowTracers { batches, epipolar })
+    Ok(RowTracers {
+        batches,
+        epipolar,
+        solo,
+    })
 }

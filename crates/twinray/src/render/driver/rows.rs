@@ -10,10 +10,13 @@ use crate::render::sampler::{RowColors, SampleRow};
 use crate::render::tracer::Tracer;
 
 /// A view method as the driver runs it: its batches of views, in rig order,
-/// and the fast method's epipolar rows where they apply.
+/// the fast method's epipolar rows where they apply, and, for the adaptive
+/// refinement, each view as a batch of its own (empty where every batch
+/// is one view, or the method has no such batch).
 pub(super) struct RowTracers<'a> {
     pub batches: Vec<Box<dyn ViewBatch + 'a>>,
     pub epipolar: Option<EpipolarPass<'a>>,
+    pub solo: Vec<Box<dyn ViewBatch + 'a>>,
 }
 
 impl RowTracers<'_> {
@@ -25,8 +28,19 @@ impl RowTracers<'_> {
                 .iter()
                 .map(|b| (b.view_count(), b.worker()))
                 .collect(),
+            solo: self.solo.iter().map(|b| b.worker()).collect(),
             colors: Vec::new(),
             epipolar: self.epipolar.as_ref().map(|p| (p, EpiScratch::default())),
+        }
+    }
+
+    /// The views the adaptive refinement traces together, as counts of
+    /// consecutive views: the batches, or every view where the epipolar
+    /// rows take a row of all of them.
+    pub fn groups(&self) -> Vec<usize> {
+        match self.epipolar {
+            Some(_) => vec![self.batches.iter().map(|b| b.view_count()).sum()],
+            None => self.batches.iter().map(|b| b.view_count()).collect(),
         }
     }
 }
@@ -34,21 +48,28 @@ impl RowTracers<'_> {
 /// One thread's workers, one per batch: traces a row for every view.
 pub(super) struct RowContext<'b> {
     workers: Vec<(usize, Box<dyn RowWorker + 'b>)>,
+    /// Per view, a worker that traces it alone (see [`RowTracers::solo`]).
+    solo: Vec<Box<dyn RowWorker + 'b>>,
     /// A row's colours per view, reused from row to row (`Run::lattice`).
     pub colors: Vec<RowColors>,
     /// The epipolar rows (the workers are then one per view, in rig order).
     epipolar: Option<(&'b EpipolarPass<'b>, EpiScratch)>,
 }
 
+/// Sizes `out` to `views` rows of `len` black samples.
+fn clear(out: &mut Vec<RowColors>, views: usize, len: usize) {
+    out.resize_with(views, Vec::new);
+    for o in out.iter_mut() {
+        o.clear();
+        o.resize(len, Color::ZERO);
+    }
+}
+
 impl RowContext<'_> {
     /// `out[v][i]`: view `v`'s colour of sample `i` of `row`, every view.
     pub fn trace(&mut self, tracer: &mut Tracer, row: &SampleRow, out: &mut Vec<RowColors>) {
         let views: usize = self.workers.iter().map(|(n, _)| n).sum();
-        out.resize_with(views, Vec::new);
-        for o in out.iter_mut() {
-            o.clear();
-            o.resize(row.len(), Color::ZERO);
-        }
+        clear(out, views, row.len());
         if let Some((pass, scratch)) = &mut self.epipolar {
             let start = Instant::now();
             pass.trace_row(&mut self.workers, tracer, row, scratch, out);
@@ -56,5 +77,49 @@ impl RowContext<'_> {
             return;
         }
         trace_all(&mut self.workers, tracer, row, out);
+    }
+
+    /// [`RowContext::trace`] for the views of group `group` of
+    /// [`RowTracers::groups`] only: `out[v]` is the group's view `v`.
+    pub fn trace_group(
+        &mut self,
+        group: usize,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        out: &mut Vec<RowColors>,
+    ) {
+        if self.epipolar.is_some() {
+            return self.trace(tracer, row, out);
+        }
+        let (views, worker) = &mut self.workers[group];
+        clear(out, *views, row.len());
+        worker.trace(tracer, row, out);
+    }
+
+    /// View `view` of `row` alone, into `out[0]`: by its own worker, or,
+    /// where the method has none, by its batch (without the epipolar rows),
+    /// the batch's other views dropped.
+    pub fn trace_view(
+        &mut self,
+        view: usize,
+        tracer: &mut Tracer,
+        row: &SampleRow,
+        out: &mut Vec<RowColors>,
+    ) {
+        if let Some(worker) = self.solo.get_mut(view) {
+            clear(out, 1, row.len());
+            return worker.trace(tracer, row, out);
+        }
+        let mut first = 0;
+        for (n, worker) in &mut self.workers {
+            if view < first + *n {
+                clear(out, *n, row.len());
+                worker.trace(tracer, row, out);
+                out.swap(0, view - first);
+                out.truncate(1);
+                return;
+            }
+            first += *n;
+        }
     }
 }

@@ -12,7 +12,7 @@ use super::rows::{RowContext, RowTracers};
 use super::views::{Sampled, ViewStorage, Views};
 use crate::image::Image;
 use crate::math::Color;
-use crate::render::adaptive::{Refiner, RowRefinement};
+use crate::render::adaptive::{Refiner, RowRefinement, Tracing};
 use crate::render::batch::RenderInputs;
 use crate::render::counts::TraceCounts;
 use crate::render::film::{self, Film, FilmBand};
@@ -295,7 +295,7 @@ impl Run<'_, '_> {
     }
 
     /// Section 2.6: the corners, then each pixel row refined where its
-    /// cells' corners differ (in any view).
+    /// cells' corners differ, each view's by its own corners.
     pub fn adaptive(
         &self,
         threshold: f32,
@@ -310,19 +310,27 @@ impl Run<'_, '_> {
         self.plan(h + 1 + bands);
         let (corners, mut counts) = self.corner_lattice()?;
         let corner = |v: usize, x: usize, y: usize| corners[v][(y - y0) * (w + 1) + x];
+        let groups = self.tracers.groups();
         let (bands, refine_counts) = self.tasks(bands, Steps::PerTask, |ctx, tracer, i| {
             let b = first_band + i;
-            let mut refiner = Refiner::new(self.views, w, threshold, max_samples);
+            let mut refiner = Refiner::new(&groups, w, threshold, max_samples);
             // Once the render is cancelled, the rest of the row traces
             // nothing (its colours are dropped with it).
-            let mut trace = |row: &SampleRow, colors: &mut Vec<RowColors>| {
+            let mut trace = |who: Tracing, row: &SampleRow, colors: &mut Vec<RowColors>| {
                 if self.cancelled() {
-                    colors.resize_with(self.views, Vec::new);
+                    let views = match who {
+                        Tracing::Batch(g) => groups[g],
+                        Tracing::View(_) => 1,
+                    };
+                    colors.resize_with(views, Vec::new);
                     colors
                         .iter_mut()
                         .for_each(|c| c.resize(row.len(), Color::ZERO));
-                } else {
-                    ctx.trace(tracer, row, colors);
+                    return;
+                }
+                match who {
+                    Tracing::Batch(g) => ctx.trace_group(g, tracer, row, colors),
+                    Tracing::View(v) => ctx.trace_view(v, tracer, row, colors),
                 }
             };
             (b * BAND_ROWS..((b + 1) * BAND_ROWS).min(y_end))
@@ -350,13 +358,15 @@ impl Run<'_, '_> {
             total.max_per_pixel = total.max_per_pixel.max(report.max_per_pixel);
         }
         let (images, rgb8) = views.into_images(w, h);
+        // Each view refines its own pixels: the means over the views.
+        let per_view = |n: u64| n / self.views.max(1) as u64;
         Some(Sampled {
             images,
             rgb8,
             counts,
-            samples_per_view: ((w + 1) * (h + 1)) as u64 + total.added,
+            samples_per_view: ((w + 1) * (h + 1)) as u64 + per_view(total.added),
             max_per_pixel: total.max_per_pixel,
-            refined: total.refined,
+            refined: per_view(total.refined),
         })
     }
 }

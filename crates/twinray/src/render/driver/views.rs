@@ -16,11 +16,13 @@ pub struct RenderOutput {
     pub rgb8: Vec<Rgb8Image>,
     pub counts: TraceCounts,
     pub seconds: f64,
-    /// Samples (eye rays) per view.
+    /// Samples (eye rays) per view: under adaptive sampling, where each
+    /// view refines its own pixels, the mean over the views.
     pub samples_per_view: u64,
     /// Most eye samples one pixel's colour came from.
     pub max_samples_per_pixel: u32,
-    /// Pixels the adaptive sampling refined (0 for the other samplings).
+    /// Pixels the adaptive sampling refined, the mean over the views (0 for
+    /// the other samplings).
     pub refined_pixels: u64,
 }
 

@@ -10,9 +10,12 @@
 //!    colour shaded once for the views that see it. A row the pass cannot
 //!    take is traced by the views' batches, as in 2.
 //! 2. **Batches of views sharing a shading cache** (`shared_shading`,
-//!    `shading_cache`) elsewhere: the twin method's batches, whose samples
-//!    take a surface point's light (or its whole colour) from the views
-//!    that shaded it first. (The paper's merged secondary rays took mirror
+//!    `shading_cache`) elsewhere, for more than two views: the twin
+//!    method's batches, whose samples take a surface point's light (or its
+//!    whole colour) from the views that shaded it first. Not under the
+//!    adaptive sampling, where each view refines its own edges and most
+//!    refined points are traced by one view alone: there the cache saved
+//!    nothing, and the fast views are the exact ones. (The paper's merged secondary rays took mirror
 //!    pixels off by up to 0.6 under adaptive sampling, and its cut of the
 //!    object tree did not pay: neither is a stage.)
 //!
@@ -52,16 +55,19 @@ pub struct SceneTraits {
 /// The stages of the fast method within `tolerance` for `views` views
 /// sampled as `sampling`, of a scene with `traits`: the epipolar rows where
 /// the rows lie in planes and the scene allows them, elsewhere the batches,
-/// sharing the cache where there are more than two views.
+/// sharing the cache where there are more than two views and the sampling
+/// is not adaptive.
 pub fn stages(tolerance: f32, sampling: Sampling, views: usize, traits: SceneTraits) -> FastStages {
     let planar_rows = matches!(sampling, Sampling::Centers | Sampling::Corners);
     let epipolar_rows = planar_rows && views >= 2 && !traits.alpha && !traits.instances;
+    let adaptive = matches!(sampling, Sampling::Adaptive { .. });
     FastStages {
         epipolar_rows,
         // A pair's batches gain nothing from the cache: they group the two
         // views' samples of a point into one packet, whose shadow rays go
-        // down together (docs/benchmarks.md).
-        shared_cache: epipolar_rows || views > 2,
+        // down together; nor do the adaptive sampling's, whose refined
+        // points are mostly one view's (docs/benchmarks.md).
+        shared_cache: epipolar_rows || (views > 2 && !adaptive),
         tolerance,
     }
 }
@@ -73,7 +79,8 @@ mod tests {
 
     /// The epipolar rows where the rows are planar and the scene allows
     /// them; the batches for every other sampling, for cut-outs and for
-    /// instances, sharing the cache for more than two views.
+    /// instances, sharing the cache for more than two views unless the
+    /// sampling is adaptive.
     #[test]
     fn the_stages_follow_the_sampling_and_the_scene() {
         let plain = SceneTraits::default();
@@ -110,7 +117,8 @@ mod tests {
         for sampling in [adaptive, stratified] {
             let s = stages(0.02, sampling, 8, plain);
             assert!(!s.epipolar_rows, "{sampling:?}");
-            assert_eq!((s.shared_cache, s.tolerance), (true, 0.02));
+            let cache = sampling == stratified;
+            assert_eq!((s.shared_cache, s.tolerance), (cache, 0.02));
             let pair = stages(0.02, sampling, 2, plain);
             assert!(!pair.shared_cache, "a pair: the exact batches");
         }
