@@ -6,8 +6,8 @@ time beside the wall time.
 
     pip install ./python && python3 bench/dataset.py [--pairs 10] [--runs 3] [--samples N]
 
-On a 2-core AMD EPYC VM shared with other work, `--pairs 8 --runs 2`:
-0.88 pairs/s, 1.46 s of CPU a pair (`--samples 4`: 0.30 pairs/s, 3.22 s).
+On a quiet 2-core AMD EPYC VM, `--pairs 16 --runs 3`: 2.04-2.10 pairs/s,
+0.88 s of CPU a pair (docs/python.md).
 """
 
 import argparse
