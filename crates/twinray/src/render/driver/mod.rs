@@ -170,12 +170,7 @@ fn row_tracers<'a>(job: &RenderInputs<'a>) -> crate::Result<RowTracers<'a>> {
     let exact = Shading::of_paper(PaperTechniques::NONE);
     let (batches, epipolar, solo): (Vec<Box<dyn ViewBatch + 'a>>, _, _) = match job.opts.method {
         ViewMethod::Independent => {
-            let solo = match adaptive {
-                true => (0..views)
-                    .map(|v| Box::new(Independent::solo(job, v)) as Box<dyn ViewBatch + 'a>)
-                    .collect(),
-                false => Vec::new(),
-            };
+            let solo = each_view(adaptive, views, |v| Independent::solo(job, v));
             (vec![Box::new(Independent::new(job))], None, solo)
         }
         ViewMethod::Twin { paper } if job.camera.projection.is_panorama() => {
@@ -184,12 +179,7 @@ fn row_tracers<'a>(job: &RenderInputs<'a>) -> crate::Result<RowTracers<'a>> {
                     "the paper's techniques are for flat rigs, not panoramas".into(),
                 ));
             }
-            let solo = match adaptive {
-                true => (0..views)
-                    .map(|v| Box::new(PanoramaTwin::solo(job, v)) as Box<dyn ViewBatch + 'a>)
-                    .collect(),
-                false => Vec::new(),
-            };
+            let solo = each_view(adaptive, views, |v| PanoramaTwin::solo(job, v));
             (vec![Box::new(PanoramaTwin::new(job))], None, solo)
         }
         ViewMethod::Fast { .. } if job.camera.projection.is_panorama() => {
@@ -233,4 +223,19 @@ fn row_tracers<'a>(job: &RenderInputs<'a>) -> crate::Result<RowTracers<'a>> {
         epipolar,
         solo,
     })
+}
+
+/// `make(v)` for each of `views` views where `wanted` (else none): the
+/// one-view batches of a method.
+fn each_view<'a, B: ViewBatch + 'a>(
+    wanted: bool,
+    views: usize,
+    make: impl Fn(usize) -> B,
+) -> Vec<Box<dyn ViewBatch + 'a>> {
+    match wanted {
+        true => (0..views)
+            .map(|v| Box::new(make(v)) as Box<dyn ViewBatch + 'a>)
+            .collect(),
+        false => Vec::new(),
+    }
 }
