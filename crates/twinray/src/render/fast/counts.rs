@@ -1,6 +1,5 @@
 //! What the fast method did (`--stats`, `-v`): its shading cache and its
-//! epipolar rows. (Its cut and merged secondary rays count as the paper's
-//! techniques do, `twin::counts`.)
+//! epipolar rows.
 
 use serde::Serialize;
 
@@ -63,18 +62,27 @@ pub struct EpipolarCounts {
 }
 
 impl FastCounts {
-    /// The `-v` lines.
+    /// The `-v` lines: one per stage that ran, or one saying that none did
+    /// (the views were traced exactly: a pair or the adaptive sampling
+    /// outside the epipolar rows).
     pub fn lines(&self) -> Vec<String> {
         let (c, e) = (&self.cache, &self.epipolar);
-        vec![
-            format!(
+        let mut lines = Vec::new();
+        if *c != CacheCounts::default() {
+            lines.push(format!(
                 "fast, shared shading: cache entries {} (refused at a shadow edge {}), samples that took an entry's light {} (its whole colour {}), exact fall-backs {}",
                 c.entries, c.edge_refusals, c.hits, c.colour_hits, c.fallbacks
-            ),
-            format!(
+            ));
+        }
+        if *e != EpipolarCounts::default() {
+            lines.push(format!(
                 "fast, epipolar rows: {} in their planes ({} traced exactly), primitives gathered {}, visibility tests {}; samples: colour taken {}, light taken {}, light partly taken {} ({} shadow rays), shaded exactly {} (no shade point {}, colours and light apart {}, shade points apart {}, mirror, glass or highlight {}, shape {}), background {}; shade points {}",
                 e.rows, e.rows_exact, e.primitives, e.tests, e.taken, e.light_taken, e.light_partly_taken, e.lights_traced, e.traced, e.no_bracket, e.refused_colour, e.refused_wide, e.refused_material, e.refused_shape, e.misses, e.shade_points
-            ),
-        ]
+            ));
+        }
+        if lines.is_empty() {
+            lines.push("fast: nothing shared, every view traced exactly".into());
+        }
+        lines
     }
 }
