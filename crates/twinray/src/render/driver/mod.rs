@@ -189,7 +189,7 @@ fn row_tracers<'a>(job: &RenderInputs<'a>) -> crate::Result<RowTracers<'a>> {
         }
         ViewMethod::Twin { paper } => {
             let shading = Shading::of_paper(paper);
-            let solo = match adaptive && per_batch > 1 {
+            let solo = match adaptive {
                 true => twin::batches(job, 1, exact)?,
                 false => Vec::new(),
             };
@@ -211,7 +211,7 @@ fn row_tracers<'a>(job: &RenderInputs<'a>) -> crate::Result<RowTracers<'a>> {
                 .flatten();
             let size = if epipolar.is_some() { 1 } else { per_batch };
             let shading = Shading::of_fast(&stages);
-            let solo = match adaptive && (size > 1 || epipolar.is_some()) {
+            let solo = match adaptive {
                 true => twin::batches(job, 1, exact)?,
                 false => Vec::new(),
             };

@@ -11,8 +11,8 @@ use crate::render::tracer::Tracer;
 
 /// A view method as the driver runs it: its batches of views, in rig order,
 /// the fast method's epipolar rows where they apply, and, for the adaptive
-/// refinement, each view as a batch of its own (empty where every batch
-/// is one view, or the method has no such batch).
+/// refinement of several views, each view as a batch of its own (else
+/// empty).
 pub(super) struct RowTracers<'a> {
     pub batches: Vec<Box<dyn ViewBatch + 'a>>,
     pub epipolar: Option<EpipolarPass<'a>>,
@@ -96,9 +96,8 @@ impl RowContext<'_> {
         worker.trace(tracer, row, out);
     }
 
-    /// View `view` of `row` alone, into `out[0]`: by its own worker, or,
-    /// where the method has none, by its batch (without the epipolar rows),
-    /// the batch's other views dropped.
+    /// View `view` of `row` alone, into `out[0]`, by its one-view batch
+    /// (which the adaptive refinement of several views has).
     pub fn trace_view(
         &mut self,
         view: usize,
@@ -106,20 +105,7 @@ impl RowContext<'_> {
         row: &SampleRow,
         out: &mut Vec<RowColors>,
     ) {
-        if let Some(worker) = self.solo.get_mut(view) {
-            clear(out, 1, row.len());
-            return worker.trace(tracer, row, out);
-        }
-        let mut first = 0;
-        for (n, worker) in &mut self.workers {
-            if view < first + *n {
-                clear(out, *n, row.len());
-                worker.trace(tracer, row, out);
-                out.swap(0, view - first);
-                out.truncate(1);
-                return;
-            }
-            first += *n;
-        }
+        clear(out, 1, row.len());
+        self.solo[view].trace(tracer, row, out);
     }
 }
