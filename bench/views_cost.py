@@ -26,7 +26,7 @@ usage (from the project root, after cargo build --release):
     bench/views-cost.sh [SCENE.nff ...]
 environment (defaults):
     TWINRAY=target/release/twinray  SIZE=420x560  INTERAXIAL=0.02
-    VIEWS=1,2,4,8,16,48  MODES="exact fast"  ROUNDS=3  WALL=1
+    VIEWS=1,2,4,8,16,48,96  MODES="exact fast"  ROUNDS=3  WALL=1
     FLAGS=""  (more flags for every render, e.g. "--max-depth 3")
     CSV=docs/views-cost.csv  PLOT=docs/images/views-cost.png (empty: none)
     SCENES: balls mount tetra tree of ../shared/scenes/spd
@@ -143,7 +143,7 @@ def main():
     binary = env("TWINRAY", "target/release/twinray")
     size = env("SIZE", "420x560")
     b = float(env("INTERAXIAL", "0.02"))
-    counts = [int(x) for x in env("VIEWS", "1,2,4,8,16,48").split(",")]
+    counts = [int(x) for x in env("VIEWS", "1,2,4,8,16,48,96").split(",")]
     modes = env("MODES", "exact fast").split()
     rounds = int(env("ROUNDS", "3"))
     wall_too = env("WALL", "1") != "0"
