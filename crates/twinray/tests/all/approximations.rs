@@ -153,6 +153,21 @@ fn safe_reprojection_on_a_diffuse_unoccluded_wall_is_within_rounding() {
     }
 }
 
+/// A wall whose plane passes between the eyes, lit on the right eye's face:
+/// the safe reprojection gives the right eye none of the left eye's dark
+/// face (it saw the wall's other side). What is left is the floor along
+/// the wall's foot, lit on the right and hidden from the left eye, which
+/// takes the shadow of the floor's far side: a few pixels.
+#[test]
+fn safe_reprojection_gives_no_view_the_other_face_of_a_wall() {
+    let world = nff_world(WALL_BETWEEN_VIEWS);
+    let (_, _, exact) = stereo(&world, 1.5, None, &approx(None, false));
+    let (_, _, safe) = stereo(&world, 1.5, None, &approx(Some(ReprojectMode::Safe), false));
+    let d = compare(&exact.images[1], &safe.images[1]).expect("same size");
+    assert!(d.psnr_db >= 30.0, "{d:?}");
+    assert!(safe.counts.paper.reprojected > 0);
+}
+
 /// The wall, and a thin red pole near the camera at the right edge of the
 /// picture: the right eye sees it, the left eye does not (it is out of its frame).
 fn pole_scene() -> (Scene, f32) {

@@ -40,6 +40,15 @@ pub const MIRROR_FLOOR_AND_POLE: &str =
     f 0.8 0.8 0.7 0.5 0.5 20 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\n\
     f 0.05 0.05 0.05 0 0 0 0 1\nc\n0.1 3 0 0.01\n0.1 3 4 0.01\n";
 
+/// A wall in the plane x = 0, lit on its +x face, over a floor: its plane
+/// passes through the middle view's eye of a rig on the x axis, so the
+/// views either side of it see its two faces, one lit and one dark.
+pub const WALL_BETWEEN_VIEWS: &str =
+    "b 0.1 0.2 0.3\nv\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0.01\n\
+    resolution 40 30\nl 3 1 1\n\
+    f 0.8 0.8 0.8 0.9 0 0 0 1\np 4\n0 -2 -3\n0 2 -3\n0 2 3\n0 -2 3\n\
+    f 0.7 0.3 0.2 0.9 0 0 0 1\np 4\n-6 -1.5 -8\n6 -1.5 -8\n6 -1.5 4\n-6 -1.5 4\n";
+
 /// The world of an NFF scene given as text.
 pub fn nff_world(text: &str) -> World {
     let scene =

@@ -208,6 +208,18 @@ fn a_mirror_whose_reflection_changes_between_views_is_traced() {
     }
 }
 
+/// A wall whose plane passes between the views (the middle view sees it
+/// edge-on), lit on one face: the views on either side see their own face,
+/// lit or dark, and take no colour or light from shade points of the other.
+#[test]
+fn a_wall_between_the_views_shows_each_view_its_own_face() {
+    let world = nff_world(WALL_BETWEEN_VIEWS);
+    let (worst, _, out) = against_exact(&world, 9, 0.5, 1);
+    let e = out.counts.fast.epipolar;
+    assert!(worst <= E, "{worst}, {e:?}");
+    assert!(e.taken > 0 && e.refused_face > 0, "{e:?}");
+}
+
 /// Samplings whose rows lie in no plane (N samples per pixel) are traced
 /// exactly in every view.
 #[test]

@@ -50,11 +50,14 @@ pub struct EpipolarCounts {
     /// Why samples were traced: no shade point on one side; the two shade
     /// points' colours apart or not straight with their neighbours' (or no
     /// neighbour to tell) and their light not alike; the two too far apart
-    /// in the view, not either side of the sample or not at its depth; a
-    /// mirror, glass or highlight; a section through the eyes.
+    /// in the view, not either side of the sample or not at its depth; one
+    /// of the two seen on the other face of the surface (by a view on the
+    /// other side of its plane); a mirror, glass or highlight; a section
+    /// through the eyes.
     pub no_bracket: u64,
     pub refused_colour: u64,
     pub refused_wide: u64,
+    pub refused_face: u64,
     pub refused_material: u64,
     pub refused_shape: u64,
     /// Shade points kept.
@@ -76,8 +79,8 @@ impl FastCounts {
         }
         if *e != EpipolarCounts::default() {
             lines.push(format!(
-                "fast, epipolar rows: {} in their planes ({} traced exactly), primitives gathered {}, visibility tests {}; samples: colour taken {}, light taken {}, light partly taken {} ({} shadow rays), shaded exactly {} (no shade point {}, colours and light apart {}, shade points apart {}, mirror, glass or highlight {}, shape {}), background {}; shade points {}",
-                e.rows, e.rows_exact, e.primitives, e.tests, e.taken, e.light_taken, e.light_partly_taken, e.lights_traced, e.traced, e.no_bracket, e.refused_colour, e.refused_wide, e.refused_material, e.refused_shape, e.misses, e.shade_points
+                "fast, epipolar rows: {} in their planes ({} traced exactly), primitives gathered {}, visibility tests {}; samples: colour taken {}, light taken {}, light partly taken {} ({} shadow rays), shaded exactly {} (no shade point {}, colours and light apart {}, shade points apart {}, seen on the other face {}, mirror, glass or highlight {}, shape {}), background {}; shade points {}",
+                e.rows, e.rows_exact, e.primitives, e.tests, e.taken, e.light_taken, e.light_partly_taken, e.lights_traced, e.traced, e.no_bracket, e.refused_colour, e.refused_wide, e.refused_face, e.refused_material, e.refused_shape, e.misses, e.shade_points
             ));
         }
         if lines.is_empty() {

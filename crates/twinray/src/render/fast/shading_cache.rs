@@ -6,8 +6,9 @@
 //! time, the points no earlier leader of the row shaded, and keeps their
 //! view-independent light here: the transmittance toward each light (shadow
 //! rays) and the weighted colour of their reflected and refracted rays. Every
-//! later sample of any view that sees a point of the same primitive within
-//! half a pixel's width (at its depth) of a kept one takes that light and adds its own
+//! later sample of any view that sees a point of the same primitive, on the
+//! same face, within half a pixel's width (at its depth) of a kept one takes
+//! that light and adds its own
 //! ambient, diffuse and highlight terms (its own normal, texture and view
 //! direction), tracing no ray.
 //!
@@ -39,6 +40,8 @@ use crate::render::twin::grouping::nearest_sample;
 struct Entry {
     prim: u32,
     point: Vec3,
+    /// The leader saw the primitive's front (against its geometric normal).
+    front: bool,
     /// Distance along the leader's eye ray (its footprint's scale).
     t: f32,
     secondary: Color,
@@ -56,13 +59,21 @@ struct Entry {
     finished: bool,
 }
 
+/// A sample's hit as the cache keeps and finds it: the primitive hit, the
+/// point, the face seen (the front: against the geometric normal), and the
+/// distance along the eye ray.
+#[derive(Clone, Copy, Debug)]
+pub struct Seen {
+    pub prim: u32,
+    pub point: Vec3,
+    pub front: bool,
+    pub t: f32,
+}
+
 /// What a leader's exactly shaded sample leaves in the cache (`keep`).
 #[derive(Clone, Copy, Debug)]
 pub struct Kept<'a> {
-    /// The primitive hit, the point, and the distance along the eye ray.
-    pub prim: u32,
-    pub point: Vec3,
-    pub t: f32,
+    pub seen: Seen,
     /// Transmittance toward each light.
     pub through: &'a [f32],
     /// Weighted colour of its reflected and refracted rays.
@@ -141,9 +152,10 @@ impl ShadingCache {
     pub fn keep(&mut self, i: usize, kept: Kept) {
         let e = self.entries.len() as u32;
         self.entries.push(Entry {
-            prim: kept.prim,
-            point: kept.point,
-            t: kept.t,
+            prim: kept.seen.prim,
+            point: kept.seen.point,
+            front: kept.seen.front,
+            t: kept.seen.t,
             secondary: kept.secondary,
             gives: kept.gives,
             shareable: false,
@@ -218,11 +230,13 @@ impl ShadingCache {
         refused
     }
 
-    /// The entry whose light the sample `source` of a row may take: it hit
-    /// `prim` at `point`, `t` along its ray. Searched in the current leader's
-    /// row, then in the earlier ones': the leader's sample nearest to where the
-    /// point projects, if its entry may be taken, is of the same primitive, and
-    /// lies within half a pixel's width (at the nearer of the two depths) of it.
+    /// The entry whose light the sample `source` of a row may take, which
+    /// `seen` describes. Searched in
+    /// the current leader's row, then in the earlier ones': the leader's
+    /// sample nearest to where the point projects, if its entry may be taken,
+    /// is of the same primitive seen on the same face (views either side of
+    /// a surface's plane see two faces, lit apart), and lies within half a
+    /// pixel's width (at the nearer of the two depths) of it.
     ///
     /// The radius is not stretched by the surface's slant: both points lie in
     /// the row's plane (the rig's views differ along rows), where the leader's
@@ -236,10 +250,14 @@ impl ShadingCache {
         camera: &Camera,
         row: &SampleRow,
         source: usize,
-        prim: u32,
-        point: Vec3,
-        t: f32,
+        seen: Seen,
     ) -> Option<Found> {
+        let Seen {
+            prim,
+            point,
+            front,
+            t,
+        } = seen;
         self.leaders[..self.used]
             .iter()
             .rev()
@@ -249,7 +267,10 @@ impl ShadingCache {
                 let e = (*leader.slots.get(k)?)?;
                 let entry = &self.entries[e as usize];
                 let radius = 0.5 * camera.pixel_size * t.min(entry.t);
-                (entry.shareable && entry.prim == prim && (point - entry.point).length() <= radius)
+                (entry.shareable
+                    && entry.prim == prim
+                    && entry.front == front
+                    && (point - entry.point).length() <= radius)
                     .then_some(Found(e))
             })
     }
@@ -324,9 +345,12 @@ mod tests {
             cache.keep(
                 x,
                 Kept {
-                    prim: 3,
-                    point: p,
-                    t,
+                    seen: Seen {
+                        prim: 3,
+                        point: p,
+                        front: true,
+                        t,
+                    },
                     through: &through,
                     secondary: Color::ZERO,
                     color: Color::splat(color(x) * through[0]),
@@ -340,9 +364,26 @@ mod tests {
     }
 
     fn look(cache: &ShadingCache, camera: &Camera, x: usize, prim: u32, dz: f32) -> Option<Found> {
+        look_on(cache, camera, x, prim, dz, true)
+    }
+
+    fn look_on(
+        cache: &ShadingCache,
+        camera: &Camera,
+        x: usize,
+        prim: u32,
+        dz: f32,
+        front: bool,
+    ) -> Option<Found> {
         let p = seen(camera, x) + Vec3::new(0.0, 0.0, dz);
         let t = (p - camera.eye).length();
-        cache.find(camera, &row(), x, prim, p, t)
+        let seen = Seen {
+            prim,
+            point: p,
+            front,
+            t,
+        };
+        cache.find(camera, &row(), x, seen)
     }
 
     #[test]
@@ -360,6 +401,17 @@ mod tests {
         let camera = camera();
         let cache = filled(&camera, |_| 1.0);
         assert_eq!(look(&cache, &camera, 20, 4, 0.0), None);
+    }
+
+    /// The same point of the same primitive seen on its other face (by a
+    /// view on the other side of its plane, which its light may not reach)
+    /// takes nothing from it.
+    #[test]
+    fn the_other_face_of_the_same_point_finds_nothing() {
+        let camera = camera();
+        let cache = filled(&camera, |_| 1.0);
+        assert!(look_on(&cache, &camera, 20, 3, 0.0, true).is_some());
+        assert_eq!(look_on(&cache, &camera, 20, 3, 0.0, false), None);
     }
 
     /// A point farther than half a pixel's footprint (here in front of the

@@ -4,7 +4,8 @@
 //! batch (see `shading_cache` for the cell, the entry and the bound of the
 //! tolerance).
 
-use super::shading_cache::{Found, Kept, ShadingCache};
+use super::shading_cache::{Found, Kept, Seen, ShadingCache};
+use crate::math::Vec3;
 use crate::render::sampler::{RowColors, SampleRow};
 use crate::render::tracer::Tracer;
 use crate::render::twin::batch::{RowScratch, TwinBatch};
@@ -21,6 +22,13 @@ impl<const K: usize> TwinBatch<'_, K> {
         }
     }
 
+    /// Whether view `v`'s sample `i`, which hit `prim` at `point`, sees the
+    /// primitive's front (against its geometric normal).
+    fn front(&self, scratch: &RowScratch<K>, v: usize, i: usize, prim: u32, point: Vec3) -> bool {
+        let shape = &self.world.scene.shapes[prim as usize];
+        shape.geometric_normal(point).dot(self.dir(scratch, v, i)) < 0.0
+    }
+
     /// The cache's entry for view `v`'s sample `i`, if it may take one.
     fn look_up(
         &self,
@@ -32,7 +40,13 @@ impl<const K: usize> TwinBatch<'_, K> {
     ) -> Option<Found> {
         let point = scratch.points[v][i]?;
         let (prim, hit) = scratch.hits[v][i];
-        cache.find(self.camera, row, i, prim, point, hit.t)
+        let seen = Seen {
+            prim,
+            point,
+            front: self.front(scratch, v, i, prim, point),
+            t: hit.t,
+        };
+        cache.find(self.camera, row, i, seen)
     }
 
     /// The leaders' samples of the packet of donors, shaded, kept in the
@@ -58,9 +72,12 @@ impl<const K: usize> TwinBatch<'_, K> {
             cache.keep(
                 i,
                 Kept {
-                    prim,
-                    point,
-                    t: hit.t,
+                    seen: Seen {
+                        prim,
+                        point,
+                        front: self.front(scratch, 0, i, prim, point),
+                        t: hit.t,
+                    },
                     through: d.through(l, lights),
                     secondary: d.secondary[l],
                     color: d.colors[l],

@@ -292,8 +292,9 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
     }
 
     /// Whether view `v`'s sample `k` sees the surface point that view 0's
-    /// sample `i` sees: the same primitive (or one plane of one material) and
-    /// within one pixel's footprint on the surface.
+    /// sample `i` sees: the same primitive (or one plane of one material),
+    /// the same face of it (views either side of its plane see two faces,
+    /// lit apart), and within one pixel's footprint on the surface.
     pub(in crate::render) fn same_point(
         &self,
         scratch: &RowScratch<K>,
@@ -310,7 +311,11 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         }
         let d = self.dir(scratch, v, k);
         let shape = &self.world.scene.shapes[prim as usize];
-        let cos = shape.geometric_normal(p).dot(d).abs().max(0.05);
+        let normal = shape.geometric_normal(p);
+        if (normal.dot(d) < 0.0) != (normal.dot(self.dir(scratch, 0, i)) < 0.0) {
+            return false;
+        }
+        let cos = normal.dot(d).abs().max(0.05);
         let footprint = self.camera.pixel_size * hit.t / cos;
         (p - p0).length() <= footprint
     }

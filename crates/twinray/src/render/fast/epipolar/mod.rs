@@ -31,9 +31,11 @@
 //!    its primitive on either side of its own hit along the section (earlier
 //!    views' samples shaded exactly). They must lie within one and a half of
 //!    this view's pixels of each other, on either side of the sample, at its
-//!    depth. It takes their colour, interpolated along the section, if their
-//!    colours differ by at most `E` per channel and each lies within `E/2`
-//!    of the line through its neighbours' colours (a peak of the diffuse
+//!    depth, seen on its face (views either side of a surface's plane see
+//!    its two faces, lit apart). It takes their colour, interpolated along
+//!    the section, if their colours differ by at most `E` per channel and
+//!    each lies within `E/2` of the line through its neighbours' colours
+//!    (a peak of the diffuse
 //!    term between them, as at a sphere's brightest point, bends it; a
 //!    neighbour must be there). On a flat triangle without maps under
 //!    lights without falloff, the bend is bounded by the lights' distance
@@ -136,6 +138,8 @@ struct ShadePoint {
     secondary: Color,
     /// Its transmittance toward each light: `EpiScratch::light[light..]`.
     light: u32,
+    /// The face its view saw: the front (against the geometric normal).
+    front: bool,
 }
 
 /// Where a sample lies on its primitive's section: the primitive (an index
@@ -146,6 +150,7 @@ struct OnSection {
     param: f64,
     a: f64,
     b: f64,
+    front: bool,
 }
 
 /// A sample to shade exactly; `keep`: where it lies, if its surface keeps
@@ -591,7 +596,19 @@ impl<'a> EpipolarPass<'a> {
                 });
                 continue;
             };
-            let keep = Some(OnSection { local, param, a, b });
+            // The face the view sees: views either side of a surface's plane
+            // (a triangle nearly edge-on) see its two faces, lit apart.
+            let d = s.dirs[c];
+            let shape = &self.world.scene.shapes[prim as usize];
+            let front = shape.geometric_normal(origin + d * hit.t).dot(d) < 0.0;
+            let on = OnSection {
+                local,
+                param,
+                a,
+                b,
+                front,
+            };
+            let keep = Some(on);
             let points = &s.points[local as usize];
             // A view's neighbouring samples on one primitive move along its
             // section: start from the last sample's place, else search.
@@ -606,6 +623,11 @@ impl<'a> EpipolarPass<'a> {
                 continue;
             }
             let (e0, e1) = (points[at - 1], points[at]);
+            if e0.front != front || e1.front != front {
+                stats.refused_face += 1;
+                s.donations.push(Donation { sample: i, keep });
+                continue;
+            }
             // The two must lie within WIDEST of this view's pixels, on either
             // side of the sample, at its depth (not one on the surface's far
             // side, seen by another view).
@@ -638,6 +660,8 @@ impl<'a> EpipolarPass<'a> {
                         <= f64::from(half)
                     || at >= 2
                         && at + 1 < points.len()
+                        && points[at - 2].front == front
+                        && points[at + 1].front == front
                         && bend(&points[at - 2], &e0, &e1) <= half
                         && bend(&e0, &e1, &points[at + 1]) <= half)
             {
@@ -660,7 +684,7 @@ impl<'a> EpipolarPass<'a> {
             let trace = (0..lights.min(64)).fold(0u64, |trace, i| {
                 let alike = outer
                     .iter()
-                    .all(|q| q.is_some_and(|q| light(q, i) == light(&e0, i)));
+                    .all(|q| q.is_some_and(|q| q.front == front && light(q, i) == light(&e0, i)));
                 trace | u64::from(!alike) << i
             });
             if lights <= 64 && trace.count_ones() < lights as u32 {
@@ -676,7 +700,7 @@ impl<'a> EpipolarPass<'a> {
                     to: e1,
                     w: w as f32,
                     trace,
-                    on: OnSection { local, param, a, b },
+                    on,
                 });
                 continue;
             }
@@ -757,7 +781,13 @@ impl<'a> EpipolarPass<'a> {
     /// Keeps a shade point at `on` of `color`, `secondary` colour and
     /// transmittances at `light` in `s.light`.
     fn keep(&self, s: &mut EpiScratch, on: OnSection, color: Color, secondary: Color, light: u32) {
-        let OnSection { local, param, a, b } = on;
+        let OnSection {
+            local,
+            param,
+            a,
+            b,
+            front,
+        } = on;
         let point = ShadePoint {
             param,
             a,
@@ -766,6 +796,7 @@ impl<'a> EpipolarPass<'a> {
             color,
             secondary,
             light,
+            front,
         };
         let points = &mut s.points[local as usize];
         if points.last().is_some_and(|q| q.param > param) {
@@ -1151,6 +1182,7 @@ mod tests {
                 color: Color::ZERO,
                 secondary: Color::ZERO,
                 light,
+                front: true,
             };
             // Params on a coarse grid, so that ties are common.
             let n = rng.usize(0..12);
