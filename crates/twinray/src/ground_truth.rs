@@ -494,7 +494,7 @@ fn next_ray(world: &World, prim: u32, ray: &Ray, hit: &SurfaceHit) -> Ray {
     let unbent = surface.offset_normal;
     let off = if unbent.dot(d) < 0.0 { unbent } else { -unbent };
     if material.t > 0.0 {
-        let entering = scene.shapes[prim as usize].geometric_normal(point).dot(d) < 0.0;
+        let entering = scene.shapes[prim as usize].met_from_front(point, d);
         if let Some(dir) = refract(d, facing, material.eta(entering)) {
             return Ray::new(offset_point(point, -off, hit.t), dir);
         }

@@ -134,6 +134,15 @@ impl Shape {
             Shape::Cone(c) => c.normal(point),
         }
     }
+
+    /// Whether a ray along `dir` meets the surface at `point` on its front,
+    /// against the geometric normal: entering a closed shape, or seeing the
+    /// face a triangle's normal points out of. Views either side of a
+    /// surface's plane meet its two faces.
+    #[inline]
+    pub fn met_from_front(&self, point: Vec3, dir: Vec3) -> bool {
+        self.geometric_normal(point).dot(dir) < 0.0
+    }
 }
 
 #[cfg(test)]

@@ -26,7 +26,7 @@ impl<const K: usize> TwinBatch<'_, K> {
     /// primitive's front (against its geometric normal).
     fn front(&self, scratch: &RowScratch<K>, v: usize, i: usize, prim: u32, point: Vec3) -> bool {
         let shape = &self.world.scene.shapes[prim as usize];
-        shape.geometric_normal(point).dot(self.dir(scratch, v, i)) < 0.0
+        shape.met_from_front(point, self.dir(scratch, v, i))
     }
 
     /// The cache's entry for view `v`'s sample `i`, if it may take one.

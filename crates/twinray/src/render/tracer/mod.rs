@@ -741,7 +741,7 @@ impl<'a> Tracer<'a> {
             let mut mirror = material.mirror * coverage;
             let transmission = material.t * coverage;
             if material.t > 0.0 {
-                let entering = shape.geometric_normal(point).dot(d) < 0.0;
+                let entering = shape.met_from_front(point, d);
                 match refract(d, facing, material.eta(entering)) {
                     Some(dir) => {
                         if self.wanted(weights[l] * transmission) {

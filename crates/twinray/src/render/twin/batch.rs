@@ -311,6 +311,7 @@ impl<'a, const K: usize> TwinBatch<'a, K> {
         }
         let d = self.dir(scratch, v, k);
         let shape = &self.world.scene.shapes[prim as usize];
+        // One normal for both rays: coplanar triangles wound apart are one face.
         let normal = shape.geometric_normal(p);
         if (normal.dot(d) < 0.0) != (normal.dot(self.dir(scratch, 0, i)) < 0.0) {
             return false;

@@ -600,7 +600,7 @@ impl<'a> EpipolarPass<'a> {
             // (a triangle nearly edge-on) see its two faces, lit apart.
             let d = s.dirs[c];
             let shape = &self.world.scene.shapes[prim as usize];
-            let front = shape.geometric_normal(origin + d * hit.t).dot(d) < 0.0;
+            let front = shape.met_from_front(origin + d * hit.t, d);
             let on = OnSection {
                 local,
                 param,
