@@ -44,10 +44,6 @@ pub struct EpipolarCounts {
     pub light_taken: u64,
     pub light_partly_taken: u64,
     pub lights_traced: u64,
-    /// Mirror, glass and highlight samples that took their reflected and
-    /// refracted light from the views either side of them (and their light
-    /// where those saw it alike, tracing `lights_traced` toward the rest).
-    pub reflection_taken: u64,
     /// Samples traced and shaded exactly, and those that hit nothing.
     pub traced: u64,
     pub misses: u64,
@@ -83,8 +79,8 @@ impl FastCounts {
         }
         if *e != EpipolarCounts::default() {
             lines.push(format!(
-                "fast, epipolar rows: {} in their planes ({} traced exactly), primitives gathered {}, visibility tests {}; samples: colour taken {}, light taken {}, light partly taken {} ({} shadow rays), reflection taken {}, shaded exactly {} (no shade point {}, colours and light apart {}, shade points apart {}, seen on the other face {}, mirror, glass or highlight {}, shape {}), background {}; shade points {}",
-                e.rows, e.rows_exact, e.primitives, e.tests, e.taken, e.light_taken, e.light_partly_taken, e.lights_traced, e.reflection_taken, e.traced, e.no_bracket, e.refused_colour, e.refused_wide, e.refused_face, e.refused_material, e.refused_shape, e.misses, e.shade_points
+                "fast, epipolar rows: {} in their planes ({} traced exactly), primitives gathered {}, visibility tests {}; samples: colour taken {}, light taken {}, light partly taken {} ({} shadow rays), shaded exactly {} (no shade point {}, colours and light apart {}, shade points apart {}, seen on the other face {}, mirror, glass or highlight {}, shape {}), background {}; shade points {}",
+                e.rows, e.rows_exact, e.primitives, e.tests, e.taken, e.light_taken, e.light_partly_taken, e.lights_traced, e.traced, e.no_bracket, e.refused_colour, e.refused_wide, e.refused_face, e.refused_material, e.refused_shape, e.misses, e.shade_points
             ));
         }
         if lines.is_empty() {

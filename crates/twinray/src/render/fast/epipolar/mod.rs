@@ -100,10 +100,6 @@ const SLACK: f64 = 1e-3;
 /// sees.
 const DEPTH_STEP: f64 = 0.01;
 
-/// How many views of the rounds before, on each side, a mirror, glass or
-/// highlight sample looks through for two that saw its point exactly.
-const SEEK: usize = 2;
-
 /// What a render's epipolar rows share.
 pub(in crate::render) struct EpipolarPass<'a> {
     world: &'a World,
@@ -112,11 +108,6 @@ pub(in crate::render) struct EpipolarPass<'a> {
     order: Vec<(usize, f32, i32)>,
     /// Positions in `order`, in the order their rows are shaded.
     visit: Vec<usize>,
-    /// Per position: its round of visits (`visit_rounds`), and the
-    /// positions of the rounds before on its left, nearest first, and on its
-    /// right.
-    round: Vec<usize>,
-    sides: Vec<(Vec<usize>, Vec<usize>)>,
     /// The least and the greatest shift of the views.
     shifts: (i32, i32),
     /// Per position: the first of a row's camera columns that its view
@@ -171,65 +162,40 @@ struct Donation {
 }
 
 /// A mirror, glass or highlight sample (view position `position`), shaded
-/// once every view's plain samples are: `on`, where it lies, if its
-/// primitive has a section to place it on.
+/// once every view's are known, next to the samples of other views that see
+/// its surface near it: by its primitive and place on the section.
 #[derive(Clone, Copy, Debug)]
 struct Deferred {
+    local: u32,
+    param: f64,
     position: u32,
     sample: u32,
-    on: Option<OnSection>,
 }
 
 impl Deferred {
     /// By primitive, then place on its section: the views' samples of one
-    /// point of a surface next to each other (those without a place last).
+    /// point of a surface next to each other.
     fn order(x: &Deferred, y: &Deferred) -> std::cmp::Ordering {
-        let place = |d: &Deferred| d.on.map_or((u32::MAX, 0.0), |on| (on.local, on.param));
-        let (px, py) = (place(x), place(y));
-        (px.0.cmp(&py.0))
-            .then(px.1.total_cmp(&py.1))
+        (x.local.cmp(&y.local))
+            .then(x.param.total_cmp(&y.param))
             .then(x.position.cmp(&y.position))
             .then(x.sample.cmp(&y.sample))
     }
 }
 
-/// A mirror, glass or highlight sample shaded exactly, for the views after
-/// it: where on its primitive's section, its weighted reflected and
-/// refracted colour, and its transmittances toward each light
-/// (`EpiScratch::light[light..]`). `local` is `u32::MAX` for none.
-#[derive(Clone, Copy, Debug)]
-struct MirrorPoint {
-    local: u32,
-    front: bool,
-    param: f64,
-    b: f64,
-    secondary: Color,
-    light: u32,
-}
-
-impl MirrorPoint {
-    const NONE: MirrorPoint = MirrorPoint {
-        local: u32::MAX,
-        front: false,
-        param: 0.0,
-        b: 0.0,
-        secondary: Color::ZERO,
-        light: 0,
-    };
-}
-
-/// A sample that takes its light from shade point `light` (in
-/// `EpiScratch::light`), but for the lights in `trace` (bit `i`: light
-/// `i`), whose shadow rays it traces, and its secondary colour. One that
-/// traces some and lies at `on` becomes a shade point: it lies next to a
-/// shadow edge, where the views after it need shade points close together.
+/// A sample that takes its light from shade point `from`, but for the
+/// lights in `trace` (bit `i`: light `i`), whose shadow rays it traces, and
+/// its secondary colour between `from` and `to` at `w`. One that traces
+/// some becomes a shade point, at `on`: it lies next to a shadow edge, where
+/// the views after it need shade points close together.
 #[derive(Clone, Copy, Debug)]
 struct Taking {
     sample: usize,
-    secondary: Color,
-    light: u32,
+    from: ShadePoint,
+    to: ShadePoint,
+    w: f32,
     trace: u64,
-    on: Option<OnSection>,
+    on: OnSection,
 }
 
 /// One thread's scratch space, reused from row to row.
@@ -259,16 +225,8 @@ pub(in crate::render) struct EpiScratch {
     /// A view's samples shaded exactly, and those that take a light.
     donations: Vec<Donation>,
     takings: Vec<Taking>,
-    /// The row's mirror, glass and highlight samples, every view's, in the
-    /// order of the views' visits.
+    /// The row's mirror, glass and highlight samples, every view's.
     deferred: Vec<Deferred>,
-    /// Per position, per sample: the mirror, glass or highlight sample
-    /// shaded exactly there, if any.
-    mirror: Vec<MirrorPoint>,
-    /// A round's mirror, glass and highlight samples to shade exactly, and
-    /// those that take their reflection (with their view's position).
-    exact: Vec<Deferred>,
-    taken: Vec<(u32, Taking)>,
     /// Primitives whose shade points came out of order since they were last
     /// put in order, each with the length of its list still in order.
     touched: Vec<(u32, u32)>,
@@ -300,19 +258,10 @@ impl<'a> EpipolarPass<'a> {
             .fold((i32::MAX, i32::MIN), |(l, h), o| (l.min(o.2), h.max(o.2)));
         let first = order.iter().map(|o| (o.2 - shifts.0) as usize).collect();
         let tol = tolerance;
-        let rounds = visit_rounds(n);
         Some(EpipolarPass {
             world,
             camera,
-            visit: rounds.concat(),
-            sides: earlier_sides(&rounds),
-            round: rounds
-                .iter()
-                .enumerate()
-                .fold(vec![0; n], |mut round, (r, views)| {
-                    views.iter().for_each(|&p| round[p] = r);
-                    round
-                }),
+            visit: visit_order(n),
             shifts,
             first,
             order,
@@ -358,206 +307,47 @@ impl<'a> EpipolarPass<'a> {
         for &p in &self.visit {
             self.shade_view(tracer, row, &plane, p, s, out);
         }
-        self.shade_deferred(tracer, &plane, n, s, out);
+        self.shade_deferred(tracer, n, s, out);
     }
 
-    /// The row's mirror, glass and highlight samples, round by round of the
-    /// views' visits (`visit_rounds`). A sample seen by views of earlier
-    /// rounds on both sides, that saw its reflected and refracted light
-    /// alike, takes that light between theirs, and their light where they
-    /// saw a light alike (`reflection_between`); its ambient, diffuse and
-    /// highlight terms are its own. The rest are shaded exactly and kept
-    /// for the rounds after: eight to a packet, by primitive and place on
-    /// it, so that the views that see one point of a mirror send reflected
-    /// and shadow rays nearly alike, which go down the hierarchy together
-    /// (eight neighbours of one view on a curved mirror reflect apart). Each
-    /// lane's colour is what it gets alone, so the order changes no pixel.
+    /// The row's mirror, glass and highlight samples of every view, shaded
+    /// exactly, eight to a packet, ordered by primitive and place on it: the
+    /// views that see one point of a mirror send reflected and shadow rays
+    /// nearly alike, which go down the hierarchy together (eight neighbours
+    /// of one view on a curved mirror reflect apart). Each lane's colour is
+    /// what it gets alone, so the order changes no pixel.
     fn shade_deferred(
         &self,
         tracer: &mut Tracer,
-        plane: &Plane,
         n: usize,
         s: &mut EpiScratch,
         out: &mut [RowColors],
     ) {
-        s.mirror.clear();
-        s.mirror.resize(self.order.len() * n, MirrorPoint::NONE);
-        let mut start = 0;
-        while start < s.deferred.len() {
-            let round = self.round[s.deferred[start].position as usize];
-            let end = s.deferred[start..]
-                .iter()
-                .position(|d| self.round[d.position as usize] != round)
-                .map_or(s.deferred.len(), |len| start + len);
-            s.exact.clear();
-            s.taken.clear();
-            let mut stats = EpipolarCounts::default();
-            for j in start..end {
-                let d = s.deferred[j];
-                let (p, sample) = (d.position as usize, d.sample as usize);
-                let taking =
-                    d.on.and_then(|on| self.reflection_between(plane, n, p, sample, on, s));
-                if let Some(taking) = taking {
-                    stats.reflection_taken += 1;
-                    stats.lights_traced += u64::from(taking.trace.count_ones());
-                    s.taken.push((d.position, taking));
-                } else {
-                    stats.refused_material += 1;
-                    s.exact.push(d);
-                }
-            }
-            stats.traced += s.exact.len() as u64;
-            tracer.counts.fast.epipolar += stats;
-            self.shade_mirrors_exactly(tracer, n, s, out);
-            // The takings, view by view (in the order of the visits).
-            let mut from = 0;
-            while from < s.taken.len() {
-                let p = s.taken[from].0;
-                let to = s.taken[from..]
-                    .iter()
-                    .position(|t| t.0 != p)
-                    .map_or(s.taken.len(), |len| from + len);
-                s.takings.clear();
-                s.takings.extend(s.taken[from..to].iter().map(|t| t.1));
-                let (v, offset, _) = self.order[p as usize];
-                let origin = self.camera.eye_at(offset);
-                self.shade_takings(tracer, p as usize, n, origin, s, &mut out[v]);
-                from = to;
-            }
-            start = end;
-        }
-    }
-
-    /// The round's mirror, glass and highlight samples in `s.exact`, shaded
-    /// exactly, eight to a packet by primitive and place, and kept.
-    fn shade_mirrors_exactly(
-        &self,
-        tracer: &mut Tracer,
-        n: usize,
-        s: &mut EpiScratch,
-        out: &mut [RowColors],
-    ) {
-        let lights = self.world.scene.lights.len();
-        s.exact.sort_unstable_by(Deferred::order);
-        for first in (0..s.exact.len()).step_by(EYE_PACKET) {
-            let count = (s.exact.len() - first).min(EYE_PACKET);
-            let lanes = &s.exact[first..first + count];
+        s.deferred.sort_unstable_by(Deferred::order);
+        for lanes in s.deferred.chunks(EYE_PACKET) {
             let mut packet = Packet {
                 origins: [Vec3::ZERO; EYE_PACKET],
                 dirs: [Vec3::Z; EYE_PACKET],
                 t_min: self.camera.hither,
                 t_max: [f32::INFINITY; EYE_PACKET],
-                mask: (1u32 << count) - 1,
+                mask: (1u32 << lanes.len()) - 1,
             };
             let mut hits = PacketHits::<EYE_PACKET>::none();
             for (l, d) in lanes.iter().enumerate() {
                 let p = d.position as usize;
-                let (hit, local) = s.best[p * n + d.sample as usize];
+                let k = p * n + d.sample as usize;
+                let (hit, local) = s.best[k];
                 packet.origins[l] = self.camera.eye_at(self.order[p].1);
                 packet.dirs[l] = s.dirs[self.first[p] + d.sample as usize];
                 hits.prim[l] = s.prims[local as usize];
                 hits.hit[l] = hit;
             }
-            tracer.shade_donors(&packet, &hits, SecondaryRays::Own, &mut s.donors);
-            for l in 0..count {
-                let d = s.exact[first + l];
-                let (p, sample) = (d.position as usize, d.sample as usize);
-                out[self.order[p].0][sample] = s.donors.colors[l];
-                if let Some(on) = d.on {
-                    let light = s.light.len() as u32;
-                    s.light.extend_from_slice(s.donors.through(l, lights));
-                    s.mirror[p * n + sample] = MirrorPoint {
-                        local: on.local,
-                        front: on.front,
-                        param: on.param,
-                        b: on.b,
-                        secondary: s.donors.secondary[l],
-                        light,
-                    };
-                }
+            let groups = std::array::from_fn(|l| l as u8);
+            let colors = tracer.shade_eye_groups(&packet, &hits, SecondaryRays::Own, groups);
+            for (l, d) in lanes.iter().enumerate() {
+                out[self.order[d.position as usize].0][d.sample as usize] = colors[l];
             }
         }
-    }
-
-    /// What view `p`'s mirror, glass or highlight sample at `on` takes from
-    /// the nearest views shaded before it on either side that saw its point
-    /// exactly, each between the two samples whose rays meet the
-    /// primitive's section either side of it: their weighted reflected and
-    /// refracted colours, if the four differ by at most `E` per channel,
-    /// interpolated along the section and then between the views; and the
-    /// light of the lights the four saw alike. `None`: shaded exactly.
-    fn reflection_between(
-        &self,
-        plane: &Plane,
-        n: usize,
-        p: usize,
-        sample: usize,
-        on: OnSection,
-        s: &EpiScratch,
-    ) -> Option<Taking> {
-        let lights = self.world.scene.lights.len();
-        if n < 2 || lights > 64 {
-            return None;
-        }
-        let inv_bps = 1.0 / (on.b * self.camera.pixel_size as f64);
-        // The nearest view of `views` whose two samples around the point
-        // were shaded exactly on its primitive and face, at its depth: its
-        // offset, the two, and the point's place between them.
-        let side = |views: &[usize]| {
-            for &q in views.iter().take(SEEK) {
-                let (_, offset, shift) = self.order[q];
-                let x = plane.sample_of_scaled(on.a, inv_bps, offset as f64, shift);
-                // Out of the view's image (the views further out see it
-                // further out).
-                if !(0.0..=(n - 1) as f64).contains(&x) {
-                    return None;
-                }
-                let i = (x as usize).min(n - 2);
-                let (m0, m1) = (s.mirror[q * n + i], s.mirror[q * n + i + 1]);
-                let same = |m: &MirrorPoint| m.local == on.local && m.front == on.front;
-                if !same(&m0) || !same(&m1) {
-                    continue;
-                }
-                if on.param < m0.param.min(m1.param) || on.param > m0.param.max(m1.param) {
-                    continue;
-                }
-                let w = if m1.param != m0.param {
-                    (on.param - m0.param) / (m1.param - m0.param)
-                } else {
-                    0.0
-                };
-                let depth = m0.b + (m1.b - m0.b) * w;
-                if (depth - on.b).abs() > DEPTH_STEP * on.b {
-                    continue;
-                }
-                return Some((offset as f64, m0, m1, w as f32));
-            }
-            None
-        };
-        let (sides_left, sides_right) = &self.sides[p];
-        let (u0, l0, l1, w0) = side(sides_left)?;
-        let (u1, r0, r1, w1) = side(sides_right)?;
-        let four = [l0, l1, r0, r1];
-        let lo = four.iter().fold(l0.secondary, |c, m| c.min(m.secondary));
-        let hi = four.iter().fold(l0.secondary, |c, m| c.max(m.secondary));
-        if largest(hi - lo) > self.tolerance {
-            return None;
-        }
-        let left = l0.secondary + (l1.secondary - l0.secondary) * w0;
-        let right = r0.secondary + (r1.secondary - r0.secondary) * w1;
-        let between = ((f64::from(self.order[p].1) - u0) / (u1 - u0)) as f32;
-        let light = |m: &MirrorPoint, i: usize| s.light[m.light as usize + i];
-        let trace = (0..lights).fold(0u64, |trace, i| {
-            let alike = four.iter().all(|m| light(m, i) == light(&l0, i));
-            trace | u64::from(!alike) << i
-        });
-        Some(Taking {
-            sample,
-            secondary: left + (right - left) * between,
-            light: l0.light,
-            trace,
-            on: None,
-        })
     }
 
     /// The primitives that may meet the row's rays, ascending, with their
@@ -782,23 +572,15 @@ impl<'a> EpipolarPass<'a> {
             if !self.plain[m] {
                 // Shaded after every view, with the other views' samples of
                 // the same surface (`shade_deferred`).
+                stats.refused_material += 1;
+                stats.traced += 1;
                 let b = hit.t as f64 / s.lens[c];
-                let a = offset + s.slopes[c] * b;
-                let on = s.sections[local as usize].param(a, b).map(|param| {
-                    let d = s.dirs[c];
-                    let shape = &self.world.scene.shapes[prim as usize];
-                    OnSection {
-                        local,
-                        param,
-                        a,
-                        b,
-                        front: shape.met_from_front(origin + d * hit.t, d),
-                    }
-                });
+                let param = s.sections[local as usize].param(offset + s.slopes[c] * b, b);
                 s.deferred.push(Deferred {
+                    local,
+                    param: param.unwrap_or(0.0),
                     position: p as u32,
                     sample: i as u32,
-                    on,
                 });
                 continue;
             }
@@ -914,10 +696,11 @@ impl<'a> EpipolarPass<'a> {
                 }
                 s.takings.push(Taking {
                     sample: i,
-                    secondary: e0.secondary + (e1.secondary - e0.secondary) * w as f32,
-                    light: e0.light,
+                    from: e0,
+                    to: e1,
+                    w: w as f32,
                     trace,
-                    on: Some(on),
+                    on,
                 });
                 continue;
             }
@@ -1060,12 +843,9 @@ impl<'a> EpipolarPass<'a> {
             let mut secondary = [Color::ZERO; EYE_PACKET];
             for (l, secondary) in secondary.iter_mut().enumerate().take(count) {
                 let Taking {
-                    secondary: taken,
-                    light,
-                    trace,
-                    ..
+                    from, to, w, trace, ..
                 } = s.takings[first + l];
-                let light = light as usize;
+                let light = from.light as usize;
                 let through = &mut s.through[l * lights..(l + 1) * lights];
                 through.copy_from_slice(&s.light[light..light + lights]);
                 for (i, t) in through.iter_mut().enumerate() {
@@ -1073,17 +853,17 @@ impl<'a> EpipolarPass<'a> {
                         *t = TRACE_LIGHT;
                     }
                 }
-                *secondary = taken;
+                *secondary = from.secondary + (to.secondary - from.secondary) * w;
             }
             let colors = tracer.shade_from_donors(&packet, &hits, &mut s.through, &secondary);
             for l in 0..count {
                 let taking = s.takings[first + l];
                 out[taking.sample] = colors[l];
-                if let (Some(on), true) = (taking.on, taking.trace != 0) {
+                if taking.trace != 0 {
                     let light = s.light.len() as u32;
                     s.light
                         .extend_from_slice(&s.through[l * lights..(l + 1) * lights]);
-                    self.keep(s, on, colors[l], secondary[l], light);
+                    self.keep(s, taking.on, colors[l], secondary[l], light);
                 }
             }
         }
@@ -1182,51 +962,33 @@ fn seek(points: &[ShadePoint], at: usize, param: f64) -> usize {
     points.partition_point(|q| q.param < param)
 }
 
-/// Positions `0..n` in the order their rows are shaded, round by round:
-/// the middle and the two ends, then halfway between shaded ones, each
-/// round between the rounds before it.
-fn visit_rounds(n: usize) -> Vec<Vec<usize>> {
+/// Positions `0..n` in the order their rows are shaded: the middle, the two
+/// ends, then halfway between shaded ones, level by level.
+fn visit_order(n: usize) -> Vec<usize> {
+    let mut order = Vec::with_capacity(n);
+    let mut seen = vec![false; n];
+    let mut push = |p: usize, order: &mut Vec<usize>| {
+        if !seen[p] {
+            seen[p] = true;
+            order.push(p);
+        }
+    };
     if n == 0 {
-        return Vec::new();
+        return order;
     }
-    let mut first = vec![n / 2];
-    for p in [0, n - 1] {
-        if !first.contains(&p) {
-            first.push(p);
-        }
-    }
-    let mut done = first.clone();
-    let mut rounds = vec![first];
-    while done.len() < n {
+    push(n / 2, &mut order);
+    push(0, &mut order);
+    push(n - 1, &mut order);
+    while order.len() < n {
+        let mut done: Vec<usize> = order.clone();
         done.sort_unstable();
-        let round: Vec<usize> = done
-            .windows(2)
-            .filter(|w| w[1] - w[0] > 1)
-            .map(|w| (w[0] + w[1]) / 2)
-            .collect();
-        done.extend_from_slice(&round);
-        rounds.push(round);
-    }
-    rounds
-}
-
-/// Per position: the positions of the rounds before its own, on its left
-/// (nearest first) and on its right (nearest first).
-fn earlier_sides(rounds: &[Vec<usize>]) -> Vec<(Vec<usize>, Vec<usize>)> {
-    let n = rounds.iter().map(Vec::len).sum();
-    let mut sides = vec![(Vec::new(), Vec::new()); n];
-    let mut before: Vec<usize> = Vec::new();
-    for round in rounds {
-        for &p in round {
-            let mut left: Vec<usize> = before.iter().copied().filter(|&q| q < p).collect();
-            let mut right: Vec<usize> = before.iter().copied().filter(|&q| q > p).collect();
-            left.sort_unstable_by(|x, y| y.cmp(x));
-            right.sort_unstable();
-            sides[p] = (left, right);
+        for w in done.windows(2) {
+            if w[1] - w[0] > 1 {
+                push((w[0] + w[1]) / 2, &mut order);
+            }
         }
-        before.extend_from_slice(round);
     }
-    sides
+    order
 }
 
 #[cfg(test)]
@@ -1325,6 +1087,45 @@ mod tests {
         }
     }
 
+    /// Three views' samples along one mirror primitive's section (each view
+    /// sees the surface shifted by a sample): sorted, the views' samples of
+    /// one place lie next to each other, so that a packet holds one point
+    /// seen by several views; another primitive's come apart.
+    #[test]
+    fn deferred_samples_of_one_place_go_together() {
+        let mut deferred: Vec<Deferred> = (0..3u32)
+            .flat_map(|position| {
+                (0..4u32).map(move |i| Deferred {
+                    local: 7,
+                    param: 0.1 * f64::from(i + position),
+                    position,
+                    sample: i + position,
+                })
+            })
+            .chain([Deferred {
+                local: 2,
+                param: 0.25,
+                position: 1,
+                sample: 0,
+            }])
+            .collect();
+        deferred.sort_unstable_by(Deferred::order);
+        assert_eq!(deferred[0].local, 2);
+        let places: Vec<f64> = deferred[1..].iter().map(|d| d.param).collect();
+        assert!(places.windows(2).all(|w| w[0] <= w[1]), "{places:?}");
+        // The place 0.2 is seen by all three views, in one run.
+        let run: Vec<u32> = deferred
+            .iter()
+            .filter(|d| (d.param - 0.2).abs() < 1e-9)
+            .map(|d| d.position)
+            .collect();
+        assert_eq!(run, [0, 1, 2]);
+        let first = deferred.iter().position(|d| (d.param - 0.2).abs() < 1e-9);
+        assert!(first.is_some_and(|f| deferred[f..f + 3]
+            .iter()
+            .all(|d| (d.param - 0.2).abs() < 1e-9)));
+    }
+
     /// A flat triangle's bound: `3·kd·c·l/(8ρ²)`, `ρ` the light's distance
     /// less the triangle's reach from its centre; none (infinite) for a
     /// sphere, a smooth patch, or a light within that reach.
@@ -1402,17 +1203,10 @@ mod tests {
     /// position once.
     #[test]
     fn views_are_visited_middle_first_then_halfway() {
-        assert_eq!(visit_rounds(1), [vec![0]]);
-        assert_eq!(visit_rounds(2), [vec![1, 0]]);
-        assert_eq!(visit_rounds(3), [vec![1, 0, 2]]);
-        assert_eq!(
-            visit_rounds(9),
-            [vec![4, 0, 8], vec![2, 6], vec![1, 3, 5, 7]]
-        );
-        let sides = earlier_sides(&visit_rounds(9));
-        assert_eq!(sides[3], (vec![2, 0], vec![4, 6, 8]));
-        assert_eq!(sides[6], (vec![4, 0], vec![8]));
-        let mut all = visit_rounds(48).concat();
+        assert_eq!(visit_order(1), vec![0]);
+        assert_eq!(visit_order(3), vec![1, 0, 2]);
+        assert_eq!(visit_order(9), vec![4, 0, 8, 2, 6, 1, 3, 5, 7]);
+        let mut all = visit_order(48);
         all.sort_unstable();
         assert_eq!(all, (0..48).collect::<Vec<_>>());
     }
