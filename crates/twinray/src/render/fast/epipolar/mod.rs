@@ -116,6 +116,8 @@ pub(in crate::render) struct EpipolarPass<'a> {
     tolerance: f32,
     /// Per material: shading independent of the view within the tolerance.
     plain: Vec<bool>,
+    /// Per primitive: `flat_curvature`, once for every row.
+    curvature: Vec<f64>,
     /// Margin of the region and of the sections (the rounding of the
     /// scene's coordinates).
     margin: f64,
@@ -203,8 +205,6 @@ struct Taking {
 pub(in crate::render) struct EpiScratch {
     prims: Vec<u32>,
     sections: Vec<Section>,
-    /// Per gathered primitive: `flat_curvature`.
-    curvature: Vec<f64>,
     /// Per position, per sample: the nearest hit (index into `prims`,
     /// `u32::MAX` for none).
     best: Vec<(SurfaceHit, u32)>,
@@ -267,6 +267,9 @@ impl<'a> EpipolarPass<'a> {
             order,
             tolerance: tol,
             plain: plain_materials(world, tol),
+            curvature: (0..world.scene.shapes.len())
+                .map(|p| flat_curvature(world, p))
+                .collect(),
             margin,
             beyond: reach * 2.0,
         })
@@ -394,62 +397,8 @@ impl<'a> EpipolarPass<'a> {
                 .iter()
                 .map(|&p| plane.section(&shapes[p as usize], tol)),
         );
-        s.curvature.clear();
-        s.curvature
-            .extend(s.prims.iter().map(|&p| self.flat_curvature(p)));
         tracer.counts.fast.epipolar.primitives += s.prims.len() as u64;
         true
-    }
-
-    /// `κ` such that between two points `h` apart on primitive `prim`, lit
-    /// alike, its colour lies within `κ·h²` of the line between theirs
-    /// (each channel); infinite where no such bound is known. A flat
-    /// triangle of a material without maps has one normal `N` and one
-    /// ambient term, so its colour changes only with each light's diffuse
-    /// term `kd·c·l·(N·L̂)`. Along the surface, `N·L̂` has a second
-    /// derivative of at most `3/ρ²` (`ρ` the light's distance; a
-    /// directional light's is constant), so a chord `h` long is off by at
-    /// most `h²/8` of that. NFF's point lights keep their intensity with
-    /// distance; other falloffs and spot cones are not bounded here.
-    fn flat_curvature(&self, prim: u32) -> f64 {
-        let scene = &self.world.scene;
-        let Shape::Triangle(tri) = &scene.shapes[prim as usize] else {
-            return f64::INFINITY;
-        };
-        let m = &scene.materials[scene.shape_material[prim as usize] as usize];
-        let mapped = m.texture.is_some()
-            || m.normal_map.is_some()
-            || m.emission_texture.is_some()
-            || m.occlusion_texture.is_some();
-        if !matches!(tri.normals, TriangleNormals::Flat) || mapped {
-            return f64::INFINITY;
-        }
-        let corners = [tri.v0, tri.v0 + tri.e1, tri.v0 + tri.e2].map(|v| v.as_dvec3());
-        let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
-        let reach = corners
-            .iter()
-            .map(|&c| c.distance(centre))
-            .fold(0.0, f64::max);
-        let diffuse = f64::from(m.kd * m.color.max_element());
-        scene.lights.iter().fold(0.0, |sum, light| {
-            let l = f64::from(light.color.unwrap_or(Color::ONE).max_element());
-            match light.kind {
-                LightKind::Directional { .. } => sum,
-                LightKind::Point {
-                    position,
-                    inverse_square: false,
-                    range: None,
-                } => {
-                    let rho = position.as_dvec3().distance(centre) - reach;
-                    if rho > 0.0 {
-                        sum + 3.0 * diffuse * l / (8.0 * rho * rho)
-                    } else {
-                        f64::INFINITY
-                    }
-                }
-                _ => f64::INFINITY,
-            }
-        })
     }
 
     /// Every view's nearest hit through every sample of the row.
@@ -653,7 +602,7 @@ impl<'a> EpipolarPass<'a> {
             // squared chord between the two: `R` is a unit vector normal to
             // `W`).
             let half = self.tolerance * 0.5;
-            let flat = s.curvature[local as usize];
+            let flat = self.curvature[prim as usize];
             if largest(e1.color - e0.color) <= self.tolerance
                 && (flat.is_finite()
                     && flat * ((e1.a - e0.a).powi(2) + plane.ww * (e1.b - e0.b).powi(2))
@@ -893,6 +842,57 @@ fn rig_extent(world: &World, camera: &Camera, order: &[(usize, f32, i32)]) -> (f
         1e-6 * scene_scale.max(origin_scale).max(1e-3) as f64,
         beyond + size,
     )
+}
+
+/// `κ` such that between two points `h` apart on primitive `prim`, lit
+/// alike, its colour lies within `κ·h²` of the line between theirs
+/// (each channel); infinite where no such bound is known. A flat
+/// triangle of a material without maps has one normal `N` and one
+/// ambient term, so its colour changes only with each light's diffuse
+/// term `kd·c·l·(N·L̂)`. Along the surface, `N·L̂` has a second
+/// derivative of at most `3/ρ²` (`ρ` the light's distance; a
+/// directional light's is constant), so a chord `h` long is off by at
+/// most `h²/8` of that. NFF's point lights keep their intensity with
+/// distance; other falloffs and spot cones are not bounded here.
+fn flat_curvature(world: &World, prim: usize) -> f64 {
+    let scene = &world.scene;
+    let Shape::Triangle(tri) = &scene.shapes[prim] else {
+        return f64::INFINITY;
+    };
+    let m = &scene.materials[scene.shape_material[prim] as usize];
+    let mapped = m.texture.is_some()
+        || m.normal_map.is_some()
+        || m.emission_texture.is_some()
+        || m.occlusion_texture.is_some();
+    if !matches!(tri.normals, TriangleNormals::Flat) || mapped {
+        return f64::INFINITY;
+    }
+    let corners = [tri.v0, tri.v0 + tri.e1, tri.v0 + tri.e2].map(|v| v.as_dvec3());
+    let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
+    let reach = corners
+        .iter()
+        .map(|&c| c.distance(centre))
+        .fold(0.0, f64::max);
+    let diffuse = f64::from(m.kd * m.color.max_element());
+    scene.lights.iter().fold(0.0, |sum, light| {
+        let l = f64::from(light.color.unwrap_or(Color::ONE).max_element());
+        match light.kind {
+            LightKind::Directional { .. } => sum,
+            LightKind::Point {
+                position,
+                inverse_square: false,
+                range: None,
+            } => {
+                let rho = position.as_dvec3().distance(centre) - reach;
+                if rho > 0.0 {
+                    sum + 3.0 * diffuse * l / (8.0 * rho * rho)
+                } else {
+                    f64::INFINITY
+                }
+            }
+            _ => f64::INFINITY,
+        }
+    })
 }
 
 /// Per material: whether its shading is independent of the view within
@@ -1143,7 +1143,7 @@ mod tests {
             let of = |kind: fn(&Shape) -> bool| {
                 let shapes = &world.scene.shapes;
                 let p = shapes.iter().position(kind).expect("the shape");
-                pass.flat_curvature(p as u32)
+                pass.curvature[p]
             };
             let flat =
                 |s: &Shape| matches!(s, Shape::Triangle(t) if t.normals == TriangleNormals::Flat);
