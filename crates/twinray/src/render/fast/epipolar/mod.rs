@@ -203,7 +203,11 @@ struct Taking {
 /// One thread's scratch space, reused from row to row.
 #[derive(Default)]
 pub(in crate::render) struct EpiScratch {
+    /// The row's primitives, in the order the descent met them.
     prims: Vec<u32>,
+    /// Per primitive of the scene: the last row (`row_mark`) that took it.
+    taken_in: Vec<u32>,
+    row_mark: u32,
     sections: Vec<Section>,
     /// Per position, per sample: the nearest hit (index into `prims`,
     /// `u32::MAX` for none).
@@ -353,7 +357,7 @@ impl<'a> EpipolarPass<'a> {
         }
     }
 
-    /// The primitives that may meet the row's rays, ascending, with their
+    /// The primitives that may meet the row's rays (each once), with their
     /// sections; `false` where the descent could not visit them all.
     fn gather(
         &self,
@@ -378,16 +382,24 @@ impl<'a> EpipolarPass<'a> {
             return false;
         };
         s.prims.clear();
-        let prims = &mut s.prims;
+        // A primitive filed under several boxes is met once per leaf: each
+        // row marks the ones it took (no sort).
+        s.taken_in.resize(self.world.scene.shapes.len(), 0);
+        if s.row_mark == u32::MAX {
+            s.taken_in.fill(0);
+            s.row_mark = 0;
+        }
+        s.row_mark += 1;
+        let (prims, taken_in, mark) = (&mut s.prims, &mut s.taken_in, s.row_mark);
         if !self.world.bvh.visit_region(&region, |p| {
-            prims.push(p);
+            if let Some(t) = taken_in.get_mut(p as usize).filter(|t| **t != mark) {
+                *t = mark;
+                prims.push(p);
+            }
             true
         }) {
             return false;
         }
-        // (A primitive filed under several boxes is met once per leaf.)
-        s.prims.sort_unstable();
-        s.prims.dedup();
         let shapes = &self.world.scene.shapes;
         // How near the plane a vertex or box corner counts as on it.
         let tol = self.margin * 16.0;
@@ -450,7 +462,8 @@ impl<'a> EpipolarPass<'a> {
         let mut tests = 0u64;
         for &(near, local) in &s.near {
             let section = &s.sections[local as usize];
-            let shape = &shapes[s.prims[local as usize] as usize];
+            let prim = s.prims[local as usize];
+            let shape = &shapes[prim as usize];
             // Below the section's nearest `b` by a margin for the rays'
             // rounding off the plane.
             let near = near * (1.0 - NEAR_SLACK);
@@ -468,9 +481,10 @@ impl<'a> EpipolarPass<'a> {
                     tests += 1;
                     let ray = Ray::new(origin, s.dirs[c]);
                     // A tie keeps the lower primitive index, as the hierarchy
-                    // does (locals ascend with the primitives).
+                    // does.
                     if let Some(h) = shape.intersect(&ray, hither, best.t.next_up()) {
-                        if h.t < best.t || local < best_local {
+                        let lower = || s.prims.get(best_local as usize).is_none_or(|&q| prim < q);
+                        if h.t < best.t || lower() {
                             s.best[k] = (h, local);
                         }
                     }

@@ -176,10 +176,16 @@ impl Plane {
     pub(super) fn section(&self, shape: &Shape, tol: f64) -> Section {
         match shape {
             Shape::Triangle(t) => {
-                let v = [t.v0, t.v0 + t.e1, t.v0 + t.e2].map(|p| self.coords(p.as_dvec3()));
-                if v.iter().all(|p| p.2 > tol) || v.iter().all(|p| p.2 < -tol) {
+                let p = [t.v0, t.v0 + t.e1, t.v0 + t.e2].map(|p| p.as_dvec3() - self.eye);
+                // The distances from the plane first: most triangles whose
+                // boxes meet the row's region lie on one side of it.
+                let h = p.map(|d| d.dot(self.normal));
+                if h.iter().all(|&h| h > tol) || h.iter().all(|&h| h < -tol) {
                     return Section::None;
                 }
+                let v: [(f64, f64, f64); 3] = std::array::from_fn(|i| {
+                    (p[i].dot(self.right), p[i].dot(self.w) / self.ww, h[i])
+                });
                 if v.iter().any(|p| p.2.abs() <= tol) {
                     // Near the plane: within the vertices' box.
                     return self.bounds_section(v.iter().map(|p| (p.0, p.1)));
