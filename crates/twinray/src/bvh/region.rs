@@ -9,9 +9,9 @@ use super::Bvh;
 use crate::math::{Aabb, Vec3};
 use glam::DVec3;
 
-/// Separating axes a region may have: its normal and four edges times the
-/// three box axes.
-const AXES: usize = 13;
+/// Separating axes a region may have: its normal and its four edges'
+/// normals within its plane.
+const AXES: usize = 5;
 
 /// A planar quadrilateral grown by `margin`.
 #[derive(Clone, Debug)]
@@ -20,7 +20,7 @@ pub struct Region {
     corners: [DVec3; 4],
     lo: DVec3,
     hi: DVec3,
-    /// The quadrilateral's normal and its edges crossed with the box's axes
+    /// The quadrilateral's normal and its edges' normals within its plane
     /// (unit vectors), and its extent along each.
     axes: [DVec3; AXES],
     spans: [(f64, f64); AXES],
@@ -47,7 +47,7 @@ impl Region {
     }
 
     /// The region with these corners, tested on the axes of the boxes, the
-    /// normal, and each edge direction crossed with the boxes' axes. Any
+    /// normal, and each edge's normal within the plane. Any
     /// axis is a valid separating test (the spans are the corners' own), so
     /// the region is the corners' convex hull whatever their order.
     fn from_corners(
@@ -73,9 +73,7 @@ impl Region {
         };
         region.add_axis(normal);
         for &e in edges {
-            for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
-                region.add_axis(e.cross(axis));
-            }
+            region.add_axis(normal.cross(e));
         }
         Some(region)
     }
@@ -100,7 +98,8 @@ impl Region {
     }
 
     /// Whether the region, grown by the margin, may meet box `b` (separating
-    /// axes: the box's, the quadrilateral's normal, its edges × the box's).
+    /// axes: the box's, the quadrilateral's normal, its edges' normals in its
+    /// plane).
     pub fn may_meet_box(&self, b: &Aabb) -> bool {
         let (min, max) = (b.min.as_dvec3(), b.max.as_dvec3());
         let g = self.grow;
