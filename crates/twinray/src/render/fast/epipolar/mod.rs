@@ -1024,7 +1024,8 @@ mod tests {
     /// for bit, or both none), on the bundled scenes (triangles, spheres,
     /// cones, a floor reaching behind the camera) and on primitives given
     /// twice (ties), 9 converged views: a view's samples shifted by whole
-    /// pixels, offsets both sides of the centre.
+    /// pixels, offsets both sides of the centre. Each row gathers each
+    /// primitive once, a rod filed in pieces under several leaves too.
     #[test]
     fn every_views_hits_are_the_hierarchys() {
         let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/");
@@ -1035,7 +1036,19 @@ mod tests {
             resolution 40 30\nl 3 2 10\n\
             f 0.8 0.8 0.7 0.9 0 0 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\ns 0 0 1 0.8\n\
             f 0.2 0.8 0.7 0.9 0 0 0 1\np 3\n-100 -100 0\n100 -100 0\n0 100 0\ns 0 0 1 0.8\n";
+        // A long tilted rod filed in pieces among balls on a floor: the
+        // pieces fall in several leaves, where the descent meets the rod
+        // more than once.
+        let balls: String = (0..40)
+            .map(|i| format!("s {} {} 0.3 0.2\n", i % 8 - 4, i / 8 - 2))
+            .collect();
+        let rod = format!(
+            "b 0.1 0.1 0.2\nv\nfrom 0 -9 4\nat 0 0 0\nup 0 0 1\nangle 45\nhither 0.01\n\
+             resolution 40 30\nl 3 2 10\nf 0.8 0.5 0.3 0.9 0 0 0 1\n\
+             c\n-5 -3 0.2 0.1\n5 3 1.5 0.1\n{balls}p 4\n-20 -20 0\n20 -20 0\n20 20 0\n-20 20 0\n"
+        );
         for (name, text, width, height, interaxial) in [
+            ("rod", rod, 48, 36, 0.1),
             ("shelf.nff", bundled("shelf.nff"), 80, 60, 0.05),
             ("example.nff", bundled("example.nff"), 64, 48, 0.2),
             ("deep.nff", bundled("deep.nff"), 96, 54, 0.5),
@@ -1057,6 +1070,11 @@ mod tests {
                     pass.gather(&mut tracer, &row, &plane, &mut s),
                     "{name} row {y}"
                 );
+                // Each primitive once, though filed under several leaves.
+                let mut once = s.prims.clone();
+                once.sort_unstable();
+                once.dedup();
+                assert_eq!(once.len(), s.prims.len(), "{name} row {y}");
                 pass.visibility(&mut tracer, &row, &plane, &mut s);
                 let n = row.len();
                 for (p, &(_, offset, shift)) in pass.order.iter().enumerate() {
