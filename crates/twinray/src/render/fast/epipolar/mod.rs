@@ -205,9 +205,9 @@ struct Taking {
 pub(in crate::render) struct EpiScratch {
     /// The row's primitives, in the order the descent met them.
     prims: Vec<u32>,
-    /// Per primitive of the scene: the last row (`row_mark`) that took it.
-    taken_in: Vec<u32>,
-    row_mark: u32,
+    /// A bit per primitive of the scene: taken by the row being gathered
+    /// (all clear between rows).
+    taken: Vec<u64>,
     sections: Vec<Section>,
     /// Per position, per sample: the nearest hit (index into `prims`,
     /// `u32::MAX` for none).
@@ -382,22 +382,23 @@ impl<'a> EpipolarPass<'a> {
             return false;
         };
         s.prims.clear();
-        // A primitive filed under several boxes is met once per leaf: each
-        // row marks the ones it took (no sort).
-        s.taken_in.resize(self.world.scene.shapes.len(), 0);
-        if s.row_mark == u32::MAX {
-            s.taken_in.fill(0);
-            s.row_mark = 0;
-        }
-        s.row_mark += 1;
-        let (prims, taken_in, mark) = (&mut s.prims, &mut s.taken_in, s.row_mark);
-        if !self.world.bvh.visit_region(&region, |p| {
-            if let Some(t) = taken_in.get_mut(p as usize).filter(|t| **t != mark) {
-                *t = mark;
+        // A primitive filed under several boxes is met once per leaf: a bit
+        // per primitive keeps it once (no sort), cleared again after.
+        s.taken
+            .resize(self.world.scene.shapes.len().div_ceil(64), 0);
+        let (prims, taken) = (&mut s.prims, &mut s.taken);
+        let whole = self.world.bvh.visit_region(&region, |p| {
+            let (word, bit) = (p as usize / 64, 1u64 << (p % 64));
+            if let Some(w) = taken.get_mut(word).filter(|w| **w & bit == 0) {
+                *w |= bit;
                 prims.push(p);
             }
             true
-        }) {
+        });
+        for &p in &s.prims {
+            s.taken[p as usize / 64] = 0;
+        }
+        if !whole {
             return false;
         }
         let shapes = &self.world.scene.shapes;
